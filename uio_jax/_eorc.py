@@ -1,0 +1,414 @@
+"""Extended observability rank criterion (EORC): any number of unknown inputs, drift allowed.
+
+Martinelli, INRIA RR-8608 (004) sections 4-6 and MED 2015 (001) section IV, Algorithm 1.
+
+**Extended system** (004 eq. 4-7). With ``m_w`` unknown inputs ``w = [w_1..w_mw]`` the state
+is augmented by the inputs and their time derivatives up to order ``K - 1``::
+
+    x^(K) = [x; w; w^(1); ...; w^(K-1)]                       (n + K m_w)
+    F0    = [f0(x) + sum_j g_j(x) w_j; w^(1); ...; w^(K-1); 0]   (extended drift)
+    F_i   = [f_i(x); 0]                                        (known fields)
+
+and the output is still ``h(x)``. ``Omega-bar_k`` is the span of the gradients (with respect
+to the whole extended state) of every Lie derivative of the outputs along ``F0, F_1..F_mu``
+of order ``<= k`` (001 Algorithm 1)::
+
+    Omega-bar_0 = span{dh},   Omega-bar_k = Omega-bar_{k-1} + sum_{v in {F0, F_i}} L_v Omega-bar_{k-1}.
+
+``x_j`` satisfies the EORC at order k when ``e_j`` (padded with zeros) lies in
+``Omega-bar_k``; then ``x_j`` is weakly locally observable (001 Proposition 4). It is a
+sufficient condition only: a component not shown observable up to ``k_max`` may become so
+at a higher order.
+
+**One extension, every order.** By Proposition 2 of 004 the Lie derivatives of order
+``<= k`` computed in ``Sigma^(k)`` and in ``Sigma^(K)`` (``K >= k``) coincide, and by Lemma 1
+they do not depend on ``w^(f)``, ``f >= k``: the order-``<= k`` part of one run on
+``Sigma^(k_max)`` *is* ``Omega-bar_k`` of the k-th extension (padded with zero columns).
+So the extension is built once, at ``K = k_max``, and an ORC-like recursion runs on it with
+step ``k`` = order ``k``.
+
+**Pruning.** As in :mod:`uio_jax._orc`, only the generators kept at order ``k - 1`` are
+differentiated at order ``k``: if ``dc = sum_i a_i dk_i`` (``a_i`` functions of the
+extended state) then ``L_v dc = sum_i (L_v a_i) dk_i + a_i d L_v k_i``, and ``L_v k_i`` was
+formed at the step after ``k_i`` was kept, at order ``<= k``. The argument holds in
+``Sigma^(K)`` for every order ``<= K`` (the truncation ``dw^(K-1)/dt = 0`` only changes
+orders ``> K``). If no generator is kept at some order ``k <= K``, ``Omega-bar`` is
+invariant under every ``L_v`` and no higher order (in any extension) adds anything.
+
+**Per order k** the report gives: the rank of ``Omega-bar_k`` (augmented rank, out of
+``n + k m_w``), the dimension on the original state ::
+
+    dim_k = rank(Omega-bar_k) + n - rank([Omega-bar_k; e_1..e_n])
+          = dim(Omega-bar_k  intersected with  span{dx_1..dx_n}),
+
+the state components with ``e_j`` in ``Omega-bar_k``, and the extended coordinates
+(unknown inputs and their derivatives, ``w^(d)`` with ``d < k``) whose ``e`` lies in
+``Omega-bar_k``: those are observable too, so the disturbance can be estimated.
+For a single unknown input and no drift, Theorem 1 of 004 gives
+``Omega-bar_k = [Omega_k, 0] + span{d L_G^1 h .. d L_G^k h}``, so ``dim_k = dim Omega_k``.
+
+**Sampling.** The extended coordinates are sampled, like states without a given domain, in
+``uio_jax._system.DEFAULT_BOX`` = (0.5, 1.5): positive, away from 0, where inputs such as a
+speed make the rank drop (a vehicle at rest shows no heading). For analytic models the
+generic rank is the same on every open set of the extended space.
+"""
+
+import copy
+import weakref
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._context import Context
+from ._errors import ModelError
+from ._generators import Node
+from ._report import Report, Step
+from ._system import DEFAULT_BOX, System
+
+#: Name of the extended drift field in generator labels.
+DRIFT_LABEL = "F0"
+
+_EXTENSIONS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def default_k_max(system: System) -> int:
+    """Default highest order: ``n + 2`` (the bound of the single-input case, 004 section 9)."""
+    return system.n + 2
+
+
+def input_names(system: System, K: int) -> tuple[str, ...]:
+    """Names of the extended coordinates ``w, w^(1), .., w^(K-1)`` (order-major).
+
+    Each unknown input keeps its name for order 0 and gets ``^(d)`` for its d-th derivative;
+    a clash with a state name gets a ``'`` appended.
+
+    Returns:
+        ``K * m_w`` names, ordered ``[w_1..w_mw, w_1^(1)..w_mw^(1), ...]`` as in 004 eq. 4.
+    """
+    taken = set(system.states)
+    out = []
+    for d in range(K):
+        for w in system.unknown:
+            nm = w if d == 0 else f"{w}^({d})"
+            while nm in taken:
+                nm += "'"
+            taken.add(nm)
+            out.append(nm)
+    return tuple(out)
+
+
+def extended_system(system: System, K: int) -> System:
+    """``Sigma^(K)`` of 004 section 4 as a :class:`~uio_jax.System` (cached per System and K).
+
+    Args:
+        system: the original System (``n`` states, ``m_w`` unknown inputs, ``m_u`` known).
+        K: number of input orders in the extension (``K >= 1``).
+
+    Returns:
+        A System with ``n + K m_w`` states (``states + input_names``), the same outputs
+        (functions of the first n coordinates), the known fields padded with zeros, the
+        extended drift ``F0`` (eq. 6) and no unknown input (the last derivatives
+        ``w^(K)`` enter only through unit vectors along which every Lie derivative of
+        order ``<= K`` vanishes, Proposition 1 of 004).
+    """
+    per = _EXTENSIONS.setdefault(system, {})
+    ext = per.get(K)
+    if ext is not None:
+        return ext
+    n, mw = system.n, len(system.unknown)
+    names = input_names(system, K)
+    N = n + K * mw
+    drift, gs = system.drift, tuple(system.unknown.values())
+
+    def F0(X):
+        x, xi = X[:n], X[n:]
+        w = xi[:mw]
+        dx = jnp.zeros(n, dtype=X.dtype) if drift is None else drift(x)
+        for j, g in enumerate(gs):
+            dx = dx + g(x) * w[j]
+        tail = jnp.concatenate([xi[mw:], jnp.zeros(mw, dtype=X.dtype)])
+        return jnp.concatenate([dx, tail])
+
+    def pad_field(f):
+        def F(X):
+            return jnp.concatenate([f(X[:n]), jnp.zeros(N - n, dtype=X.dtype)])
+
+        return F
+
+    def pad_output(h):
+        def H(X):
+            return h(X[:n])
+
+        return H
+
+    domain = dict(system.domain)
+    domain.update({nm: DEFAULT_BOX for nm in names})
+    ext = System(
+        states=system.states + names,
+        outputs={k: pad_output(h) for k, h in system.outputs.items()},
+        known={k: pad_field(f) for k, f in system.known.items()},
+        drift=F0,
+        domain=domain,
+        angles=system.angles,
+        name=f"{system.name or 'system'} extended to order {K}",
+    )
+    per[K] = ext
+    return ext
+
+
+def _fork(codist):
+    """An independent copy of a Codistribution (arrays copied, decisions lists fresh)."""
+    c = copy.copy(codist)
+    c.valid = codist.valid.copy()
+    c.grads = codist.grads.copy()
+    c.basis = codist.basis.copy()
+    c.ref = codist.ref.copy()
+    c.nodes = list(codist.nodes)
+    c.rejections, c.acceptances = [], []
+    return c
+
+
+class _Eorc:
+    """State of one EORC run: the Context on ``Sigma^(K)`` and the per-order evidence."""
+
+    def __init__(self, system, K, samples, seed, rtol):
+        self.system = system
+        self.K = K
+        self.n = system.n
+        self.mw = len(system.unknown)
+        self.ext = extended_system(system, K)
+        self.names = input_names(system, K)
+        self.ctx = Context(self.ext, samples, seed, rtol)
+        b = self.ctx.builder
+        self.fields = [b.field(DRIFT_LABEL, self.ext.drift)] + [
+            b.field(k, f) for k, f in self.ext.known.items()
+        ]
+        self.extra_decisions = []  # (member, RankDecision) of the dim-on-x tests
+
+    def unit(self, j):
+        """``e_j`` of the extended space at every sample, ``(1, S, N)``."""
+        N, S = self.ext.n, self.ctx.samples
+        e = np.zeros((1, S, N))
+        e[0, :, j] = 1.0
+        return e
+
+    def original_dim(self):
+        """``rank(Omega-bar) + n - rank([Omega-bar; e_1..e_n])``, certified.
+
+        The unit covectors are absorbed one by one into a copy of the codistribution; each
+        one that raises the generic rank removes one dimension.
+        """
+        codist = self.ctx.codist
+        if codist.rank == 0:
+            return 0
+        fork = _fork(codist)
+        N, S = self.ext.n, self.ctx.samples
+        units = [Node(f"e_{s}", None, "scalar") for s in self.system.states]
+        grads = np.zeros((S, self.n, N))
+        grads[:, np.arange(self.n), np.arange(self.n)] = 1.0
+        added = fork.absorb(units, grads)
+        self.extra_decisions += [(False, d) for d in fork.acceptances]
+        self.extra_decisions += [(True, d) for d in fork.rejections]
+        return self.n - len(added)
+
+    def observable_coordinates(self, k):
+        """Names of the extended coordinates of ``Sigma^(k)`` whose ``e`` lies in Omega-bar.
+
+        Returns:
+            ``(states, inputs)``: state names and input-coordinate names (orders < k).
+        """
+        N_k = self.n + k * self.mw
+        covs = np.concatenate([self.unit(j) for j in range(N_k)]) if N_k else None
+        member = self.ctx.contains(covs)
+        names = self.ext.states[:N_k]
+        states = [s for s, m in zip(names[: self.n], member[: self.n]) if m]
+        inputs = [s for s, m in zip(names[self.n :], member[self.n :]) if m]
+        return states, inputs
+
+
+def run_eorc(system, *, samples, seed, rtol, k_max=None):
+    """Run the EORC recursion up to ``k_max``.
+
+    Returns:
+        ``(run, history, stop_reason, k_reached)`` where ``run`` is the :class:`_Eorc`.
+    """
+    K = default_k_max(system) if k_max is None else int(k_max)
+    run = _Eorc(system, K, samples, seed, rtol)
+    ctx = run.ctx
+    history = []
+
+    def record(k, added):
+        states, inputs = run.observable_coordinates(k)
+        dim = run.n if len(states) == run.n else run.original_dim()
+        extra = {
+            "augmented_rank": ctx.dim,
+            "augmented_dim": run.n + k * run.mw,
+            "observable_states": tuple(states),
+            "observable_inputs": tuple(inputs),
+        }
+        history.append(Step(k, dim, tuple(nd.label for nd in added),
+                            ctx.codist.decision().fraction, extra))
+        return len(states) == run.n
+
+    frontier = ctx.absorb(ctx.output_nodes())
+    full = record(0, frontier)
+    k = 0
+    while True:
+        if full:
+            return run, history, f"every state component observable at k={k}", k
+        if k >= K:
+            return run, history, f"k_max={K} reached", k
+        k += 1
+        frontier = ctx.absorb_lie(frontier, run.fields)
+        full = record(k, frontier)
+        if not frontier and not full:
+            return run, history, (
+                f"Omega-bar_{k} = Omega-bar_{k - 1}: no higher order (in any extension) adds "
+                "a generator"), k
+
+
+def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
+    """The EORC of ``system`` as a :class:`~uio_jax.Report` (called by ``analyze``).
+
+    Args:
+        system: the original System.
+        samples, seed, rtol: sampling certificate options (see :func:`uio_jax.analyze`).
+        k_max: highest order (default ``n + 2``).
+        notes: notes to carry (e.g. why ``auto`` chose the EORC).
+
+    Returns:
+        Report on the ORIGINAL state: ``dim`` = dim of ``Omega-bar_k`` intersected with
+        ``span{dx}`` at the last order ``k``; ``history`` has one Step per order
+        ``k = 0..k_reached`` (``Step.m = k``; ``extra``: ``augmented_rank``,
+        ``augmented_dim``, ``observable_states``, ``observable_inputs``); ``details``:
+        ``k``, ``k_max``, ``extended_state``, ``inputs_observable_at`` (first order at
+        which each input coordinate is observable).
+    """
+    if k_max is not None and (isinstance(k_max, bool) or int(k_max) < 1):
+        raise ModelError(f"k_max must be a positive integer, got {k_max!r}")
+    with jax.enable_x64(True):
+        run, history, reason, k = run_eorc(system, samples=samples, seed=seed, rtol=rtol,
+                                           k_max=k_max)
+        ctx = run.ctx
+        last = history[-1]
+        observable = {s: s in last.extra["observable_states"] for s in system.states}
+        first_seen = {}
+        for st in history:
+            for nm in st.extra["observable_inputs"]:
+                first_seen.setdefault(nm, st.m)
+        ctx.memberships.extend(run.extra_decisions)
+        cert = ctx.certificate()
+    notes = list(notes)
+    if not all(observable.values()):
+        hidden = [s for s, v in observable.items() if not v]
+        notes.append(
+            f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
+            f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
+        )
+    if cert.min_fraction < 0.5:
+        notes.append(
+            f"weak certificate: a rank decision was backed by only "
+            f"{100 * cert.min_fraction:.0f}% of the samples; try more samples or a "
+            "smaller domain away from singular states"
+        )
+    notes.append(
+        "extended coordinates (unknown inputs and their derivatives) sampled in "
+        f"{DEFAULT_BOX}; unobservable_directions(x) sets them to the centre of that box"
+    )
+    details = {
+        "k": k,
+        "k_max": run.K,
+        "extended_state": list(run.ext.states[: run.n + max(k, 1) * run.mw]),
+        "augmented_ranks": [st.extra["augmented_rank"] for st in history],
+        "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
+        "inputs_observable_at": first_seen,
+    }
+    return Report(
+        method="eorc",
+        states=system.states,
+        dim=last.dim,
+        observable=observable,
+        history=tuple(history),
+        certificate=cert,
+        generators=tuple(nd.label for nd in ctx.codist.nodes),
+        stop_reason=reason,
+        notes=tuple(notes),
+        details=details,
+        system_name=system.name,
+        _space=_EorcSpace(run, last.dim),
+    )
+
+
+class _EorcSpace:
+    """``Omega-bar_k`` of a finished run, queried by a Report about the original state."""
+
+    def __init__(self, run: _Eorc, dim: int):
+        self._run = run
+        self._nodes = tuple(run.ctx.codist.nodes)
+        self._dim = dim
+
+    def unobservable_directions(self, x) -> np.ndarray:
+        """Annihilator in R^n of ``Omega-bar_k`` intersected with ``span{dx}`` at ``x``.
+
+        The extended coordinates are set to the centre of their sampling box (1.0). With
+        ``Q`` an orthonormal basis of the row space of ``Omega-bar`` at ``[x, xi_c]`` and
+        ``P = I - Q^T Q``, a covector ``[a; 0]`` lies in ``Omega-bar`` iff ``P[:, :n] a = 0``;
+        the right singular vectors of ``P[:, :n]`` for its ``n - dim`` largest singular
+        values span the annihilator of that intersection.
+
+        Args:
+            x: original state, ``(n,)``.
+
+        Returns:
+            ``(n, n - dim)``, orthonormal columns.
+        """
+        run = self._run
+        n, N = run.n, run.ext.n
+        x = np.asarray(x, dtype=np.float64)
+        if x.shape != (n,):
+            raise ModelError(f"state must have shape ({n},), got {x.shape}")
+        if not np.isfinite(x).all():
+            raise ModelError("state contains NaN/inf")
+        if self._dim == n:
+            return np.zeros((n, 0))
+        if not self._nodes:
+            return np.eye(n)
+        lo, hi = DEFAULT_BOX
+        X = np.concatenate([x, np.full(N - n, 0.5 * (lo + hi))])
+        with jax.enable_x64(True):
+            g = run.ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
+        if not np.isfinite(g).all():
+            raise ModelError("the codistribution is not defined at this state (NaN/inf)")
+        g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+        _, _, vt = np.linalg.svd(g)
+        q = vt[: len(self._nodes)]
+        P = np.eye(N) - q.T @ q
+        _, _, wt = np.linalg.svd(P[:, :n])
+        return wt[: n - self._dim].T.copy()
+
+    def is_observable(self, fn) -> bool:
+        """Whether ``d fn`` (padded with zeros) lies in ``Omega-bar_k`` at the samples.
+
+        Args:
+            fn: callable ``x (n,) -> ()`` of the ORIGINAL state.
+        """
+        if not callable(fn):
+            raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
+        run = self._run
+        n, N = run.n, run.ext.n
+        with jax.enable_x64(True):
+            try:
+                out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
+            except Exception as exc:
+                raise ModelError(f"function fails on a state of length {n}: "
+                                 f"{type(exc).__name__}") from None
+            if getattr(out, "shape", None) != ():
+                raise ModelError("function must return a scalar (), got shape "
+                                 f"{getattr(out, 'shape', None)}")
+            xs = run.ctx.xs
+            grads = np.asarray(jax.jit(jax.vmap(jax.grad(fn)))(xs[:, :n]))
+        cov = np.zeros((1, xs.shape[0], N))
+        cov[0, :, :n] = grads
+        member, _ = run.ctx.codist.contains(cov)[0]
+        return bool(member)
