@@ -1,0 +1,180 @@
+"""Sympy versions of the zoo models, written independently of ``systems/`` (for the oracle).
+
+Each model is a :class:`SympyModel`: state symbols, outputs (name -> expression), known and
+unknown input fields (name -> column ``sympy.Matrix``), optional drift and the sampling box.
+The equations are copied from the papers / the zoo docstrings, not translated from the JAX
+code, so the sympy route is an independent check of the zoo as well.
+
+``MODELS`` maps a zoo spec (``"systems/FILE.py:FUNCTION"``) to a function returning the model.
+Only sympy is needed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+#: Same boxes as ``uio_jax`` uses for states without a domain entry / for angles.
+DEFAULT_BOX = (0.5, 1.5)
+ANGLE_BOX = (-math.pi, math.pi)
+
+
+@dataclass(frozen=True)
+class SympyModel:
+    """A control-affine model in sympy.
+
+    Attributes:
+        name: zoo spec it mirrors, e.g. ``"vehicle_wind:no_wind"``.
+        states: state symbols, in the order of the zoo model.
+        outputs: output name -> sympy expression of the states.
+        known: known input name -> field (column Matrix of length n).
+        unknown: unknown input name -> field.
+        drift: optional drift field f0.
+        domain: state name -> (lo, hi) box where random points are drawn.
+    """
+
+    name: str
+    states: tuple
+    outputs: dict
+    known: dict
+    unknown: dict = field(default_factory=dict)
+    drift: sp.Matrix | None = None
+    domain: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return len(self.states)
+
+    def box(self, state) -> tuple[float, float]:
+        return self.domain.get(str(state), DEFAULT_BOX)
+
+
+def _col(*entries):
+    return sp.Matrix([sp.sympify(e) for e in entries])
+
+
+# --------------------------------------------------------------------------------------
+# 3D vehicle in wind (seed 002, section III; zoo: systems/vehicle_wind.py)
+# --------------------------------------------------------------------------------------
+
+_VEH_DOMAIN = {"x": (0.5, 1.5), "y": (0.5, 1.5), "z": (0.5, 1.5),
+               "qt": (0.5, 1.5), "qx": (-0.5, 0.5), "qy": (-0.5, 0.5), "qz": (-0.5, 0.5)}
+
+
+def _vehicle(wind: str) -> SympyModel:
+    """wind: "none" (no wind), "known" (wind as a 7th known input) or "unknown"."""
+    x, y, z, qt, qx, qy, qz = X = sp.symbols("x y z qt qx qy qz", real=True)
+    # Rotation local -> global, homogeneous (quadratic) in q (eq. 6 of 002).
+    R = sp.Matrix([
+        [qt**2 + qx**2 - qy**2 - qz**2, 2 * (qx * qy - qt * qz), 2 * (qx * qz + qt * qy)],
+        [2 * (qx * qy + qt * qz), qt**2 - qx**2 + qy**2 - qz**2, 2 * (qy * qz - qt * qx)],
+        [2 * (qx * qz - qt * qy), 2 * (qy * qz + qt * qx), qt**2 - qx**2 - qy**2 + qz**2],
+    ])
+    half = sp.Rational(1, 2)
+    known = {
+        # q' = 1/2 q Omega_q (quaternion product with the pure quaternion Omega).
+        "Omega_x": _col(0, 0, 0, -half * qx, half * qt, half * qz, -half * qy),
+        "Omega_y": _col(0, 0, 0, -half * qy, -half * qz, half * qt, half * qx),
+        "Omega_z": _col(0, 0, 0, -half * qz, half * qy, -half * qx, half * qt),
+        # r' = q V_q q* : the columns of R.
+        "V_x": _col(*R[:, 0], 0, 0, 0, 0),
+        "V_y": _col(*R[:, 1], 0, 0, 0, 0),
+        "V_z": _col(*R[:, 2], 0, 0, 0, 0),
+    }
+    wind_field = _col(0, 0, 1, 0, 0, 0, 0)
+    # Feature (origin) in the local frame: R^T r, up to sign; camera ratios (eqs. 7-8).
+    F = R.T * sp.Matrix([x, y, z])
+    outputs = {"h_u": F[0] / F[2], "h_v": F[1] / F[2], "h_const": qt**2 + qx**2 + qy**2 + qz**2}
+    unknown = {}
+    if wind == "known":
+        known["w"] = wind_field
+    elif wind == "unknown":
+        unknown["w"] = wind_field
+    name = {"none": "no_wind", "known": "with_wind", "unknown": "wind_unknown"}[wind]
+    return SympyModel(f"vehicle_wind:{name}", tuple(X), outputs, known, unknown,
+                      domain=_VEH_DOMAIN)
+
+
+# --------------------------------------------------------------------------------------
+# Unicycle in polar coordinates (seed 004, section 11.1, eq. 35; zoo: unicycle_polar.py)
+# --------------------------------------------------------------------------------------
+
+def _unicycle_polar(output: str, unknown: str | None) -> SympyModel:
+    r, phi, theta = X = sp.symbols("r phi theta", real=True)
+    fields = {"v": _col(sp.cos(theta - phi), sp.sin(theta - phi) / r, 0),
+              "omega": _col(0, 0, 1)}
+    outputs = {"range": {"r": r}, "bearing": {"theta_minus_phi": theta - phi},
+               "phi": {"phi": phi}}[output]
+    known = {k: f for k, f in fields.items() if k != unknown}
+    unk = {unknown: fields[unknown]} if unknown else {}
+    name = f"{output}_{unknown}_unknown" if unknown else f"{output}_known"
+    return SympyModel(f"unicycle_polar:{name}", tuple(X), outputs, known, unk,
+                      domain={"r": (0.5, 2.0), "phi": ANGLE_BOX, "theta": ANGLE_BOX})
+
+
+# --------------------------------------------------------------------------------------
+# Unicycle with a disturbance along gamma (seed 003, eqs. 2.1 and 4.5; zoo:
+# unicycle_disturbance.py)
+# --------------------------------------------------------------------------------------
+
+GAMMA = sp.Rational(7, 10) * sp.pi
+
+
+def _unicycle_disturbance(output: str, disturbance: bool, gamma_known: bool,
+                          name: str) -> SympyModel:
+    xv, yv, theta = sp.symbols("xv yv theta", real=True)
+    states = [xv, yv, theta]
+    if gamma_known:
+        gamma = GAMMA
+    else:
+        gamma = sp.Symbol("gamma", real=True)
+        states.append(gamma)
+    n = len(states)
+
+    def pad(*e):
+        return _col(*e, *([0] * (n - 3)))
+
+    outputs = {
+        "r2": {"r2": xv**2 + yv**2},
+        "tan_beta": {"tan_beta": (yv - xv * sp.tan(theta)) / (xv + yv * sp.tan(theta))},
+        "tan_phi": {"tan_phi": yv / xv},
+    }[output]
+    known = {"v": pad(sp.cos(theta), sp.sin(theta), 0), "omega": pad(0, 0, 1)}
+    unknown = {"w": pad(sp.cos(gamma), sp.sin(gamma), 0)} if disturbance else {}
+    domain = {"xv": (0.5, 1.5), "yv": (0.5, 1.5), "theta": ANGLE_BOX, "gamma": ANGLE_BOX}
+    return SympyModel(f"unicycle_disturbance:{name}", tuple(states), outputs, known, unknown,
+                      domain=domain)
+
+
+# --------------------------------------------------------------------------------------
+# Registry
+# --------------------------------------------------------------------------------------
+
+MODELS = {
+    "systems/vehicle_wind.py:no_wind": lambda: _vehicle("none"),
+    "systems/vehicle_wind.py:with_wind": lambda: _vehicle("known"),
+    "systems/vehicle_wind.py:wind_unknown": lambda: _vehicle("unknown"),
+}
+for _out in ("range", "bearing", "phi"):
+    MODELS[f"systems/unicycle_polar.py:{_out}_known"] = (
+        lambda o=_out: _unicycle_polar(o, None))
+    for _unk in ("v", "omega"):
+        MODELS[f"systems/unicycle_polar.py:{_out}_{_unk}_unknown"] = (
+            lambda o=_out, u=_unk: _unicycle_polar(o, u))
+for _out, _short in (("r2", "range"), ("tan_beta", "bearing"), ("tan_phi", "phi")):
+    MODELS[f"systems/unicycle_disturbance.py:no_disturbance_{_short}"] = (
+        lambda o=_out, s=_short: _unicycle_disturbance(o, False, True, f"no_disturbance_{s}"))
+    MODELS[f"systems/unicycle_disturbance.py:gamma_known_{_short}"] = (
+        lambda o=_out, s=_short: _unicycle_disturbance(o, True, True, f"gamma_known_{s}"))
+    MODELS[f"systems/unicycle_disturbance.py:gamma_unknown_{_short}"] = (
+        lambda o=_out, s=_short: _unicycle_disturbance(o, True, False, f"gamma_unknown_{s}"))
+
+
+def get(spec: str) -> SympyModel:
+    """The sympy model mirroring the zoo entry ``spec`` (``"systems/FILE.py:FUNCTION"``)."""
+    try:
+        return MODELS[spec]()
+    except KeyError:
+        raise KeyError(f"no sympy model for {spec!r}; known: {', '.join(sorted(MODELS))}") from None
