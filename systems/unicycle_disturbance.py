@@ -141,3 +141,107 @@ PUBLISHED = {
     "gamma_unknown_phi": {"source": "003 section 4.2", "method": "single_ui", "dims": [1, 2, 4],
                           "dim": 4, "m_prime": 0, "observable": ["xv", "yv", "theta", "gamma"]},
 }
+
+
+# ---------------------------------------------------------------------------------------
+# Monte Carlo experiments (003 section 5).
+#
+# From the paper: Euler step 5e-4 s, 10 s; v = 0.1 m/s; omega ~ N(2 pi/10, (6 pi/10)^2) and
+# w ~ N(0.05, 0.005^2) drawn every step; gamma = 0.7 pi; odometry noise std 1% of the true
+# values; one output every 2.5e-2 s (50 steps), range std 1 cm, bearings std 1 deg. EKF on
+# [xv, yv, theta, w, w1] (+ gamma when unknown), w' = w1, w1' = 0 + noise.
+# Left open by the paper, chosen here (tested in notes/ekf.md, "baseline"):
+#   true start (xv, yv, theta) = (1 m, 0, 0); initial estimate = truth + N(0, P0) with
+#   P0 std (xv, yv, theta, [gamma], w, w1) = (5 cm, 5 cm, 5 deg, [5 deg], 0.01 m/s,
+#   1e-4 m/s^2); process noise on w and w1: spectral density 1e-8 each; the white part of
+#   w (std 0.005 per step) enters Q along [cos gamma, sin gamma].
+# The range is read as r = sqrt(xv^2 + yv^2) (the analysis uses r^2: same observability);
+# the bearing phi = atan2(yv, xv) of the vehicle from the origin, beta = bearing of the
+# origin in the vehicle frame (the analysis uses their tangents).
+# ---------------------------------------------------------------------------------------
+_DT = 5e-4
+_DEG = math.pi / 180.0
+EXPERIMENT_NOTES = (
+    "003 section 5. Chosen here (not in the paper): true start (xv, yv, theta) = (1, 0, 0); "
+    "estimate starts at truth + N(0, P0), P0 std (5 cm, 5 cm, 5 deg, [gamma 5 deg], w 0.01 m/s, "
+    "w1 1e-4 m/s^2); spectral density 1e-8 on w and w1."
+)
+
+
+def _unicycle_inputs(istate, z):
+    u = jnp.stack([0.1 + 0.0 * z[0], 2 * math.pi / 10 + (6 * math.pi / 10) * z[0]])
+    w = jnp.stack([0.05 + 0.005 * z[1]])
+    return istate, u, w
+
+
+def _unicycle_known_std(u):
+    return 0.01 * jnp.abs(u)
+
+
+def _range(x):
+    return jnp.sqrt(x[0] ** 2 + x[1] ** 2)
+
+
+def _phi(x):
+    return jnp.arctan2(x[1], x[0])
+
+
+def _beta(x):
+    s, c = jnp.sin(x[2]), jnp.cos(x[2])
+    return jnp.arctan2(x[0] * s - x[1] * c, -x[0] * c - x[1] * s)
+
+
+def _experiment(output, gamma_known):
+    from uio_jax._experiment import Experiment, Measurement, Quantity
+
+    system = {("r", True): gamma_known_range, ("r", False): gamma_unknown_range,
+              ("phi", True): gamma_known_phi, ("phi", False): gamma_unknown_phi,
+              ("beta", True): gamma_known_bearing, ("beta", False): gamma_unknown_bearing,
+              }[(output, gamma_known)]()
+    meas = {"r": Measurement("range", _range, 0.01, 50),
+            "phi": Measurement("bearing phi", _phi, _DEG, 50, angle=True),
+            "beta": Measurement("bearing beta", _beta, _DEG, 50, angle=True)}[output]
+    x0 = (1.0, 0.0, 0.0) if gamma_known else (1.0, 0.0, 0.0, GAMMA)
+    prior = (0.05, 0.05, 5 * _DEG) + (() if gamma_known else (5 * _DEG,)) + (0.01, 1e-4)
+    tag = f"{'range' if output == 'r' else output}_gamma_{'known' if gamma_known else 'unknown'}"
+    # the bearing of the vehicle from the origin: its error is the error along the rotation
+    # about the origin (the unobservable direction with range output and gamma unknown)
+    rot_obs = not (output in ("r", "beta") and not gamma_known)
+    quantities = (Quantity("bearing phi", _phi, angle=True, unit="rad", observable=rot_obs),
+                  Quantity("range", _range, unit="m", observable=True))
+    return Experiment(
+        name=f"unicycle_disturbance:{tag}", system=system, dt=_DT, n_steps=20000, x0=x0,
+        inputs=_unicycle_inputs, istate0=(), n_input_normals=2, known_std=_unicycle_known_std,
+        measurements=(meas,), w0=(0.05,), w_white_std=(0.005,), order=2, q_aug=(1e-8, 1e-8),
+        prior_std=prior, quantities=quantities, nees_states=("xv", "yv", "theta"),
+        record_every=1, notes=EXPERIMENT_NOTES)
+
+
+def range_gamma_known_experiment():
+    """003 section 5, range output, gamma known: 5-state EKF (fig. 3 left)."""
+    return _experiment("r", True)
+
+
+def range_gamma_unknown_experiment():
+    """003 section 5, range output, gamma unknown: 6-state EKF (fig. 3 right)."""
+    return _experiment("r", False)
+
+
+def phi_gamma_known_experiment():
+    """003 section 5, bearing of the vehicle from the origin (phi), gamma known (fig. 5)."""
+    return _experiment("phi", True)
+
+
+def phi_gamma_unknown_experiment():
+    """003 section 5, bearing phi, gamma unknown: still observable (fig. 5 right)."""
+    return _experiment("phi", False)
+
+
+def beta_gamma_known_experiment():
+    """003 section 5, bearing of the origin in the vehicle frame (beta), gamma known (fig. 4)."""
+    return _experiment("beta", True)
+
+
+def beta_gamma_unknown_experiment():
+    """003 section 5, bearing beta, gamma unknown (fig. 4 right)."""
+    return _experiment("beta", False)

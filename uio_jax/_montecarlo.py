@@ -1,0 +1,377 @@
+"""Vectorised Monte Carlo EKF: ``lax.scan`` over time, ``vmap`` over trials, sharded.
+
+Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
+
+* trial ``i`` uses the key ``fold_in(key(seed), i)`` (split once into an initial and a run
+  key); epoch ``j`` draws ONE block of normals ``normal(fold_in(run_key, j), ...)`` for all
+  its Euler sub-steps and its outputs. So every trial's numbers depend only on
+  ``(seed, i)``: not on the batch size, the chunking or the sharding.
+* nested scan: chunks (a Python loop, which drives the progress bar) -> records
+  (statistics kept every ``record_every`` epochs) -> epochs (one output update) -> Euler
+  sub-steps (truth, readings, EKF predict; ``unroll=5``).
+* trials are split over all devices with ``shard_map`` (on a CPU, split the host into one
+  device per core *before* JAX starts: ``jax.config.update("jax_num_cpu_devices", 2)``;
+  the command line does it).
+* per trial and record only ``2 N + 2 d + 1`` float32 numbers are kept (errors, filter
+  sigmas, errors and sigmas along the named quantities, NEES); full trajectories (truth,
+  dead reckoning, EKF) only for the first ``keep`` trials, recomputed in float64.
+"""
+
+import math
+import numbers
+import os
+import time
+import weakref
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+from jax.sharding import Mesh, NamedSharding
+from jax.sharding import PartitionSpec as P
+
+from ._ekf import make_model, output_mask, predict, update, wrap_angle
+from ._errors import ModelError, OptionError
+from ._experiment import Experiment
+from ._progress import Progress
+from ._result import MonteCarloResult
+
+#: Trial-steps per chunk between two progress-bar updates (about 1-3 s on 2 CPU cores).
+CHUNK_TRIAL_STEPS = 1.5e7
+#: Inner-scan unroll of the Euler sub-steps. notes/ekf.md found 5 best at B = 1 and neutral
+#: at large B; measured here at 512 trials per device, 5 costs 2x the CPU time of 1.
+UNROLL = 1
+
+_CACHE: "weakref.WeakKeyDictionary[Experiment, dict]" = weakref.WeakKeyDictionary()
+
+
+# ---------------------------------------------------------------------- one trial
+def _trial_functions(exp: Experiment, traj: bool):
+    """``init(trial_id, root) -> (carry, stats0)``, ``epoch(carry, j)``, ``stats(carry)``.
+
+    ``carry = (run_key, x, istate, w_last, xa, P[, x_dr])`` for one trial.
+    """
+    model = make_model(exp)
+    n, p, N = model.n, model.p, model.N
+    K = exp.epoch_steps
+    ni = exp.n_input_normals
+    m = len(exp.system.known)
+    n_out = len(exp.measurements)
+    law = exp.inputs
+    known_std = exp.known_std
+    dt = model.dt
+    x0 = np.asarray(exp.x0, np.float64)
+    istate0 = np.asarray(exp.istate0, np.float64)
+    w0 = np.asarray(exp.w0, np.float64)
+    prior = np.asarray(exp.prior_std, np.float64)
+    ang = exp.angle_mask()
+    sig_out = model.sigma
+    names = exp.state_names()
+    nees_idx = np.array([names.index(s) for s in exp.nees_states])
+    nees_ang = ang[nees_idx]
+    quantities = exp.quantities
+
+    def truth_aug(x, w_last):
+        return jnp.concatenate([x, w_last, jnp.zeros(p * (exp.order - 1))])
+
+    def init(trial_id, root):
+        key = jax.random.fold_in(root, trial_id)
+        k_init, k_run = jax.random.split(key)
+        z = jax.random.normal(k_init, (N,), jnp.float64)
+        x = jnp.asarray(x0)
+        w_last = jnp.asarray(w0)
+        xa = truth_aug(x, w_last) + prior * z
+        Pm = jnp.diag(jnp.asarray(prior**2))
+        carry = (k_run, x, jnp.asarray(istate0), w_last, xa, Pm)
+        if traj:
+            carry = carry + (xa[:n],)
+        return carry, stats(carry)
+
+    def epoch(carry, j):
+        key, x, istate, w_last, xa, Pm = carry[:6]
+        z = jax.random.normal(jax.random.fold_in(key, j), (K * (ni + m) + n_out,), jnp.float64)
+        zs = z[:K * (ni + m)].reshape(K, ni + m)
+        zy = z[K * (ni + m):]
+
+        def sub(c, zk):
+            x, istate, w_last, xa, Pm = c[:5]
+            istate, u, w = law(istate, zk[:ni])
+            u = jnp.asarray(u, jnp.float64).reshape(m)
+            w = jnp.asarray(w, jnp.float64).reshape(p)
+            u_read = u + known_std(u) * zk[ni:]
+            x = x + dt * model.dynamics(x, u, w)
+            xa, Pm = predict(model, xa, Pm, u_read)
+            out = (x, istate, w, xa, Pm)
+            if traj:
+                x_dr = c[5]
+                out = out + (x_dr + dt * model.dynamics(x_dr, u_read, jnp.zeros(p)),)
+                return out, u_read
+            return out, None
+
+        c0 = (x, istate, w_last, xa, Pm) + ((carry[6],) if traj else ())
+        c, u_reads = lax.scan(sub, c0, zs, unroll=min(UNROLL, K))
+        x, istate, w_last, xa, Pm = c[:5]
+        y = model.h_true(x) + sig_out * zy
+        if model.angle_out.any():
+            y = jnp.where(model.angle_out, wrap_angle(y), y)
+        xa, Pm = update(model, xa, Pm, y, output_mask(model, j))
+        new = (key, x, istate, w_last, xa, Pm) + ((c[5],) if traj else ())
+        if traj:
+            return new, (x, xa, jnp.sqrt(jnp.diag(Pm)), c[5], y, u_reads, Pm)
+        return new, None
+
+    def stats(carry):
+        _, x, _, w_last, xa, Pm = carry[:6]
+        err = xa - truth_aug(x, w_last)
+        if ang.any():
+            err = jnp.where(ang, wrap_angle(err), err)
+        sig = jnp.sqrt(jnp.diag(Pm))
+        qe, qs = [], []
+        for q in quantities:
+            v_hat = q.fn(xa[:n])
+            e = v_hat - q.fn(x)
+            qe.append(wrap_angle(e) if q.angle else e)
+            g = jax.grad(q.fn)(xa[:n])
+            qs.append(jnp.sqrt(g @ Pm[:n, :n] @ g))
+        es = err[nees_idx]
+        Ps = Pm[np.ix_(nees_idx, nees_idx)]
+        nees = es @ jnp.linalg.solve(Ps, es)
+        parts = [err, sig, jnp.stack(qe) if qe else jnp.zeros(0),
+                 jnp.stack(qs) if qs else jnp.zeros(0), nees[None]]
+        return jnp.concatenate(parts).astype(jnp.float32)
+
+    del nees_ang
+    return init, epoch, stats
+
+
+# ---------------------------------------------------------------------- batched, sharded
+def _mesh(devices):
+    return Mesh(np.array(devices), ("trials",))
+
+
+def _compiled(exp, devices, per_dev, n_rec_chunk):
+    """Jitted, sharded init and chunk functions (cached per experiment and shape)."""
+    key = (tuple(d.id for d in devices), per_dev, n_rec_chunk)
+    cache = _CACHE.setdefault(exp, {})
+    if key in cache:
+        return cache[key]
+    init, epoch, stats = _trial_functions(exp, traj=False)
+    R = exp.record_every
+    mesh = _mesh(devices)
+    spec = P("trials")
+
+    def init_local(ids, root):
+        return jax.vmap(init, in_axes=(0, None))(ids, root)
+
+    def chunk_local(carry, j0):
+        def per_trial(c):
+            def rec(c, r):
+                def ep(c, e):
+                    c, _ = epoch(c, j0 + r * R + e)
+                    return c, None
+
+                c, _ = lax.scan(ep, c, jnp.arange(R))
+                return c, stats(c)
+
+            return lax.scan(rec, c, jnp.arange(n_rec_chunk))
+
+        return jax.vmap(per_trial)(carry)
+
+    init_j = jax.jit(jax.shard_map(init_local, mesh=mesh, in_specs=(spec, P()),
+                                   out_specs=(spec, spec), check_vma=False))
+    chunk_j = jax.jit(jax.shard_map(chunk_local, mesh=mesh, in_specs=(spec, P()),
+                                    out_specs=(spec, spec), check_vma=False),
+                      donate_argnums=0)
+    cache[key] = (init_j, chunk_j, NamedSharding(mesh, spec))
+    return cache[key]
+
+
+def _check_int(value, what, lo):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
+        raise OptionError(f"{what} must be an integer >= {lo}, got {value!r}")
+    return int(value)
+
+
+def _chunk_records(exp, n_trials):
+    """Records per chunk: the largest divisor of the record count within the budget."""
+    n_rec = exp.n_epochs // exp.record_every
+    steps_per_rec = exp.record_every * exp.epoch_steps * n_trials
+    best = 1
+    for c in range(1, n_rec + 1):
+        if n_rec % c == 0 and c * steps_per_rec <= CHUNK_TRIAL_STEPS:
+            best = c
+    return best, n_rec
+
+
+def _check_model(exp):
+    """Fail early, with one line, when the model is NaN at the experiment's start."""
+    init, epoch, stats = _trial_functions(exp, traj=False)
+    model = make_model(exp)
+    x0 = jnp.asarray(exp.x0)
+    _, u, w = exp.inputs(jnp.asarray(exp.istate0), jnp.zeros(exp.n_input_normals))
+    u = jnp.asarray(u, jnp.float64).reshape(len(exp.system.known))
+    w = jnp.asarray(w, jnp.float64).reshape(len(exp.system.unknown))
+    vals = {"the dynamics": model.dynamics(x0, u, w), "the measurements": model.h_true(x0),
+            "the known-input noise std": exp.known_std(u)}
+    for what, v in vals.items():
+        if not np.all(np.isfinite(np.asarray(v))):
+            raise ModelError(f"experiment {exp.name!r}: {what} return NaN/inf at the true "
+                             f"start x0={list(exp.x0)}")
+
+
+def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, keep: int = 4,
+                   devices=None, progress=None) -> MonteCarloResult:
+    """Run ``trials`` independent simulations of an experiment, each filtered by the EKF.
+
+    Every trial: truth by Euler at ``experiment.dt``; known inputs read with noise every
+    step; outputs read at their own periods; the EKF of :mod:`uio_jax._ekf` on the state
+    augmented by the unknown inputs and their derivatives, started at
+    ``truth + N(0, diag(prior_std^2))``. Statistics per trial are recorded every
+    ``record_every`` output epochs (and at t = 0); the result computes RMSE, filter sigma,
+    NEES, ratios end/start and the verdict.
+
+    Args:
+        experiment: an :class:`~uio_jax.Experiment` (e.g. from the zoo).
+        trials: number of trials B (>= 1). Trial i uses ``fold_in(key(seed), i)``, so the
+            first 64 trials of a run with B = 256 equal a run with B = 64.
+        seed: non-negative integer.
+        keep: number of trials (the first ones) whose full trajectories (truth, dead
+            reckoning, EKF and its sigma, at every epoch) are kept, for plots.
+        devices: JAX devices to shard the trials over (default: all of them).
+        progress: ``True``/``False`` forces the stderr progress bar on/off; ``None``
+            (default) shows it when the run lasts more than a few seconds.
+
+    Returns:
+        :class:`MonteCarloResult` (host numpy arrays; ``errors`` has shape
+        ``(trials, n_records + 1, N)`` in float32).
+
+    Raises:
+        OptionError: trials <= 0, negative seed or keep.
+        ModelError: the model is NaN at the start, or the filter became NaN/inf.
+    """
+    if not isinstance(experiment, Experiment):
+        raise OptionError(f"run_montecarlo needs a uio_jax Experiment, got "
+                          f"{type(experiment).__name__}")
+    B = _check_int(trials, "trials", 1)
+    seed = _check_int(seed, "seed", 0)
+    keep = min(_check_int(keep, "keep", 0), B)
+    exp = experiment
+    with jax.enable_x64(True):
+        _check_model(exp)
+        devices = list(jax.devices() if devices is None else devices)
+        nd = len(devices)
+        per_dev = -(-B // nd)
+        Bp = per_dev * nd
+        n_rec_chunk, n_rec = _chunk_records(exp, Bp)
+        init_j, chunk_j, sharding = _compiled(exp, devices, per_dev, n_rec_chunk)
+        root = jax.random.key(seed)
+        ids = jax.device_put(jnp.arange(Bp, dtype=jnp.uint32), sharding)
+        t0 = time.perf_counter()
+        p0 = time.process_time()
+        carry, rec0 = init_j(ids, root)
+        j0 = jnp.asarray(0, jnp.int32)
+        chunk_c = chunk_j.lower(carry, j0).compile()
+        compile_s = time.perf_counter() - t0
+        steps_chunk = n_rec_chunk * exp.record_every * exp.epoch_steps
+        bar = Progress(B * exp.n_steps, enabled=progress,
+                       delay=0.0 if progress else 3.0, label=exp.name.split(":")[-1])
+        records = [np.asarray(rec0)[:B, None]]
+        t1 = time.perf_counter()
+        p1 = time.process_time()
+        for c in range(n_rec // n_rec_chunk):
+            j0 = jnp.asarray(c * n_rec_chunk * exp.record_every, jnp.int32)
+            carry, rec = chunk_c(carry, j0)
+            records.append(np.asarray(rec)[:B])
+            bar.update(B * steps_chunk)
+        run_s = time.perf_counter() - t1
+        run_p = time.process_time() - p1
+        bar.close()
+        stats = np.concatenate(records, axis=1)  # (B, n_rec + 1, S)
+        _check_finite(exp, stats)
+        traj = trajectories(exp, range(keep), seed=seed) if keep else None
+    timings = {
+        "compile_s": compile_s, "run_s": run_s, "process_s": run_p,
+        "setup_process_s": p1 - p0, "trial_steps": B * exp.n_steps,
+        "trial_steps_per_s": B * exp.n_steps / max(run_s, 1e-12),
+        "devices": nd, "device_kind": devices[0].platform,
+        "loadavg": os.getloadavg(),
+    }
+    t = np.arange(n_rec + 1) * exp.record_every * exp.epoch_steps * exp.dt
+    return MonteCarloResult(exp, B, seed, t, stats, traj, timings)
+
+
+def _check_finite(exp, stats):
+    bad = ~np.isfinite(stats).all(axis=2)
+    if bad.any():
+        k = int(np.argmax(bad.any(axis=0)))
+        t = k * exp.record_every * exp.epoch_steps * exp.dt
+        raise ModelError(f"experiment {exp.name!r}: the filter became NaN/inf in "
+                         f"{int(bad.any(axis=1).sum())} of {stats.shape[0]} trials "
+                         f"(first at t={t:.4g} s); does the model return NaN there?")
+
+
+# ---------------------------------------------------------------------- full trajectories
+def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
+    """Full float64 trajectories of some trials, at every output epoch.
+
+    The same trials as in :func:`run_montecarlo` with the same seed (trial ``i`` depends
+    only on ``(seed, i)``), recomputed one epoch at a time, unsharded.
+
+    Args:
+        experiment: the experiment.
+        trial_ids: iterable of trial indices.
+        seed: the run's seed.
+
+    Returns:
+        dict of numpy arrays (``k`` trials, ``E`` epochs, index 0 is t = 0):
+        ``t (E+1,)``, ``x_true (k, E+1, n)``, ``x_hat (k, E+1, N)``,
+        ``sigma (k, E+1, N)``, ``x_dr (k, E+1, n)`` (dead reckoning: readings only,
+        ``w = 0``), ``y (k, E, n_out)`` (the outputs read), ``u_read (k, E*K, m)``,
+        ``P (k, E+1, N, N)`` (only when ``k <= 4``; else absent), ``ids``.
+    """
+    exp = experiment
+    ids = np.asarray(list(trial_ids), np.uint32)
+    with jax.enable_x64(True):
+        fn = _traj_fn(exp)
+        out = fn(jnp.asarray(ids), jax.random.key(seed))
+        out = jax.tree.map(np.asarray, out)
+    (x_t0, xa0, sig0, xdr0, P0), (x_t, xa, sig, xdr, y, u_reads, Ps) = out
+    k, E = x_t.shape[0], x_t.shape[1]
+    res = {
+        "ids": ids,
+        "t": np.arange(E + 1) * exp.epoch_steps * exp.dt,
+        "x_true": np.concatenate([x_t0[:, None], x_t], 1),
+        "x_hat": np.concatenate([xa0[:, None], xa], 1),
+        "sigma": np.concatenate([sig0[:, None], sig], 1),
+        "x_dr": np.concatenate([xdr0[:, None], xdr], 1),
+        "y": y,
+        "u_read": u_reads.reshape(k, E * exp.epoch_steps, -1),
+    }
+    if k <= 4:
+        res["P"] = np.concatenate([P0[:, None], Ps], 1)
+    return res
+
+
+def _traj_fn(exp):
+    cache = _CACHE.setdefault(exp, {})
+    if "traj" in cache:
+        return cache["traj"]
+    init, epoch, _ = _trial_functions(exp, traj=True)
+
+    def one(i, root):
+        c, _ = init(i, root)
+        c0 = (c[1], c[4], jnp.sqrt(jnp.diag(c[5])), c[6], c[5])
+        _, outs = lax.scan(epoch, c, jnp.arange(exp.n_epochs))
+        return c0, outs
+
+    cache["traj"] = jax.jit(jax.vmap(one, in_axes=(0, None)))
+    return cache["traj"]
+
+
+def chi2_quantile(p: float, dof: int) -> float:
+    """Wilson-Hilferty approximation of the chi-square quantile (enough for thresholds)."""
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(p)
+    a = 2.0 / (9.0 * dof)
+    return float(dof * (1.0 - a + z * math.sqrt(a)) ** 3)
