@@ -25,10 +25,11 @@ import jax.numpy as jnp
 import uio_jax as uj
 
 STATES = ("x", "y", "z", "qt", "qx", "qy", "qz")
-# Positions away from the feature (camera looks at it, F_z != 0); quaternion components
-# anywhere in a box (the norm is an output).
+# Positions in front of the camera and attitudes within ~35 degrees of the identity, so
+# that the feature depth F_z stays away from 0 (where h_u, h_v blow up); the quaternion is
+# not normalized (its norm is the output h_const).
 DOMAIN = {"x": (0.5, 1.5), "y": (0.5, 1.5), "z": (0.5, 1.5),
-          "qt": (0.5, 1.5), "qx": (-0.5, 0.5), "qy": (-0.5, 0.5), "qz": (-0.5, 0.5)}
+          "qt": (0.8, 1.2), "qx": (-0.3, 0.3), "qy": (-0.3, 0.3), "qz": (-0.3, 0.3)}
 
 
 def _zero3():

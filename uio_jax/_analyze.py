@@ -8,6 +8,7 @@ from ._context import Context
 from ._errors import OptionError
 from ._orc import run_orc
 from ._rank import default_rtol
+from ._single_ui import check_applicable, single_ui_report
 from ._system import System
 
 METHODS = ("auto", "orc", "single_ui", "eorc")
@@ -79,6 +80,10 @@ def analyze(
         if chosen == "orc":
             ctx = Context(system, int(samples), int(seed), float(rtol))
             return _orc_report(ctx, why, max_order)
+        if chosen == "single_ui":
+            check_applicable(system)
+            ctx = Context(system, int(samples), int(seed), float(rtol))
+            return single_ui_report(ctx, why=why, max_order=max_order)
     if chosen == "eorc":
         try:
             from ._eorc import eorc_report

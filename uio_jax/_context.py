@@ -35,6 +35,7 @@ class Context:
         lo, hi = system.box()
         self.codist = Codistribution(system.n, samples, hi - lo, rtol)
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
+        self._grads = {}  # Node -> (S, n) gradient at the samples
 
     # -------------------------------------------------------------- nodes
     def output_nodes(self) -> list[Node]:
@@ -49,8 +50,14 @@ class Context:
 
     # -------------------------------------------------------------- evaluation
     def gradients(self, nodes) -> np.ndarray:
-        """Gradients of scalar nodes at the samples, ``(S, c, n)``."""
-        return self.builder.gradients(nodes, self.xs)
+        """Gradients of scalar nodes at the samples, ``(S, c, n)`` (cached per node)."""
+        nodes = list(nodes)
+        missing = [nd for nd in dict.fromkeys(nodes) if nd not in self._grads]
+        if missing:
+            grads = self.builder.gradients(missing, self.xs)
+            for i, nd in enumerate(missing):
+                self._grads[nd] = grads[:, i]
+        return np.stack([self._grads[nd] for nd in nodes], axis=1)
 
     def absorb(self, nodes, grads=None) -> list[Node]:
         """Keep the candidate nodes that raise the generic rank.
@@ -76,8 +83,15 @@ class Context:
 
     def absorb_lie(self, phis, field_nodes) -> list[Node]:
         """Form every ``L_v phi`` (phi in ``phis``, v in ``field_nodes``) and absorb them."""
-        nodes, grads = self.builder.lie_block(phis, field_nodes, self.xs)
+        nodes, grads = self.lie_block(phis, field_nodes)
         return self.absorb(nodes, grads)
+
+    def lie_block(self, phis, field_nodes):
+        """Nodes ``L_v phi`` and their gradients ``(S, c, n)`` (cached per node)."""
+        nodes, grads = self.builder.lie_block(phis, field_nodes, self.xs)
+        for i, nd in enumerate(nodes):
+            self._grads.setdefault(nd, grads[:, i])
+        return nodes, grads
 
     def contains(self, covectors) -> list[bool]:
         """Membership of covector families ``(C, S, n)``; evidence goes to the certificate."""
@@ -109,7 +123,7 @@ class Context:
     def certificate(self) -> Certificate:
         cd = self.codist
         final = cd.decision()
-        counted = [final] + cd.acceptances + [d for m, d in self.memberships if not m]
+        counted = cd.acceptances + [d for m, d in self.memberships if not m]
         pruned = cd.rejections + [d for m, d in self.memberships if m]
         everything = counted + pruned
         used = int(cd.valid.sum())
@@ -119,7 +133,8 @@ class Context:
             dropped=self.samples - used,
             fraction=final.fraction,
             min_fraction=min(d.fraction for d in everything),
-            sigma_r_min=min(d.sigma_r_min for d in counted),
+            sigma_r_min=min((d.sigma_r_min for d in counted), default=1.0),
+            conditioning=final.sigma_r_min,
             sigma_next_max=max((d.sigma_next_max for d in pruned), default=0.0),
             rtol=cd.rtol,
             decisions=len(everything),

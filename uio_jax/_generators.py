@@ -8,6 +8,7 @@ caches keyed on function identity keep hitting across steps and across calls of
 cached the same way.
 """
 
+import time
 import weakref
 from dataclasses import dataclass
 
@@ -42,7 +43,8 @@ class Builder:
 
     def __init__(self):
         self._nodes: dict[tuple, Node] = {}
-        self._grad_fns: dict[tuple, object] = {}
+        self._compiled: dict[tuple, object] = {}
+        self.stats: list[CompileStat] = []
 
     def _get(self, key, make):
         node = self._nodes.get(key)
@@ -107,6 +109,29 @@ class Builder:
             ),
         )
 
+    def _evaluate(self, key, make, xs):
+        """Evaluate the vmapped function ``make()`` at ``xs``, compiling once per key/shape.
+
+        Large graphs (nested Lie derivatives) are compiled with XLA's backend optimization
+        level 0: it roughly halves compile time, which dominates for these one-off
+        functions, at the cost of a slower (still millisecond-scale) execution. Trace
+        size and compile time are recorded in ``self.stats`` for the benchmarks.
+        """
+        ck = (key, tuple(xs.shape))
+        compiled = self._compiled.get(ck)
+        with jax.enable_x64(True):
+            if compiled is None:
+                t0 = time.perf_counter()
+                traced = jax.jit(jax.vmap(make())).trace(xs)
+                eqns = _count_eqns(traced.jaxpr.jaxpr)
+                t1 = time.perf_counter()
+                opts = {"xla_backend_optimization_level": 0} if eqns > LARGE_GRAPH else None
+                compiled = traced.lower().compile(opts) if opts else traced.lower().compile()
+                t2 = time.perf_counter()
+                self._compiled[ck] = compiled
+                self.stats.append(CompileStat(_key_label(key), eqns, t1 - t0, t2 - t1))
+            return compiled(xs)
+
     def gradients(self, nodes, xs) -> np.ndarray:
         """Gradients of scalar ``nodes`` at the states ``xs``.
 
@@ -117,14 +142,20 @@ class Builder:
         Returns:
             numpy array of shape ``(S, c, n)`` (NaN/inf where a function is undefined).
         """
-        key = tuple(nodes)
-        fn = self._grad_fns.get(key)
-        if fn is None:
-            fn = jax.jit(jax.vmap(_lie.stacked_gradients(tuple(nd.fn for nd in key))))
-            self._grad_fns[key] = fn
-        with jax.enable_x64(True):
-            return np.asarray(fn(xs))
+        nodes = tuple(nodes)
+        make = lambda: _lie.stacked_gradients(tuple(nd.fn for nd in nodes))
+        return np.asarray(self._evaluate(("grad", nodes), make, xs))
 
+    def values(self, nodes, xs) -> list:
+        """Values of nodes (scalars or fields) at the states ``xs``.
+
+        Returns:
+            list of numpy arrays, ``(S,)`` for a scalar node and ``(S, n)`` for a field.
+        """
+        nodes = tuple(nodes)
+        fns = tuple(nd.fn for nd in nodes)
+        make = lambda: (lambda x: tuple(f(x) for f in fns))
+        return [np.asarray(v) for v in self._evaluate(("values", nodes), make, xs)]
 
     def lie_block(self, phis, fields, xs):
         """All ``L_v phi`` for ``phi in phis`` (scalar nodes), ``v in fields`` (field nodes).
@@ -142,14 +173,42 @@ class Builder:
         nodes = [self.lie(v, phi) for phi in phis for v in fields]
         if not nodes:
             return nodes, np.zeros((xs.shape[0], 0, xs.shape[1]))
-        key = ("block", phis, fields)
-        fn = self._grad_fns.get(key)
-        if fn is None:
-            fn = jax.jit(jax.vmap(_lie.lie_derivative_gradients(
-                tuple(p.fn for p in phis), tuple(v.fn for v in fields))))
-            self._grad_fns[key] = fn
-        with jax.enable_x64(True):
-            return nodes, np.asarray(fn(xs))
+        make = lambda: _lie.lie_derivative_gradients(
+            tuple(p.fn for p in phis), tuple(v.fn for v in fields))
+        return nodes, np.asarray(self._evaluate(("block", phis, fields), make, xs))
+
+
+#: Graphs with more jaxpr equations than this are compiled at XLA optimization level 0.
+LARGE_GRAPH = 8000
+
+
+@dataclass(frozen=True)
+class CompileStat:
+    """Trace size and compile cost of one jitted evaluation (for benchmarks)."""
+
+    what: str
+    eqns: int
+    trace_s: float
+    compile_s: float
+
+
+def _count_eqns(jaxpr) -> int:
+    n = 0
+    for eqn in jaxpr.eqns:
+        n += 1
+        for param in eqn.params.values():
+            sub = getattr(param, "jaxpr", None)
+            if sub is not None:
+                n += _count_eqns(getattr(sub, "jaxpr", sub))
+    return n
+
+
+def _key_label(key) -> str:
+    kind, *rest = key
+    parts = []
+    for group in rest:
+        parts.append(",".join(nd.label for nd in group))
+    return f"{kind}[{' | '.join(parts)}]"
 
 
 def _wrap(label: str) -> str:

@@ -50,15 +50,21 @@ class Certificate:
         used: states used (finite everywhere).
         dropped: states dropped because a generator was NaN/inf there.
         fraction: fraction of the used samples where the final codistribution has its
-            generic rank.
-        min_fraction: the smallest such fraction over every rank decision of the run.
-        sigma_r_min: smallest ``s_r / s_1`` among generic samples over every direction
-            that was counted (kept generators, non-members): how close a counted
-            direction came to vanishing.
-        sigma_next_max: largest ``s_{r+1} / s_1`` among generic samples over every
-            direction that was *not* counted (pruned candidates, members): how close
-            round-off came to faking a rank.
+            generic rank (SVD of the row-scaled generator gradients).
+        min_fraction: the smallest agreeing fraction over every rank decision of the run.
+        sigma_r_min: smallest margin among the agreeing samples over every direction that
+            was counted (kept generators, non-member covectors): the distance of the
+            unit-scaled covector to the span it was added to (for an orthonormal span
+            plus one unit row this is, up to a factor in [1/sqrt(2), 1], the last
+            singular value ``s_{r+1} / s_1``). How close a counted direction came to
+            vanishing.
+        sigma_next_max: the same margin, largest value over every direction that was
+            *not* counted (pruned candidates, member covectors): how close round-off
+            came to faking a rank.
         rtol: the relative tolerance between them.
+        conditioning: smallest ``s_r / s_1`` of the final generator matrix among the
+            samples at the generic rank (how close the kept set comes to a singular
+            state; small values flag samples near the singular set).
         decisions: number of rank decisions taken.
     """
 
@@ -71,6 +77,7 @@ class Certificate:
     sigma_next_max: float
     rtol: float
     decisions: int
+    conditioning: float = 1.0
 
     @property
     def gap_decades(self) -> float:
@@ -89,9 +96,10 @@ class Certificate:
         return (
             f"{self.used}/{self.samples} samples used ({self.dropped} dropped), "
             f"{100 * self.fraction:.1f}% at the generic rank (worst decision "
-            f"{100 * self.min_fraction:.1f}%), smallest kept s_r/s_1 = "
-            f"{self.sigma_r_min:.2e}, largest rejected s_(r+1)/s_1 = "
-            f"{self.sigma_next_max:.2e} (gap {gap} decades, rtol {self.rtol:.0e})"
+            f"{100 * self.min_fraction:.1f}%); margins: smallest kept "
+            f"{self.sigma_r_min:.2e}, largest rejected {self.sigma_next_max:.2e} "
+            f"(gap {gap} decades around rtol {self.rtol:.0e}); final s_r/s_1 >= "
+            f"{self.conditioning:.1e}"
         )
 
 

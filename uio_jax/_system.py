@@ -161,6 +161,7 @@ class System:
                         f"{what} fails on a state vector of length {self.n}: "
                         f"{type(exc).__name__}: {msg}"
                     ) from None
+                _check_indexing(what, fn, self.n)
                 shape = getattr(out, "shape", None)
                 if shape is None:
                     raise ModelError(f"{what} must return an array, got {type(out).__name__}")
@@ -177,11 +178,28 @@ class System:
             xs = sample_states(self, _CHECK_SAMPLES, seed=12345)
             values = jax.jit(lambda s: tuple(jax.vmap(fn)(s) for fn in fns))(xs)
             for (what, _, _), vals in zip(named, values):
-                if not np.isfinite(np.asarray(vals)).any():
+                vals = np.asarray(vals).reshape(_CHECK_SAMPLES, -1)
+                if not np.isfinite(vals).all(axis=1).any():
                     raise ModelError(
                         f"{what} returns NaN/inf at every one of {_CHECK_SAMPLES} sampled "
                         "states of the domain"
                     )
+
+
+def _check_indexing(what, fn, n):
+    """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
+
+    The function is called once on a plain numpy vector, where out-of-range indexing raises
+    IndexError; any other failure is left to the traced checks.
+    """
+    try:
+        fn(np.full(n, 0.75))
+    except IndexError as exc:
+        raise ModelError(
+            f"{what} indexes outside the state vector of length {n}: {exc}"
+        ) from None
+    except Exception:  # numpy input not supported by this function: traced checks decide
+        pass
 
 
 def _as_names(names, what) -> tuple[str, ...]:

@@ -1,0 +1,81 @@
+"""System validation: every malformed model gets a one-line ModelError naming the problem."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import uio_jax as uj
+
+STATES = ("a", "b")
+
+
+def good(**kw):
+    args = dict(states=STATES, outputs={"y": lambda x: x[0]},
+                known={"u": lambda x: jnp.array([x[1], 0.0])})
+    args.update(kw)
+    return uj.System(**args)
+
+
+def test_a_valid_system_builds_with_default_domain():
+    s = good(angles=("b",))
+    assert s.n == 2
+    lo, hi = s.box()
+    np.testing.assert_allclose(lo, [0.5, -np.pi])
+    np.testing.assert_allclose(hi, [1.5, np.pi])
+    assert "System(" in repr(s)
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(known={"u": lambda x: jnp.array([1.0, 0.0, 0.0])}), "known field 'u' returns shape (3,), expected shape (2,)"),
+        (dict(unknown={"w": lambda x: jnp.array([1.0])}), "unknown field 'w' returns shape (1,)"),
+        (dict(drift=lambda x: x[0]), "drift returns shape ()"),
+        (dict(outputs={"y": lambda x: x}), "output 'y' returns shape (2,), expected a scalar"),
+        (dict(outputs={"y": lambda x: x[:1]}), "output 'y' returns shape (1,)"),
+        (dict(outputs={}), "at least one output"),
+        (dict(states=("a", "a")), "duplicate name 'a' in states"),
+        (dict(states="ab"), "sequence of names"),
+        (dict(outputs={"y": 3.0}), "outputs entry 'y' is not callable"),
+        (dict(known={"u": None}), "known entry 'u' is not callable"),
+        (dict(unknown={"u": lambda x: x}), "'u' is declared both known and unknown"),
+        (dict(domain={"c": (0, 1)}), "domain given for unknown state 'c'"),
+        (dict(domain={"a": (1, 1)}), "domain of 'a' is empty"),
+        (dict(domain={"a": (2, 1)}), "domain of 'a' is empty"),
+        (dict(domain={"a": (0, np.inf)}), "domain of 'a' must be finite"),
+        (dict(domain={"a": 3}), "domain of 'a' must be a pair"),
+        (dict(angles=("z",)), "angle 'z' is not a state"),
+        (dict(outputs={"y": lambda x: x[5]}), "output 'y' indexes outside the state vector of length 2"),
+        (dict(known={"u": lambda x: jnp.array([x[2], 0.0])}), "known field 'u' indexes outside"),
+        (dict(outputs={"y": lambda x: x @ jnp.ones(3)}), "output 'y' fails on a state vector"),
+        (dict(outputs={"y": lambda x: jnp.log(-x[0] - 1.0)}), "output 'y' returns NaN/inf at every"),
+        (dict(known={"u": lambda x: jnp.array([jnp.nan, 0.0])}), "known field 'u' returns NaN/inf"),
+    ],
+)
+def test_bad_models_are_refused_with_one_line(kw, message):
+    with pytest.raises(uj.ModelError) as err:
+        good(**kw)
+    text = str(err.value)
+    assert message in text
+    assert "\n" not in text
+
+
+def test_model_error_is_a_value_error():
+    assert issubclass(uj.ModelError, ValueError)
+    assert issubclass(uj.OptionError, uj.UioJaxError)
+
+
+def test_with_known_moves_an_unknown_input():
+    s = good(unknown={"w": lambda x: jnp.array([1.0, 0.0])})
+    k = s.with_known(["w"])
+    assert set(k.known) == {"u", "w"} and not k.unknown
+    with pytest.raises(uj.ModelError, match="not an unknown input"):
+        s.with_known(["u"])
+
+
+def test_system_is_read_only():
+    s = good()
+    with pytest.raises(Exception):
+        s.outputs["z"] = lambda x: x[0]
+    with pytest.raises(Exception):
+        s.states = ("q",)
