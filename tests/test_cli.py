@@ -1,0 +1,111 @@
+"""Command line: readable reports, one-line errors with exit code 2, no tracebacks."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from helpers import zoo_path
+from uio_jax import cli
+
+GOOD = f"{zoo_path('unicycle_polar')}:range_known"
+
+BAD_MODELS = {
+    "wrong_length": ("""
+        import jax.numpy as jnp, uio_jax as uj
+        def f():
+            return uj.System(("a", "b"), {"y": lambda x: x[0]}, known={"u": lambda x: jnp.ones(3)})
+        """, "known field 'u' returns shape (3,), expected shape (2,)"),
+    "nan_everywhere": ("""
+        import jax.numpy as jnp, uio_jax as uj
+        def f():
+            return uj.System(("a",), {"y": lambda x: jnp.log(-x[0])})
+        """, "returns NaN/inf at every one of"),
+    "syntax": ("def f(:\n", "fails to load"),
+    "raises": ("""
+        def f():
+            raise RuntimeError("boom")
+        """, "raised RuntimeError: boom"),
+    "not_a_system": ("""
+        def f():
+            return 42
+        """, "did not give a uio_jax.System (got int)"),
+    "import_error": ("import not_a_module_anywhere\n", "ModuleNotFoundError"),
+}
+
+
+def _write(tmp_path, name, source):
+    path = tmp_path / f"{name}.py"
+    path.write_text(textwrap.dedent(source))
+    return str(path)
+
+
+def _one_line_error(capsys):
+    out, err = capsys.readouterr()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("uio-jax: error: ")
+    assert "Traceback" not in err + out
+    return lines[0]
+
+
+@pytest.mark.parametrize("name", sorted(BAD_MODELS))
+def test_bad_model_files(tmp_path, capsys, name):
+    source, message = BAD_MODELS[name]
+    path = _write(tmp_path, name, source)
+    assert cli.main(["analyze", f"{path}:f"]) == 2
+    assert message in _one_line_error(capsys)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["analyze", "nowhere.py:f"], "model file not found: nowhere.py"),
+        (["analyze", f"{zoo_path('unicycle_polar')}:nope"], "has no 'nope'"),
+        (["analyze", "no_colon"], "FILE.py:NAME"),
+        (["analyze", GOOD, "--method", "magic"], "invalid choice: 'magic'"),
+        (["analyze", GOOD, "--samples", "0"], "samples must be an integer >= 8"),
+        (["analyze", GOOD, "--samples", "lots"], "invalid int value"),
+        (["analyze", GOOD, "--seed", "-1"], "seed must be a non-negative integer"),
+        (["analyze", GOOD, "--rtol", "2"], "rtol must be a number in (0, 1)"),
+        (["analyze", f"{zoo_path('unicycle_polar')}:range_v_unknown", "--method", "orc"],
+         "method 'orc' needs every input known"),
+        (["frobnicate"], "invalid choice: 'frobnicate'"),
+    ],
+)
+def test_bad_arguments(capsys, argv, message):
+    assert cli.main(argv) == 2
+    assert message in _one_line_error(capsys)
+
+
+def test_analyze_prints_a_report_and_writes_json(tmp_path, capsys):
+    out_json = tmp_path / "r.json"
+    assert cli.main(["analyze", GOOD, "--samples", "256", "--json", str(out_json)]) == 0
+    out, err = capsys.readouterr()
+    assert "observable codistribution: dim 2 of 3" in out
+    assert "m=0: dim 1" in out and "certificate:" in out
+    assert "unobservable directions at the centre of the domain" in out
+    data = json.loads(out_json.read_text())
+    assert data["dim"] == 2 and data["observable"] == {"r": True, "phi": False, "theta": False}
+    assert data["certificate"]["samples"] == 256
+
+
+def test_unwritable_json_is_one_line(tmp_path, capsys):
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--json", str(tmp_path / "no" / "r.json")]) == 2
+    _one_line_error(capsys)
+
+
+def test_installed_script_smoke():
+    """The console script and ``python -m uio_jax`` both run (subprocess)."""
+    exe = os.path.join(os.path.dirname(sys.executable), "uio-jax")
+    cmd = [exe] if os.path.exists(exe) else [sys.executable, "-m", "uio_jax"]
+    proc = subprocess.run(cmd + ["analyze", GOOD, "--samples", "64"], capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "dim 2 of 3" in proc.stdout
+    proc = subprocess.run([sys.executable, "-m", "uio_jax", "analyze", "missing.py:f"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
