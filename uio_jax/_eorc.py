@@ -54,6 +54,7 @@ generic rank is the same on every open set of the extended space.
 """
 
 import copy
+import time
 import weakref
 
 import jax
@@ -63,6 +64,7 @@ import numpy as np
 from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
+from ._lie import lie_derivative
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System
 
@@ -157,6 +159,59 @@ def extended_system(system: System, K: int) -> System:
     return ext
 
 
+# ---------------------------------------------------------------------------------------
+# Lie derivatives along the extended drift by Taylor mode (jax.experimental.jet)
+# ---------------------------------------------------------------------------------------
+def _flow_derivatives(F, x, order):
+    """Time derivatives ``x^(1)..x^(order)`` at t = 0 of the flow ``x' = F(x)``, ``x(0) = x``.
+
+    ``x^(i+1) = d^i/dt^i F(x(t))``: one ``jet`` of F per order, fed with the derivatives
+    found so far (jet's derivative convention, ``x(t) = sum_i x^(i) t^i / i!``).
+
+    Args:
+        F: field ``(N,) -> (N,)``; x: ``(N,)``; order: >= 1.
+
+    Returns:
+        list of ``order`` arrays ``(N,)``.
+    """
+    from jax.experimental.jet import jet
+
+    series = [F(x)]
+    for _ in range(1, order):
+        _, out = jet(F, (x,), (tuple(series),))
+        series.append(out[-1])
+    return series
+
+
+def lie_power(psi, F, j):
+    """``x -> L_F^j psi (x)`` by Taylor mode: ``d^j/dt^j psi(x(t))`` along the flow of F.
+
+    Nested ``jax.jvp`` traces ``L_F^j psi`` in a graph that grows like ``2.5^j`` (each
+    level doubles the previous one, common sub-expressions are not shared); the Taylor
+    recursion of :func:`_flow_derivatives` grows like ``j^2`` (Griewank & Walther,
+    "Evaluating Derivatives", ch. 13). Gradients go through it with ``jax.jacfwd``.
+    """
+    from jax.experimental.jet import jet
+
+    if j == 0:
+        return psi
+
+    def power(x):
+        series = _flow_derivatives(F, x, j)
+        _, out = jet(psi, (x,), (tuple(series),))
+        return out[j - 1]
+
+    return power
+
+
+def _nested_power(psi, F, j):
+    """``L_F^j psi`` by nested ``jax.jvp`` (fallback when a primitive has no jet rule)."""
+    fn = psi
+    for _ in range(j):
+        fn = lie_derivative(fn, F)
+    return fn
+
+
 def _fork(codist):
     """An independent copy of a Codistribution (arrays copied, decisions lists fresh)."""
     c = copy.copy(codist)
@@ -169,8 +224,19 @@ def _fork(codist):
     return c
 
 
+_RUNS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
 class _Eorc:
-    """State of one EORC run: the Context on ``Sigma^(K)`` and the per-order evidence."""
+    """State of one EORC run: the Context on ``Sigma^(K)`` and the per-order evidence.
+
+    Generators are kept as structures, so that their functions can be rebuilt with or
+    without Taylor mode: ``("out", h)``, ``("lie", v, parent)`` (``L_v parent`` by one
+    ``jax.jvp``, v a known field) and ``("pow", base, j)`` (``L_F0^j base`` by
+    :func:`lie_power`). ``L_F0`` of a ``pow`` node raises its power instead of nesting.
+    The jitted gradient evaluators are cached per extended System, so a second analysis
+    of the same System compiles nothing.
+    """
 
     def __init__(self, system, K, samples, seed, rtol):
         self.system = system
@@ -180,11 +246,92 @@ class _Eorc:
         self.ext = extended_system(system, K)
         self.names = input_names(system, K)
         self.ctx = Context(self.ext, samples, seed, rtol)
-        b = self.ctx.builder
-        self.fields = [b.field(DRIFT_LABEL, self.ext.drift)] + [
-            b.field(k, f) for k, f in self.ext.known.items()
-        ]
+        self.cache = _RUNS.setdefault(self.ext, {"struct": {}, "fns": {}, "blocks": {},
+                                                   "use_jet": True})
+        self.struct = self.cache["struct"]
+        for k, h in self.ext.outputs.items():
+            self.struct.setdefault(k, ("out", h))
+        self.known = tuple(self.ext.known.items())
         self.extra_decisions = []  # (member, RankDecision) of the dim-on-x tests
+        self.compile_s = []  # seconds spent tracing + compiling, per order
+
+    # ------------------------------------------------------------------ generators
+    def _fn(self, label):
+        """The function of a generator (memoized per Taylor-mode setting)."""
+        use_jet = self.cache["use_jet"]
+        key = (label, use_jet)
+        fn = self.cache["fns"].get(key)
+        if fn is None:
+            kind = self.struct[label]
+            if kind[0] == "out":
+                fn = kind[1]
+            elif kind[0] == "lie":
+                fn = lie_derivative(self._fn(kind[2]), self.ext.known[kind[1]])
+            else:
+                power = lie_power if use_jet else _nested_power
+                fn = power(self._fn(kind[1]), self.ext.drift, kind[2])
+            self.cache["fns"][key] = fn
+        return fn
+
+    def _node(self, label, depth):
+        return Node(label, self._fn(label), "scalar", depth)
+
+    def _children(self, phi):
+        """Labels of ``L_F0 phi`` then ``L_{F_i} phi`` (registering their structures)."""
+        kind = self.struct[phi.label]
+        base, j = (kind[1], kind[2]) if kind[0] == "pow" else (phi.label, 0)
+        up = f"L_{DRIFT_LABEL}{'' if j == 0 else '^' + str(j + 1)} {base}"
+        self.struct.setdefault(up, ("pow", base, j + 1))
+        out = [up]
+        for name, _ in self.known:
+            lbl = f"L_{name} {phi.label}"
+            self.struct.setdefault(lbl, ("lie", name, phi.label))
+            out.append(lbl)
+        return out
+
+    def _block(self, phis, labels):
+        """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``."""
+        key = (tuple(p.label for p in phis), self.cache["use_jet"])
+        fn = self.cache["blocks"].get(key)
+        if fn is not None:
+            return fn
+        per = len(labels) // len(phis)
+        ups = [self._fn(labels[i * per]) for i in range(len(phis))]
+        bases = [self._fn(p.label) for p in phis]
+        known = tuple(f for _, f in self.known)
+
+        def children(x):
+            vals = []
+            for phi, up in zip(bases, ups):
+                vals.append(jnp.reshape(up(x), (1,)))
+                if known:
+                    V = jnp.stack([v(x) for v in known])
+                    vals.append(jax.vmap(lambda t, phi=phi: jax.jvp(phi, (x,), (t,))[1])(V))
+            return jnp.concatenate(vals)
+
+        fn = jax.jit(jax.vmap(jax.jacfwd(children)))
+        self.cache["blocks"][key] = fn
+        return fn
+
+    def absorb_children(self, frontier, k):
+        """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them."""
+        if not frontier:
+            return []
+        labels = [lbl for phi in frontier for lbl in self._children(phi)]
+        xs = self.ctx.xs
+        t0 = time.perf_counter()
+        try:
+            fn = self._block(frontier, labels)
+            compiled = fn.lower(xs).compile()
+        except (NotImplementedError, KeyError, TypeError):  # a primitive without jet rule
+            self.cache["use_jet"] = False
+            fn = self._block(frontier, labels)
+            compiled = fn.lower(xs).compile()
+        self.compile_s.append(time.perf_counter() - t0)
+        with jax.enable_x64(True):
+            grads = np.asarray(compiled(xs))
+        nodes = [self._node(lbl, k) for lbl in labels]
+        return self.ctx.absorb(nodes, grads)
 
     def unit(self, j):
         """``e_j`` of the extended space at every sample, ``(1, S, N)``."""
@@ -247,11 +394,12 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
             "observable_states": tuple(states),
             "observable_inputs": tuple(inputs),
         }
-        history.append(Step(k, dim, tuple(nd.label for nd in added),
-                            ctx.codist.decision().fraction, extra))
+        decided = ctx.codist.acceptances[-len(added):] if added else []
+        fraction = min((d.fraction for d in decided), default=1.0)
+        history.append(Step(k, dim, tuple(nd.label for nd in added), fraction, extra))
         return len(states) == run.n
 
-    frontier = ctx.absorb(ctx.output_nodes())
+    frontier = ctx.absorb([run._node(k, 0) for k in run.ext.outputs])
     full = record(0, frontier)
     k = 0
     while True:
@@ -260,7 +408,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
         if k >= K:
             return run, history, f"k_max={K} reached", k
         k += 1
-        frontier = ctx.absorb_lie(frontier, run.fields)
+        frontier = run.absorb_children(frontier, k)
         full = record(k, frontier)
         if not frontier and not full:
             return run, history, (
