@@ -95,7 +95,7 @@ def test_published_symmetries_are_annihilated_by_omega(module, name):
             x = lo + (hi - lo) * rng.uniform(size=lo.shape)
             v = np.asarray(sym(x), dtype=float)
             N = rep.unobservable_directions(x)
-            assert np.linalg.norm(v - N @ (N.T @ v)) < 1e-8 * np.linalg.norm(v)
+            assert np.linalg.norm(v - N @ (N.T @ v)) < 1e-6 * np.linalg.norm(v)  # SVD null space: ~eps/s_min
 
 
 def test_with_wind_as_known_input_keeps_only_the_yaw_symmetry():

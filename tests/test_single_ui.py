@@ -65,7 +65,7 @@ def test_published_symmetries_lie_in_the_unobservable_space(module, name):
             v = np.asarray(getattr(mod, sym_name)(x), dtype=float)
             N = rep.unobservable_directions(x)
             assert N.shape == (system.n, system.n - rep.dim)
-            assert np.linalg.norm(v - N @ (N.T @ v)) < 1e-8 * np.linalg.norm(v)
+            assert np.linalg.norm(v - N @ (N.T @ v)) < 1e-6 * np.linalg.norm(v)  # SVD null space: ~eps/s_min
 
 
 def test_002_vehicle_in_wind():
