@@ -59,8 +59,9 @@ def _col(*entries):
 # 3D vehicle in wind (seed 002, section III; zoo: systems/vehicle_wind.py)
 # --------------------------------------------------------------------------------------
 
+# Attitudes near the identity, so that the feature depth F_z stays away from 0.
 _VEH_DOMAIN = {"x": (0.5, 1.5), "y": (0.5, 1.5), "z": (0.5, 1.5),
-               "qt": (0.5, 1.5), "qx": (-0.5, 0.5), "qy": (-0.5, 0.5), "qz": (-0.5, 0.5)}
+               "qt": (0.8, 1.2), "qx": (-0.3, 0.3), "qy": (-0.3, 0.3), "qz": (-0.3, 0.3)}
 
 
 def _vehicle(wind: str) -> SympyModel:
@@ -149,6 +150,19 @@ def _unicycle_disturbance(output: str, disturbance: bool, gamma_known: bool,
 
 
 # --------------------------------------------------------------------------------------
+# Unicycle with a GPS (seed 004 section 11.2.1, eqs. 34, 36; zoo: systems/gps.py)
+# --------------------------------------------------------------------------------------
+
+def _gps(unknown: tuple, name: str) -> SympyModel:
+    xv, yv, theta = X = sp.symbols("xv yv theta", real=True)
+    fields = {"v": _col(sp.cos(theta), sp.sin(theta), 0), "omega": _col(0, 0, 1)}
+    known = {k: f for k, f in fields.items() if k not in unknown}
+    unk = {k: f for k, f in fields.items() if k in unknown}
+    return SympyModel(f"gps:{name}", tuple(X), {"h_x": xv, "h_y": yv}, known, unk,
+                      domain={"xv": (-2.0, 2.0), "yv": (-2.0, 2.0), "theta": ANGLE_BOX})
+
+
+# --------------------------------------------------------------------------------------
 # Registry
 # --------------------------------------------------------------------------------------
 
@@ -170,6 +184,12 @@ for _out, _short in (("r2", "range"), ("tan_beta", "bearing"), ("tan_phi", "phi"
         lambda o=_out, s=_short: _unicycle_disturbance(o, True, True, f"gamma_known_{s}"))
     MODELS[f"systems/unicycle_disturbance.py:gamma_unknown_{_short}"] = (
         lambda o=_out, s=_short: _unicycle_disturbance(o, True, False, f"gamma_unknown_{s}"))
+
+
+MODELS["systems/gps.py:inputs_known"] = lambda: _gps((), "inputs_known")
+MODELS["systems/gps.py:inputs_unknown"] = lambda: _gps(("v", "omega"), "inputs_unknown")
+MODELS["systems/gps.py:omega_unknown"] = lambda: _gps(("omega",), "omega_unknown")
+MODELS["systems/gps.py:v_unknown"] = lambda: _gps(("v",), "v_unknown")
 
 
 def get(spec: str) -> SympyModel:

@@ -57,6 +57,7 @@ ORC_MODELS = [
     "systems/unicycle_disturbance.py:no_disturbance_range",
     "systems/unicycle_disturbance.py:no_disturbance_bearing",
     "systems/unicycle_disturbance.py:no_disturbance_phi",
+    "systems/gps.py:inputs_known",
 ]
 SINGLE_UI_MODELS = ["systems/vehicle_wind.py:wind_unknown"]
 SAMPLES = 4096
@@ -157,6 +158,8 @@ def _tag(spec):
 
 
 def write_strikepy_model(spec, model):
+    import _sympy_models
+
     """Write ``model`` as a StrikePy model + options file; return the options name.
 
     StrikePy reads ``x`` (states, column list), ``h`` (outputs), ``u`` (known inputs),
@@ -164,8 +167,18 @@ def write_strikepy_model(spec, model):
     in the inputs) from ``StrikePy/models/<modelname>.py``, and the options from
     ``StrikePy/custom_options/<name>.py``.
     """
+    import sympy as sp
+
     d = strikepy_dir()
     tag = _tag(spec)
+    # StrikePy's model module uses the names x, h, u, w, p, f itself: prefix every state.
+    ren = {s: sp.Symbol(f"s_{s}", real=True) for s in model.states}
+    model = _sympy_models.SympyModel(
+        model.name, tuple(ren.values()),
+        {k: sp.sympify(e).xreplace(ren) for k, e in model.outputs.items()},
+        {k: f.xreplace(ren) for k, f in model.known.items()},
+        {k: f.xreplace(ren) for k, f in model.unknown.items()},
+        None if model.drift is None else model.drift.xreplace(ren), model.domain)
     states = [str(s) for s in model.states]
     u_names = [f"u_{k}" for k in model.known]
     w_names = [f"w_{k}" for k in model.unknown]
@@ -225,9 +238,9 @@ print("UJ_TIMING " + json.dumps({"wall_s": time.perf_counter() - t0,
 def _parse_strikepy(text):
     ranks = re.findall(r"Rank = (\d+)", text)
 
-    def lst(pattern):
+    def lst(pattern):  # state names without the s_ prefix of the model file
         m = re.search(pattern + r":\s*\n\s*(\[.*?\])", text)
-        return m.group(1) if m else None
+        return m.group(1).replace("s_", "") if m else None
 
     return {"rank": int(ranks[-1]) if ranks else None,
             "observable": lst(r"These states are observable[^\n]*"),
@@ -361,20 +374,31 @@ def render(results, meta):
 
     orc = [r for r in results if r["method"] == "orc"]
     sui = [r for r in results if r["method"] == "single_ui"]
+    bad = [r["spec"] for r in results if "NO" in r["agree"]]
+    lines += ["## Summary", "",
+              "- Dimensions: " + ("ours, sympy and StrikePy (where it finished) agree on "
+                                  "every model." if not bad else
+                                  "DISAGREEMENT on " + ", ".join(bad) + "."),
+              "- StrikePy gave no verdict (time limit or error) on: " + (", ".join(
+                  r["spec"] for r in orc if r.get("strikepy") and r["strikepy"].get(
+                      "available") and not r["strikepy"].get("finished")) or "none") + ".",
+              "- Column *load* is the mean 1-minute load average over the model's "
+              "measurements (2 cores: a load above 2 means the measurements waited for a "
+              "core).", ""]
     if orc:
         lines += ["## ORC (known inputs only)", "",
                   "| model | n | ours dim | sympy dim | StrikePy verdict | ours warm (ms) | "
                   "ours compile (s) | sympy (s) [runs] | StrikePy (s) [runs] | sympy/ours | "
-                  "StrikePy/ours | agree |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "StrikePy/ours | agree | load |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in orc:
             lines.append(_row(r, strike=True))
         lines.append("")
     if sui:
         lines += ["## Single unknown input (`method=\"single_ui\"`)", "",
                   "| model | n | ours dims | sympy dims (m', m*) | ours warm (ms) | "
-                  "ours compile (s) | sympy (s) [runs] | sympy/ours | agree |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "ours compile (s) | sympy (s) [runs] | sympy/ours | agree | load |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
         for r in sui:
             lines.append(_row(r, strike=False))
         lines.append("")
@@ -396,7 +420,8 @@ def render(results, meta):
                          f"{_fmt(o['compile_s'])} s (target <= 10 s: "
                          f"{'met' if o['compile_s'] <= 10 else 'NOT met'})")
         elif o["compile_s"] >= 10:
-            lines.append(f"- {r['spec']}: compile {_fmt(o['compile_s'])} s (target < 10 s: NOT met)")
+            lines.append(f"- {r['spec']}: compile {_fmt(o['compile_s'])} s "
+                         "(target < 10 s: NOT met)")
     lines += ["", "## Every measurement", "",
               "Wall time, process CPU time (all threads of the process; for StrikePy the "
               "subprocess) and the 1-minute load average when the measurement started.", ""]
@@ -454,10 +479,19 @@ def _row(r, strike):
             sp_t = f"> {sp_res['timeout_s']:.0f} (timeout)"
         return (f"| {r['spec'].split('/')[-1]} | {n} | {ours_dim} | {s['dim']} | "
                 f"{_strikepy_verdict(sp_res)} | {warm_ms} | {comp} | {sym_t} | {sp_t} | "
-                f"{ratio_s} | {ratio_p} | {r['agree']} |")
+                f"{ratio_s} | {ratio_p} | {r['agree']} | {_load(r)} |")
     return (f"| {r['spec'].split('/')[-1]} | {n} | {ours_dim} | {s['dims']} "
             f"({s['m_prime']}, {s['m_star']}) | {warm_ms} | {comp} | {sym_t} | {ratio_s} | "
-            f"{r['agree']} |")
+            f"{r['agree']} | {_load(r)} |")
+
+
+def _load(r):
+    recs = list(r["sympy"]["runs"])
+    if r["ours"].get("available"):
+        recs += [r["ours"]["first"], *r["ours"]["warm"]]
+    if r.get("strikepy") and r["strikepy"].get("runs"):
+        recs += r["strikepy"]["runs"]
+    return f"{statistics.mean(x['load1'] for x in recs):.1f}" if recs else "—"
 
 
 def _agree(r):
@@ -502,9 +536,6 @@ def main(argv=None):
     specs = args.models
     if specs is None:
         specs = ORC_MODELS + ([] if args.no_single_ui else SINGLE_UI_MODELS)
-        gps = ROOT / "systems" / "gps.py"
-        if gps.exists():
-            print("note: systems/gps.py exists; add its ORC entries to ORC_MODELS when ready")
     meta = {"command": "python scripts/bench_analysis.py " + " ".join(argv or sys.argv[1:]),
             "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "git": _git(), "machine": _machine(), "versions": _versions(),

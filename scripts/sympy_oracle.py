@@ -24,7 +24,10 @@ Method (the textbook way, no tricks):
                 + sum_i span{d L_{phi^i_{m-1}} h}
 
   with the project's correction (DESIGN.md section 3): m* >= 1 unless every phi^i_1
-  vanishes (``paper_stop=True`` gives the papers' rule instead).
+  vanishes (``paper_stop=True`` gives the papers' rule instead). Lemma 1 is taken as met
+  when every phi^i_1 vanishes (as 002 section III-C does). When L_g h vanishes for every
+  output, 004 section 7: the first Lie derivative psi of the outputs along the known fields
+  with L_g psi != 0 becomes the output (see :func:`single_ui`).
 
 Usage::
 
@@ -252,11 +255,17 @@ def single_ui(model, *, seed: int = 0, rtol: float = RTOL, paper_stop: bool = Fa
         point: the point (default: :func:`random_point`).
 
     Returns:
-        ``{"dims", "dim", "m_prime", "m_star", "lemma1", "output", "generators", "point"}``;
-        ``dims`` runs from Omega_0 to Omega_{m*+1} (or to Omega_{m*} at full rank).
+        ``{"dims", "dim", "m_prime", "m_star", "lemma1", "phi1_zero", "output", "offset",
+        "unaffected", "generators", "point"}``; ``dims`` runs from Omega_0 to Omega_{m*+1}
+        (or to Omega_{m*} at full rank).
 
-    Raises:
-        NotImplementedError: L_g h vanishes for every output (004 section 7 not implemented).
+    When L_g h vanishes for every output (004 section 7), the output is replaced by the
+    first Lie derivative psi of the outputs along the known fields (order ``offset``) with
+    L_g psi != 0; Omega_0 .. Omega_offset hold the outputs and their Lie derivatives up to
+    that order (the paper's Omega_1 = span{dh, dL_f h} in 11.1.2 and 11.1.6), and the
+    recursion goes on from m = offset + 1 with the phi term ``L_{phi^i_{m-1}} psi`` as printed
+    there. If no such psi exists, the unknown input does not affect observability: the
+    result is the ORC on the known fields, with ``unaffected = True``.
     """
     if len(model.unknown) != 1 or model.drift is not None:
         raise ValueError("single_ui needs exactly one unknown input and no drift")
@@ -266,18 +275,44 @@ def single_ui(model, *, seed: int = 0, rtol: float = RTOL, paper_stop: bool = Fa
     (g,) = model.unknown.values()
     fields = list(model.known.values())
 
-    # Step 1: L_g^1 for the chosen output.
+    # Step 1: L_g^1 for the chosen output; generators of Omega_0 (the outputs).
+    span = Span(n, rtol)
+    frontier = _absorb(list(model.outputs.values()), span, states, point)
+    generators = [k for k, _ in frontier]
+    dims = [span.dim]
     h_name, h, lg1 = None, None, None
     for name, expr in model.outputs.items():
         if output is not None and name != output:
             continue
         cand = lie(expr, g, states)
-        if cand != 0 and abs(_num(cand, point)) > ZERO_TOL:
+        if cand != 0 and _num(cand, point) != 0.0:
             h_name, h, lg1 = name, expr, cand
             break
+    offset = 0
     if h is None:
-        raise NotImplementedError(
-            "L_g h vanishes for every output: 004 section 7 is not implemented in the oracle")
+        # 004 section 7 (worked cases 11.1.2, 11.1.6): L_g h = 0 for every output. Take the
+        # Lie derivatives of the outputs along the known fields, order by order (pruned as
+        # in the ORC), keeping them in Omega, until one, psi, has L_g psi != 0; psi is the
+        # new output. Omega_offset (offset = the order of psi) then contains the outputs and
+        # their Lie derivatives up to that order, as the paper's Omega_1 = span{dh, dL_f h}.
+        while h is None and frontier and span.dim < n and offset < n:
+            offset += 1
+            cands = [lie(k, v, states, dk) for k, dk in frontier for v in fields]
+            frontier = _absorb(cands, span, states, point)
+            generators += [k for k, _ in frontier]
+            dims.append(span.dim)
+            for k, _ in frontier:
+                cand = lie(k, g, states)
+                if cand != 0 and _num(cand, point) != 0.0:
+                    h_name, h, lg1 = f"psi (order {offset})", k, cand
+                    break
+        if h is None:
+            # Every Lie derivative along the known fields has L_g = 0: the unknown input
+            # does not affect observability; the result is the ORC on the known fields.
+            res = orc(model, seed=seed, rtol=rtol, point=point)
+            res.update(m_prime=None, m_star=None, lemma1=None, phi1_zero=None, output=None,
+                       offset=None, unaffected=True)
+            return res
     g_scaled = g / lg1
     phis = _Phis(fields, g, lg1, states)
 
@@ -289,15 +324,11 @@ def single_ui(model, *, seed: int = 0, rtol: float = RTOL, paper_stop: bool = Fa
     # Step 4: tau = L_g^2 h / (L_g^1)^2.
     tau_grad = None if lemma else _grad_at(lie(lg1, g, states) / lg1**2, states, point)
 
-    span = Span(n, rtol)
-    frontier = _absorb(list(model.outputs.values()), span, states, point)
-    generators = [k for k, _ in frontier]
-    dims = [span.dim]
     dh = _gradient(h, states)
-    m_prime = 0 if lemma or span.contains(tau_grad) else None
+    m_prime = offset if lemma or span.contains(tau_grad) else None
     m_star = None
-    min_star = 0 if (paper_stop or phi1_zero) else 1
-    m = 0
+    min_star = offset + (0 if (paper_stop or phi1_zero) else 1)
+    m = offset
     while True:
         if span.dim >= n:
             m_star = m
@@ -320,8 +351,8 @@ def single_ui(model, *, seed: int = 0, rtol: float = RTOL, paper_stop: bool = Fa
             m_star = prev
             break
     return {"dims": dims, "dim": span.dim, "m_prime": m_prime, "m_star": m_star,
-            "lemma1": lemma, "phi1_zero": phi1_zero, "output": h_name,
-            "generators": generators, "point": point}
+            "lemma1": lemma, "phi1_zero": phi1_zero, "output": h_name, "offset": offset,
+            "unaffected": False, "generators": generators, "point": point}
 
 
 def single_ui_dims(model, *, seed: int = 0, rtol: float = RTOL, paper_stop: bool = False):
