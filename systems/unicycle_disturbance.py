@@ -191,7 +191,17 @@ def _beta(x):
     return jnp.arctan2(x[0] * s - x[1] * c, -x[0] * c - x[1] * s)
 
 
+_EXPERIMENTS = {}  # one object per experiment: runs of the same one share compiled code
+
+
 def _experiment(output, gamma_known):
+    key = (output, gamma_known)
+    if key not in _EXPERIMENTS:
+        _EXPERIMENTS[key] = _make_experiment(output, gamma_known)
+    return _EXPERIMENTS[key]
+
+
+def _make_experiment(output, gamma_known):
     from uio_jax._experiment import Experiment, Measurement, Quantity
 
     system = {("r", True): gamma_known_range, ("r", False): gamma_unknown_range,

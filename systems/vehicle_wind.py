@@ -256,8 +256,18 @@ def _vehicle_known_std(u):
     return jnp.concatenate([jnp.full(3, _DEG), jnp.full(3, 0.01)]) + 0.0 * u
 
 
+_EXPERIMENTS = {}  # one object per experiment: runs of the same one share compiled code
+
+
 def _vehicle_experiment(wind, features=FEATURES, hover=False, n_steps=20000, tag="",
                         prior_r=0.1, prior_q=0.05):
+    key = (wind, features, hover, n_steps, tag, prior_r, prior_q)
+    if key not in _EXPERIMENTS:
+        _EXPERIMENTS[key] = _make_vehicle_experiment(*key)
+    return _EXPERIMENTS[key]
+
+
+def _make_vehicle_experiment(wind, features, hover, n_steps, tag, prior_r, prior_q):
     from uio_jax._experiment import Experiment, Measurement, Quantity
 
     system = wind_unknown() if wind else no_wind()

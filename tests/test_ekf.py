@@ -146,28 +146,38 @@ def test_ekf_equals_filterpy(name, gamma_known, output):
 
 
 def test_update_skips_masked_outputs():
-    """A masked output leaves the state and covariance unchanged (gain column is zero)."""
+    """A masked output leaves the state and covariance unchanged (gain column is zero),
+    and one output read equals the scalar Kalman update with it alone."""
     import jax
     import jax.numpy as jnp
 
+    import uio_jax as uj
     from uio_jax._ekf import make_model, update
+    from uio_jax._experiment import Experiment, Measurement
 
-    vw = load_module(zoo("vehicle_wind.py"))
-    exp = vw.with_wind_experiment()
+    sys_ = uj.System(("a", "b"), {"a": lambda x: x[0]},
+                     known={"u": lambda x: jnp.array([1.0, 0.0])},
+                     unknown={"w": lambda x: jnp.array([0.0, 1.0])})
+    meas = (Measurement("a", lambda x: x[0], 0.1, 2),
+            Measurement("ab", lambda x: x[0] * x[1], 0.2, 3))
+    exp = Experiment("toy", sys_, 0.1, 12, (1.0, 2.0), lambda s, z: (s, z[:1], z[1:]), (),
+                     2, lambda u: 0.0 * u, meas, w0=(0.0,), w_white_std=(0.0,), order=1,
+                     q_aug=(0.0,), prior_std=(1.0, 1.0, 1.0))
+    assert exp.epoch_steps == 1 and exp.n_epochs == 12
     model = make_model(exp)
-    xa = jnp.asarray(np.r_[exp.x0, 0.2, 0.0]) + 0.01
-    P = jnp.eye(model.N) * 0.01
-    y = model.h(xa) + 0.1
-    mask_none = jnp.zeros(len(exp.measurements), bool)
-    xa1, P1 = jax.jit(lambda a, b: update(model, a, b, y, mask_none))(xa, P)
+    xa = jnp.array([1.0, 2.0, 0.5])
+    P = jnp.array([[1.0, 0.2, 0.1], [0.2, 2.0, 0.3], [0.1, 0.3, 0.5]])
+    y = jnp.array([1.3, 1.7])
+    upd = jax.jit(lambda m: update(model, xa, P, y, m))
+    xa1, P1 = upd(jnp.array([False, False]))
     np.testing.assert_array_equal(np.asarray(xa1), np.asarray(xa))
-    np.testing.assert_allclose(np.asarray(P1), np.asarray(P), rtol=0, atol=1e-17)
-    # one output read = a scalar update with that output alone
-    mask1 = jnp.zeros(len(exp.measurements), bool).at[0].set(True)
-    xa2, P2 = update(model, xa, P, y, mask1)
-    H = np.asarray(jax.grad(exp.measurements[0].fn)(xa[:7]))
-    H = np.r_[H, 0.0, 0.0][None]
-    S = H @ np.asarray(P) @ H.T + exp.measurements[0].sigma ** 2
-    Kg = np.asarray(P) @ H.T / S
-    nu = float(y[0] - model.h(xa)[0])
-    np.testing.assert_allclose(np.asarray(xa2), np.asarray(xa) + Kg[:, 0] * nu, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(P1), np.asarray(P), rtol=0, atol=1e-15)
+    xa2, P2 = upd(jnp.array([True, False]))
+    H = np.array([[1.0, 0.0, 0.0]])
+    Pn = np.asarray(P)
+    S = H @ Pn @ H.T + 0.01
+    Kg = Pn @ H.T / S
+    np.testing.assert_allclose(np.asarray(xa2), np.asarray(xa) + Kg[:, 0] * (1.3 - 1.0),
+                               rtol=1e-13)
+    ikh = np.eye(3) - Kg @ H
+    np.testing.assert_allclose(np.asarray(P2), ikh @ Pn @ ikh.T + 0.01 * Kg @ Kg.T, rtol=1e-13)

@@ -203,6 +203,17 @@ class Experiment:
         ang = set(self.system.angles)
         return np.array([s in ang for s in self.state_names()], dtype=bool)
 
+    def analysis_system(self) -> System:
+        """The analysed system: ``system``'s fields with the outputs this experiment reads.
+
+        The Monte Carlo verdict is about these sensors (e.g. two camera features in 002
+        section III-D where the zoo's model has one), so the analysis beside it must be too.
+        """
+        s = self.system
+        outputs = {m.name: m.fn for m in self.measurements}
+        return System(s.states, outputs, dict(s.known), dict(s.unknown), s.drift,
+                      dict(s.domain), s.angles, f"{self.name} (outputs read)")
+
     def with_(self, **changes) -> "Experiment":
         """A copy with some fields changed (e.g. ``n_steps`` for a shorter run)."""
         from dataclasses import fields, replace

@@ -205,7 +205,6 @@ def _chunk_records(exp, n_trials):
 
 def _check_model(exp):
     """Fail early, with one line, when the model is NaN at the experiment's start."""
-    init, epoch, stats = _trial_functions(exp, traj=False)
     model = make_model(exp)
     x0 = jnp.asarray(exp.x0)
     _, u, w = exp.inputs(jnp.asarray(exp.istate0), jnp.zeros(exp.n_input_normals))

@@ -1,0 +1,55 @@
+"""Plots return (fig, axes), draw the expected artists and write files; nothing is shown."""
+
+import matplotlib
+import pytest
+from conftest import zoo
+
+from uio_jax._errors import OptionError
+from uio_jax._loading import load_module
+from uio_jax._montecarlo import run_montecarlo
+from uio_jax._plots import plot_errors, plot_montecarlo, plot_nees, plot_trajectories
+
+UNI = load_module(zoo("unicycle_disturbance.py"))
+
+
+@pytest.fixture(scope="module")
+def result():
+    # same experiment and batch as tests/test_montecarlo.py: shares its compiled code
+    return run_montecarlo(UNI.range_gamma_unknown_experiment(), 64, seed=2, keep=2)
+
+
+def test_kept_trajectories_match_statistics(result):
+    """The float64 trajectories of the kept trials reproduce the float32 records."""
+    import numpy as np
+
+    tr = result.trajectories
+    err = tr["x_hat"][:, :, :3] - tr["x_true"][:, :, :3]
+    err[..., 2] = (err[..., 2] + np.pi) % (2 * np.pi) - np.pi
+    np.testing.assert_allclose(result.errors[:2, :, :3], err, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(result.sigmas[:2], tr["sigma"], rtol=1e-6)
+
+
+def test_plot_trajectories(result):
+    fig, ax = plot_trajectories(result, trial=1)
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert labels == ["true", "dead reckoning", "EKF"]
+    assert len(ax.get_lines()[0].get_xdata()) == len(result.trajectories["t"])
+    with pytest.raises(OptionError):
+        plot_trajectories(result, trial=5)
+
+
+def test_plot_errors_and_nees(result):
+    fig, axes = plot_errors(result, ["xv", "bearing phi"])
+    assert len(axes) >= 2 and axes[1].get_title() == "bearing phi error (deg)"
+    fig, ax = plot_nees(result)
+    assert ax.get_yscale() == "log"
+    with pytest.raises(OptionError):
+        plot_errors(result, ["nope"])
+
+
+def test_plot_montecarlo_writes_file(result, tmp_path):
+    fig, axes = plot_montecarlo(result)
+    assert isinstance(fig, matplotlib.figure.Figure)
+    path = tmp_path / "mc.png"
+    fig.savefig(path, dpi=50)
+    assert path.stat().st_size > 1000
