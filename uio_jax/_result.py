@@ -14,6 +14,8 @@ CONVERGED_RATIO = 0.6
 STALLED_RATIO = 0.8
 #: sigma(end) / sigma(t_end / 2) above this means the filter sigma has stopped shrinking.
 PLATEAU_RATIO = 0.9
+#: RMSE(end) above this multiple of the RMS filter sigma(end): the filter is overconfident.
+OVERCONFIDENT = 2.0
 #: A trial diverged when its error at the end, in units of the prior std, has an RMS over
 #: the NEES states above this (3 prior sigmas).
 DIVERGED_PRIOR_SIGMAS = 3.0
@@ -127,7 +129,10 @@ class MonteCarloResult:
 
         * ``True`` when ``ratio`` and ``sigma_ratio`` are both <= ``CONVERGED_RATIO`` (0.6);
         * ``False`` when ``ratio >= STALLED_RATIO`` (0.8), or when the sigma has a plateau
-          (``late_sigma_ratio >= PLATEAU_RATIO``, 0.9) with ``sigma_ratio > 0.3``;
+          (``late_sigma_ratio >= PLATEAU_RATIO``, 0.9) with ``sigma_ratio > 0.3``, or when
+          the filter is overconfident (RMSE > ``OVERCONFIDENT`` = 2 x sigma at the end: the
+          classic EKF inconsistency along unobservable directions, where the shrinking
+          sigma is no evidence);
         * ``None`` (undecided) otherwise.
 
         These are heuristics on finite runs (notes/ekf.md: the verdict depends on the
@@ -299,7 +304,10 @@ def _decide(ratio, sratio, late):
     if ratio <= CONVERGED_RATIO and sratio <= CONVERGED_RATIO:
         return True
     plateau = math.isfinite(late) and late >= PLATEAU_RATIO
-    if ratio >= STALLED_RATIO or (plateau and sratio > CONVERGED_RATIO / 2):
+    # an overconfident filter (error > OVERCONFIDENT x its sigma) shrinks its sigma along
+    # directions it cannot see: its sigma is no evidence, only the error ratio counts
+    overconfident = ratio > OVERCONFIDENT * sratio
+    if ratio >= STALLED_RATIO or (plateau and sratio > CONVERGED_RATIO / 2) or overconfident:
         return False
     return None
 
