@@ -17,7 +17,6 @@ Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
   dead reckoning, EKF) only for the first ``keep`` trials, recomputed in float64.
 """
 
-import math
 import numbers
 import os
 import time
@@ -68,7 +67,6 @@ def _trial_functions(exp: Experiment, traj: bool):
     sig_out = model.sigma
     names = exp.state_names()
     nees_idx = np.array([names.index(s) for s in exp.nees_states])
-    nees_ang = ang[nees_idx]
     quantities = exp.quantities
 
     def truth_aug(x, w_last):
@@ -140,7 +138,6 @@ def _trial_functions(exp: Experiment, traj: bool):
                  jnp.stack(qs) if qs else jnp.zeros(0), nees[None]]
         return jnp.concatenate(parts).astype(jnp.float32)
 
-    del nees_ang
     return init, epoch, stats
 
 
@@ -365,12 +362,3 @@ def _traj_fn(exp):
 
     cache["traj"] = jax.jit(jax.vmap(one, in_axes=(0, None)))
     return cache["traj"]
-
-
-def chi2_quantile(p: float, dof: int) -> float:
-    """Wilson-Hilferty approximation of the chi-square quantile (enough for thresholds)."""
-    from statistics import NormalDist
-
-    z = NormalDist().inv_cdf(p)
-    a = 2.0 / (9.0 * dof)
-    return float(dof * (1.0 - a + z * math.sqrt(a)) ** 3)
