@@ -65,6 +65,7 @@ from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
+from ._taylor import lie_powers
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System
 
@@ -204,6 +205,23 @@ def lie_power(psi, F, j):
     return power
 
 
+def _taylor_power(psi, F, j):
+    """``L_F^j psi`` by stacked-coefficient Taylor arithmetic (:mod:`uio_jax._taylor`)."""
+    if j == 0:
+        return psi
+    powers = lie_powers(psi, F, j)
+
+    def power(x):
+        return powers(x)[j]
+
+    return power
+
+
+#: Ways to evaluate ``L_F0^j``, tried in this order (a model primitive without a rule in
+#: one falls back to the next).
+_MODES = ("taylor", "jet", "nested")
+
+
 def _nested_power(psi, F, j):
     """``L_F^j psi`` by nested ``jax.jvp`` (fallback when a primitive has no jet rule)."""
     fn = psi
@@ -247,7 +265,7 @@ class _Eorc:
         self.names = input_names(system, K)
         self.ctx = Context(self.ext, samples, seed, rtol)
         self.cache = _RUNS.setdefault(self.ext, {"struct": {}, "fns": {}, "blocks": {},
-                                                   "use_jet": True})
+                                                   "mode": _MODES[0], "compiled": {}})
         self.struct = self.cache["struct"]
         for k, h in self.ext.outputs.items():
             self.struct.setdefault(k, ("out", h))
@@ -258,8 +276,8 @@ class _Eorc:
     # ------------------------------------------------------------------ generators
     def _fn(self, label):
         """The function of a generator (memoized per Taylor-mode setting)."""
-        use_jet = self.cache["use_jet"]
-        key = (label, use_jet)
+        mode = self.cache["mode"]
+        key = (label, mode)
         fn = self.cache["fns"].get(key)
         if fn is None:
             kind = self.struct[label]
@@ -268,7 +286,7 @@ class _Eorc:
             elif kind[0] == "lie":
                 fn = lie_derivative(self._fn(kind[2]), self.ext.known[kind[1]])
             else:
-                power = lie_power if use_jet else _nested_power
+                power = {"taylor": _taylor_power, "jet": lie_power, "nested": _nested_power}[mode]
                 fn = power(self._fn(kind[1]), self.ext.drift, kind[2])
             self.cache["fns"][key] = fn
         return fn
@@ -289,24 +307,43 @@ class _Eorc:
             out.append(lbl)
         return out
 
+    def _powers(self, label, j):
+        """``x -> [L_F0^i base]_{i=0..j+1}`` for ``label = L_F0^j base`` (one Taylor pass)."""
+        kind = self.struct[label]
+        base = kind[1] if kind[0] == "pow" else label
+        mode = self.cache["mode"]
+        if mode == "taylor":
+            return lie_powers(self._fn(base), self.ext.drift, j + 1)
+        power = lie_power if mode == "jet" else _nested_power
+        fns = [power(self._fn(base), self.ext.drift, i) for i in (j, j + 1)]
+        return lambda x: jnp.stack([jnp.zeros(()) for _ in range(j)] + [f(x) for f in fns])
+
     def _block(self, phis, labels):
-        """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``."""
-        key = (tuple(p.label for p in phis), self.cache["use_jet"])
+        """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``.
+
+        Per phi = ``L_F0^j base``: one pass ``g = [L_F0^i base]_{i <= j+1}``;
+        ``L_F0 phi = g[j+1]`` and ``L_{F_i} phi = (dg . F_i)[j]`` (one jvp, vmapped over
+        the known fields); then ``jax.jacfwd`` of the stacked children.
+        """
+        key = (tuple(p.label for p in phis), self.cache["mode"])
         fn = self.cache["blocks"].get(key)
         if fn is not None:
             return fn
-        per = len(labels) // len(phis)
-        ups = [self._fn(labels[i * per]) for i in range(len(phis))]
-        bases = [self._fn(p.label) for p in phis]
+        orders = [self.struct[p.label][2] if self.struct[p.label][0] == "pow" else 0
+                  for p in phis]
+        passes = [self._powers(p.label, j) for p, j in zip(phis, orders)]
         known = tuple(f for _, f in self.known)
 
         def children(x):
             vals = []
-            for phi, up in zip(bases, ups):
-                vals.append(jnp.reshape(up(x), (1,)))
+            for g, j in zip(passes, orders):
                 if known:
                     V = jnp.stack([v(x) for v in known])
-                    vals.append(jax.vmap(lambda t, phi=phi: jax.jvp(phi, (x,), (t,))[1])(V))
+                    vals_g, tangents = jax.vmap(lambda t, g=g: jax.jvp(g, (x,), (t,)))(V)
+                    vals.append(vals_g[0, j + 1][None])
+                    vals.append(tangents[:, j])
+                else:
+                    vals.append(g(x)[j + 1][None])
             return jnp.concatenate(vals)
 
         fn = jax.jit(jax.vmap(jax.jacfwd(children)))
@@ -320,13 +357,22 @@ class _Eorc:
         labels = [lbl for phi in frontier for lbl in self._children(phi)]
         xs = self.ctx.xs
         t0 = time.perf_counter()
-        try:
-            fn = self._block(frontier, labels)
-            compiled = fn.lower(xs).compile()
-        except (NotImplementedError, KeyError, TypeError):  # a primitive without jet rule
-            self.cache["use_jet"] = False
-            fn = self._block(frontier, labels)
-            compiled = fn.lower(xs).compile()
+        while True:
+            key = (tuple(p.label for p in frontier), self.cache["mode"], xs.shape)
+            compiled = self.cache["compiled"].get(key)
+            if compiled is not None:
+                break
+            try:
+                compiled = self._block(frontier, labels).lower(xs).compile()
+                self.cache["compiled"][key] = compiled
+                break
+            except (NotImplementedError, KeyError, TypeError, ValueError):  # no rule
+                mode = self.cache["mode"]
+                if mode == _MODES[-1]:
+                    raise
+                self.cache["mode"] = _MODES[_MODES.index(mode) + 1]
+                self.cache["blocks"].clear()
+                self.cache["compiled"].clear()
         self.compile_s.append(time.perf_counter() - t0)
         with jax.enable_x64(True):
             grads = np.asarray(compiled(xs))
