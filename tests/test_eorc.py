@@ -14,6 +14,7 @@ from conftest import ROOT, zoo
 
 import uio_jax as uj
 from uio_jax._eorc import _nested_power, extended_system, lie_power
+from uio_jax._taylor import lie_powers
 
 SAMPLES = 512  # compile time dominates; the rank decisions have gaps of > 6 decades
 
@@ -100,9 +101,29 @@ def test_lie_power_matches_nested_jvp():
         np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-11)  # round-off only
 
 
+def test_taylor_rules_match_nested_jvp():
+    """Stacked Taylor arithmetic (div, sin, cos, tan, exp, log, sqrt, powers, dot, where)
+    against nested jvp, values and gradients of L_F^j psi for j <= 4 (oracle: autodiff)."""
+
+    def F(x):
+        return jnp.stack([jnp.sin(x[1]) * x[2], jnp.exp(-x[0]) + x[2] ** 2,
+                          jnp.sqrt(x[0]) / (1.0 + x[1] ** 2)])
+
+    def psi(x):
+        a = jnp.array([[1.0, 2.0, -1.0], [0.5, 0.0, 3.0]]) @ x
+        return jnp.log(x[0]) * jnp.cos(a[0]) + jnp.tan(0.3 * x[2]) / x[1] ** 3 + jnp.where(
+            x[0] > 0, a[1] ** 2, 0.0)
+
+    xs = jax.random.uniform(jax.random.key(2), (8, 3), minval=0.5, maxval=1.5)
+    for j in (1, 2, 4):
+        a = jax.jit(jax.vmap(jax.jacfwd(lambda x: lie_powers(psi, F, j)(x)[j])))(xs)
+        b = jax.jit(jax.vmap(jax.jacfwd(_nested_power(psi, F, j))))(xs)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * float(jnp.max(jnp.abs(b))))
+
+
 def test_fallback_without_jet_rule():
-    """A primitive without a Taylor rule (tan) falls back to nested jvp, same answer."""
-    sys_ = uj.System(("x", "a"), {"y": lambda s: jnp.tan(0.3 * s[0])},
+    """A primitive without a Taylor rule (atan2) falls back (jet, then nested jvp)."""
+    sys_ = uj.System(("x", "a"), {"y": lambda s: jnp.arctan2(0.3 * s[0], 2.0)},
                      unknown={"w": lambda s: jnp.array([s[1], 0.0])})
     rep = uj.analyze(sys_, method="eorc", samples=64, k_max=2)
     assert rep.observable == {"x": True, "a": False}
@@ -153,3 +174,21 @@ def test_vehicle_wind_eorc_yaw_symmetry():
     d = rep.unobservable_directions(x)[:, 0]
     yaw = np.asarray(mod.yaw_symmetry(x))
     assert abs(d @ yaw) / np.linalg.norm(yaw) == pytest.approx(1.0, abs=1e-8)
+
+
+# ------------------------------------------------------------------ visual-inertial (slow)
+@pytest.mark.slow
+def test_visual_inertial_standard_and_gyro_missing():
+    mod = _module("visual_inertial")
+    pub = mod.PUBLISHED["full_imu"]
+    full = uj.analyze(mod.full_imu(), samples=512)
+    assert full.method == "orc" and full.dim == pub["dim"] == 12
+    assert _observable(full) == sorted(pub["observable"])
+    x = np.array([0.1, 0.2, 0.3, 0.2, -0.1, 0.3, 1.0, 0.1, -0.2, 0.2, 0.3, -0.2, 3.0,
+                  -0.4, 0.5, 2.5])
+    d = full.unobservable_directions(x)
+    yaw = np.asarray(mod.yaw_symmetry(x))
+    assert np.linalg.norm(d @ (d.T @ yaw)) / np.linalg.norm(yaw) == pytest.approx(1.0, abs=1e-8)
+    rep = uj.analyze(mod.gyro_z_unknown(), samples=512, k_max=2)
+    assert rep.method == "eorc"  # auto: a drift
+    assert rep.dim == 12 and _observable(rep) == _observable(full)

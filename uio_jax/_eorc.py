@@ -272,6 +272,7 @@ class _Eorc:
         self.known = tuple(self.ext.known.items())
         self.extra_decisions = []  # (member, RankDecision) of the dim-on-x tests
         self.compile_s = []  # seconds spent tracing + compiling, per order
+        self.steps = []  # per order: frontier size, candidates, compile and eval seconds
 
     # ------------------------------------------------------------------ generators
     def _fn(self, label):
@@ -373,9 +374,13 @@ class _Eorc:
                 self.cache["mode"] = _MODES[_MODES.index(mode) + 1]
                 self.cache["blocks"].clear()
                 self.cache["compiled"].clear()
-        self.compile_s.append(time.perf_counter() - t0)
+        t1 = time.perf_counter()
         with jax.enable_x64(True):
             grads = np.asarray(compiled(xs))
+        self.compile_s.append(t1 - t0)
+        self.steps.append({"k": k, "frontier": len(frontier), "candidates": len(labels),
+                           "compile_s": t1 - t0, "eval_s": time.perf_counter() - t1,
+                           "key": key})
         nodes = [self._node(lbl, k) for lbl in labels]
         return self.ctx.absorb(nodes, grads)
 
