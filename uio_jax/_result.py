@@ -277,10 +277,20 @@ class MonteCarloResult:
             if comparison["note"]:
                 lines.append(f"  {comparison['note']}")
             else:
-                a = comparison["agree"]
-                word = {True: "agree", False: "DISAGREE (see the note in compare())",
-                        None: "undecided for some rows"}[a]
-                lines.append(f"  Monte Carlo vs analysis ({comparison['analysis']}): {word}")
+                parts = []
+                for kind in ("states", "quantities"):
+                    rows = comparison[kind]
+                    bad = [k for k, r in rows.items() if r["agree"] is False]
+                    und = [k for k, r in rows.items() if r["agree"] is None]
+                    word = (f"disagree on {', '.join(bad)}" if bad else "agree") + (
+                        f" (undecided: {', '.join(und)})" if und else "")
+                    parts.append(f"{kind} {word}")
+                lines.append(f"  Monte Carlo vs analysis ({comparison['analysis']}): "
+                             + "; ".join(parts))
+                if any(r["agree"] is False for r in comparison["states"].values()):
+                    lines.append("  (a state moved by an unobservable direction together with "
+                                 "others can look converging: its error drops to the prior "
+                                 "spread along that direction; trust the named quantities)")
         tm = self.timings
         if tm:
             lines.append(f"  {tm['trial_steps_per_s'] / 1e6:.2f} M trial-steps/s on "
