@@ -97,6 +97,10 @@ class Experiment:
         quantities: named directions (scalar functions of the state) to report.
         nees_states: states entering the NEES (default: all states of ``system``).
         record_every: statistics are recorded every this many output epochs.
+        w_reference: optional ``(istate, w) -> (p,)``: the value of the unknown inputs the
+            filter's ``w`` is compared with (default: the per-step sample ``w`` itself).
+            When ``w`` is a smooth part plus white noise drawn every step, pass the smooth
+            part (e.g. the mean): the white part cannot be estimated.
         notes: the choices the paper leaves open, in words (shown in reports).
     """
 
@@ -118,6 +122,7 @@ class Experiment:
     quantities: tuple = ()
     nees_states: tuple | None = None
     record_every: int = 1
+    w_reference: Callable | None = None
     notes: str = ""
     _derived: dict = field(default_factory=dict, repr=False)
 

@@ -68,6 +68,7 @@ def _trial_functions(exp: Experiment, traj: bool):
     names = exp.state_names()
     nees_idx = np.array([names.index(s) for s in exp.nees_states])
     quantities = exp.quantities
+    w_reference = exp.w_reference
 
     def truth_aug(x, w_last):
         return jnp.concatenate([x, w_last, jnp.zeros(p * (exp.order - 1))])
@@ -99,7 +100,9 @@ def _trial_functions(exp: Experiment, traj: bool):
             u_read = u + known_std(u) * zk[ni:]
             x = x + dt * model.dynamics(x, u, w)
             xa, Pm = predict(model, xa, Pm, u_read)
-            out = (x, istate, w, xa, Pm)
+            w_ref = w if w_reference is None else jnp.asarray(
+                w_reference(istate, w), jnp.float64).reshape(p)
+            out = (x, istate, w_ref, xa, Pm)
             if traj:
                 x_dr = c[5]
                 out = out + (x_dr + dt * model.dynamics(x_dr, u_read, jnp.zeros(p)),)
