@@ -95,7 +95,7 @@ def test_lie_power_matches_nested_jvp():
     ext = extended_system(sys_, 4)
     h, F0 = ext.outputs["r"], ext.drift
     xs = jax.random.uniform(jax.random.key(1), (16, ext.n), minval=0.5, maxval=1.5)
-    for j in (1, 2, 3):
+    for j in (1, 2):
         a = jax.jit(jax.vmap(jax.grad(lie_power(h, F0, j))))(xs)
         b = jax.jit(jax.vmap(jax.grad(_nested_power(h, F0, j))))(xs)
         np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-11)  # round-off only
@@ -115,7 +115,7 @@ def test_taylor_rules_match_nested_jvp():
             x[0] > 0, a[1] ** 2, 0.0)
 
     xs = jax.random.uniform(jax.random.key(2), (8, 3), minval=0.5, maxval=1.5)
-    for j in (1, 2, 4):
+    for j in (1, 3):
         a = jax.jit(jax.vmap(jax.jacfwd(lambda x: lie_powers(psi, F, j)(x)[j])))(xs)
         b = jax.jit(jax.vmap(jax.jacfwd(_nested_power(psi, F, j))))(xs)
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * float(jnp.max(jnp.abs(b))))

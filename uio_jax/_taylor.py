@@ -36,7 +36,7 @@ _LINEAR = {
     "convert_element_type", "reduce_sum", "copy", "copy_p", "expand_dims", "rev", "pad",
     "add", "sub", "add_any", "dynamic_slice", "gather", "real", "imag", "cumsum",
     "select_n", "dynamic_update_slice", "reduce_precision", "stack", "split",
-    "scatter", "scatter-add", "scatter_add",
+    "scatter", "scatter-add", "scatter_add", "tile", "repeat", "reduce_and_broadcast",
 }
 _BILINEAR = {"mul", "dot_general"}
 _CONSTANT = {  # outputs treated as constant along t (evaluated on order 0)
