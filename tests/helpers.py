@@ -21,12 +21,12 @@ def zoo_system(module: str, name: str) -> uj.System:
     return uj.load_system(f"{zoo_path(module)}:{name}")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def zoo_report(module: str, name: str, method: str = "auto", samples: int = SAMPLES, seed: int = 0):
     return uj.analyze(zoo_system(module, name), method=method, samples=samples, seed=seed)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def zoo_module(module: str):
     spec = importlib.util.spec_from_file_location(f"zoo_{module}", zoo_path(module))
     mod = importlib.util.module_from_spec(spec)

@@ -7,8 +7,8 @@ import sys
 import textwrap
 
 import pytest
-
 from helpers import zoo_path
+
 from uio_jax import cli
 
 GOOD = f"{zoo_path('unicycle_polar')}:range_known"

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from helpers import observable_set, published, zoo_module, zoo_report
 
 ORC_CASES = [

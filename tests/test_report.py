@@ -6,9 +6,9 @@ import re
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import zoo_report, zoo_system
 
 import uio_jax as uj
-from helpers import zoo_report, zoo_system
 
 
 def test_report_fields_and_json_round_trip():

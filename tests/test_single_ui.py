@@ -3,9 +3,9 @@
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import SAMPLES, observable_set, published, zoo_module, zoo_report
 
 import uio_jax as uj
-from helpers import SAMPLES, observable_set, published, zoo_module, zoo_report
 
 POLAR = ["range_v_unknown", "range_omega_unknown", "bearing_v_unknown",
          "bearing_omega_unknown", "phi_v_unknown", "phi_omega_unknown"]

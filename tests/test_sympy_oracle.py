@@ -9,12 +9,12 @@ import os
 import sys
 
 import pytest
-
 from helpers import ROOT, published, zoo_module, zoo_report
 
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
 sympy_oracle = pytest.importorskip("sympy_oracle", reason="needs sympy (dev extra)")
 import _sympy_models  # noqa: E402
+
 
 def _entry(spec):
     module, name = spec[len("systems/"):].replace(".py", "").split(":")

@@ -4,9 +4,9 @@ import glob
 import os
 
 import pytest
+from helpers import ROOT, zoo_module
 
 import uio_jax as uj
-from helpers import ROOT, zoo_module
 
 FILES = sorted(os.path.basename(p)[:-3] for p in glob.glob(os.path.join(ROOT, "systems", "*.py")))
 ENTRIES = [(m, n) for m in FILES for n in getattr(zoo_module(m), "PUBLISHED", {})]

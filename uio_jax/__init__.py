@@ -14,16 +14,10 @@ from ._errors import LoadError as LoadError
 from ._errors import ModelError as ModelError
 from ._errors import OptionError as OptionError
 from ._errors import UioJaxError as UioJaxError
-from ._loading import load_system as load_system
-from ._rank import RankDecision as RankDecision
-from ._rank import decide_rank as decide_rank
-from ._rank import default_rtol as default_rtol
-from ._report import Certificate as Certificate
-from ._report import Report as Report
-from ._report import Step as Step
 from ._experiment import Experiment as Experiment
 from ._experiment import Measurement as Measurement
 from ._experiment import Quantity as Quantity
+from ._loading import load_system as load_system
 from ._montecarlo import run_montecarlo as run_montecarlo
 from ._montecarlo import trajectories as trajectories
 from ._montecarlo_cli import load_experiment as load_experiment
@@ -31,6 +25,12 @@ from ._plots import plot_errors as plot_errors
 from ._plots import plot_montecarlo as plot_montecarlo
 from ._plots import plot_nees as plot_nees
 from ._plots import plot_trajectories as plot_trajectories
+from ._rank import RankDecision as RankDecision
+from ._rank import decide_rank as decide_rank
+from ._rank import default_rtol as default_rtol
+from ._report import Certificate as Certificate
+from ._report import Report as Report
+from ._report import Step as Step
 from ._result import MonteCarloResult as MonteCarloResult
 from ._system import System as System
 

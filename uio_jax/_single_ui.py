@@ -42,6 +42,7 @@ from ._context import Context
 from ._errors import OptionError
 from ._rank import ZERO_ROW_RTOL
 
+
 #: Bound on the number of recursion steps beyond the start (Lemma 8 of 004: m' <= 2n + 2).
 def _step_cap(n):
     return 2 * n + 3
