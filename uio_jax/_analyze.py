@@ -107,7 +107,8 @@ def _choose(system, method):
         if n_unknown == 1 and system.drift is None:
             return "single_ui", "auto: one unknown input, no drift -> single_ui"
         return "eorc", (
-            f"auto: {n_unknown} unknown inputs" + (" and a drift" if system.drift else "")
+            f"auto: {n_unknown} unknown input{'s' if n_unknown != 1 else ''}"
+            + (" and a drift" if system.drift else "")
             + " -> EORC"
         )
     if method == "orc" and n_unknown:

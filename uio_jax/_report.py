@@ -26,7 +26,8 @@ class Step:
         m: step index (the order k for the EORC).
         dim: dimension of the codistribution after the step.
         added: labels of the generators kept at this step.
-        fraction: fraction of samples at the generic rank after the step.
+        fraction: fraction of samples at the generic rank after the step (for the EORC:
+            the smallest agreeing fraction among the rank decisions of that order).
         extra: method-specific facts of the step (e.g. ``tau_in_omega``).
     """
 
