@@ -35,14 +35,10 @@ def _load():
 
 
 def _eqns(jaxpr):
-    n = 0
-    for e in jaxpr.eqns:
-        n += 1
-        for p in e.params.values():
-            sub = getattr(p, "jaxpr", None)
-            if sub is not None:
-                n += _eqns(sub if hasattr(sub, "eqns") else sub.jaxpr)
-    return n
+    """Jaxpr equations, counted recursively (the library's own counter)."""
+    from uio_jax._generators import _count_eqns
+
+    return _count_eqns(jaxpr)
 
 
 def bench_jax(system_fn, k_max, samples, repeats):

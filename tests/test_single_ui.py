@@ -97,13 +97,7 @@ def test_003_table1():
 # --------------------------------------------------------------- the stopping-rule correction
 def counterexample():
     """x0' = u + x1 w, x1' = x0 x2 u, x2' = 0, y = x0 (tau = 0, m' = 0, Omega_1 = Omega_0)."""
-    return uj.System(
-        states=("x0", "x1", "x2"),
-        outputs={"y": lambda x: x[0]},
-        known={"u": lambda x: jnp.stack([1.0 + 0.0 * x[0], x[0] * x[2], 0.0 * x[0]])},
-        unknown={"w": lambda x: jnp.stack([x[1], 0.0 * x[0], 0.0 * x[0]])},
-        name="counterexample",
-    )
+    return zoo_module("counterexamples").single_ui_stop_rule()
 
 
 def _sympy_eorc_dim(order):
