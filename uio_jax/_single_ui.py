@@ -36,6 +36,8 @@ threshold ``ZERO_ROW_RTOL`` against the natural scale of the product (e.g. ``|dh
 for ``L_g h``), by majority, and the fraction is reported.
 """
 
+import dataclasses
+
 import numpy as np
 
 from ._context import Context
@@ -114,11 +116,8 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
             m_prime = m_fresh
         return m_prime is not None
 
-    extra0 = {} if rule != "tau" else {"tau_in_omega": tau_in(0)}
-    # Omega_start is the last history entry (the chosen output's level); annotate it.
-    last = history.pop()
-    history.append(ctx.step(last.m, [], **extra0) if not last.added else
-                   type(last)(last.m, last.dim, last.added, last.fraction, extra0))
+    if rule == "tau":  # Omega_start is the last history entry (the chosen output's level)
+        history[-1] = dataclasses.replace(history[-1], extra={"tau_in_omega": tau_in(0)})
 
     frontier = list(ctx.codist.nodes)  # L_{g/L} of every earlier generator is new
     dims = [ctx.dim]
