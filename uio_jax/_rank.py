@@ -2,23 +2,26 @@
 
 A codistribution here is the span of the gradients of a few scalar functions. Its rank is
 the same at almost every state (the *generic* rank) and lower on a thin singular set. We
-evaluate the gradient matrix at S random states of the domain and decide on the host:
+evaluate the gradients at S random states of the domain and decide on the host.
 
-1. **Per sample** (jitted, vmapped): scale the columns by the width of the sampling box
-   (a diagonal change of coordinates, which leaves ranks and memberships unchanged and
-   makes states of different units comparable), scale each row to unit norm, take the
-   singular values ``s_1 >= s_2 >= ...`` and the ratios ``s_i / s_1``. The numerical rank
-   of the sample is the number of ratios above ``rtol``.
-2. **Across samples** (numpy, :func:`decide_rank`): the generic rank is the most common
-   per-sample rank. Rank is lower semicontinuous, so a sample can only *drop* rank (when it
-   lies near the singular set), while round-off in high-order derivatives can *fake* an
-   extra rank at a badly conditioned sample; both are minorities, and the mode resists
-   both. The decision carries its evidence: the fraction of samples at the generic rank,
-   the smallest ``s_r / s_1`` among them (how close a kept direction came to vanishing)
-   and the largest ``s_{r+1} / s_1`` (how close a rejected direction came to counting).
-
-Membership of a covector ``c`` in a codistribution of generic rank ``r`` is the same test:
-the generic rank of ``[G; c]`` is still ``r``.
+* **Scaling.** Columns are scaled by the width of the sampling box (a diagonal change of
+  coordinates: ranks and memberships are unchanged, states of different units become
+  comparable) and rows to unit norm; a row below ``ZERO_ROW_RTOL`` of the largest row of
+  its sample is an exact zero (the round-off gradient of a function that vanishes
+  identically must not be blown up into a direction).
+* **Growing a span** (:class:`Codistribution`, the hot path): per sample, an orthonormal
+  basis of the kept rows (Gram-Schmidt, twice); a candidate raises the rank at a sample
+  when its distance ``rho`` to the span exceeds ``rtol`` (for unit rows this is the last
+  singular value of ``[basis; candidate]`` up to a factor in [1/sqrt(2), 1]). Membership of
+  a covector is the same test. O(S r n) per candidate, kept rows never re-factorized.
+* **A whole matrix** (:func:`decide_rank`, used on the final set): per-sample SVD of the
+  scaled rows, numerical rank = number of ``s_i / s_1`` above ``rtol``.
+* **Across samples**: the generic answer is the majority (the mode of the per-sample
+  ranks). Rank is lower semicontinuous, so a sample can only *drop* rank (near the singular
+  set), while round-off in high-order derivatives can *fake* a little rank at a badly
+  conditioned sample; both are minorities and the majority resists both. Every decision
+  carries its evidence (:class:`RankDecision`): the agreeing fraction and the margins on
+  both sides of ``rtol``.
 """
 
 from dataclasses import dataclass
