@@ -179,7 +179,7 @@ class Builder:
 
 
 #: Graphs with more jaxpr equations than this are compiled at XLA optimization level 0.
-LARGE_GRAPH = 8000
+LARGE_GRAPH = 20000
 
 
 @dataclass(frozen=True)
