@@ -140,8 +140,16 @@ class Context:
             decisions=len(everything),
         )
 
-    def report(self, method, history, stop_reason, *, notes=(), details=None) -> Report:
-        observable = self.observable_states()
+    def report(self, method, history, stop_reason, *, notes=(), details=None,
+               system=None, dim=None, observable=None, space=None) -> Report:
+        """Build the Report: certificate, weak-certificate note, generators.
+
+        ``system``, ``dim``, ``observable`` and ``space`` default to this context's own
+        (the EORC passes the original system and its projections of the extended space).
+        """
+        system = system or self.system
+        if observable is None:
+            observable = self.observable_states()
         notes = list(notes)
         cert = self.certificate()
         if cert.min_fraction < 0.5:
@@ -152,8 +160,8 @@ class Context:
             )
         return Report(
             method=method,
-            states=self.system.states,
-            dim=self.dim,
+            states=system.states,
+            dim=self.dim if dim is None else dim,
             observable=observable,
             history=tuple(history),
             certificate=cert,
@@ -161,8 +169,8 @@ class Context:
             stop_reason=stop_reason,
             notes=tuple(notes),
             details=details or {},
-            system_name=self.system.name,
-            _space=SampledSpace(self),
+            system_name=system.name,
+            _space=SampledSpace(self) if space is None else space,
         )
 
 

@@ -79,9 +79,9 @@ from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
-from ._taylor import lie_powers
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System
+from ._taylor import lie_powers
 
 #: Name of the extended drift field in generator labels.
 DRIFT_LABEL = "F0"
@@ -516,19 +516,12 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
             for nm in st.extra["observable_inputs"]:
                 first_seen.setdefault(nm, st.m)
         ctx.memberships.extend(run.extra_decisions)
-        cert = ctx.certificate()
     notes = list(notes)
     if not all(observable.values()):
         hidden = [s for s, v in observable.items() if not v]
         notes.append(
             f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
             f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
-        )
-    if cert.min_fraction < 0.5:
-        notes.append(
-            f"weak certificate: a rank decision was backed by only "
-            f"{100 * cert.min_fraction:.0f}% of the samples; try more samples or a "
-            "smaller domain away from singular states"
         )
     notes.append(
         "extended coordinates (unknown inputs and their derivatives) sampled in "
@@ -542,20 +535,8 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
         "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
         "inputs_observable_at": first_seen,
     }
-    return Report(
-        method="eorc",
-        states=system.states,
-        dim=last.dim,
-        observable=observable,
-        history=tuple(history),
-        certificate=cert,
-        generators=tuple(nd.label for nd in ctx.codist.nodes),
-        stop_reason=reason,
-        notes=tuple(notes),
-        details=details,
-        system_name=system.name,
-        _space=_EorcSpace(run, last.dim),
-    )
+    return ctx.report("eorc", history, reason, notes=notes, details=details, system=system,
+                      dim=last.dim, observable=observable, space=_EorcSpace(run, last.dim))
 
 
 class _EorcSpace:
