@@ -44,7 +44,9 @@ def analyze(
         k_max: highest order k of the EORC (default n + 2); ignored by the other methods.
 
     Returns:
-        :class:`~uio_jax.Report`.
+        :class:`~uio_jax.Report`. For a System with ``params``, the analysis runs on
+        ``z = [x; p]`` with ``p' = 0`` (:meth:`System.joint`) and the Report lists the
+        parameters apart (``params``, ``identifiable``).
 
     Raises:
         OptionError: unknown method, impossible sample count, a method that does not apply.
@@ -76,6 +78,7 @@ def analyze(
         raise OptionError(f"k_max must be a positive integer, got {k_max!r}")
 
     chosen, why = _choose(system, method)
+    system = system.joint()  # parameters -> states with zero derivative
     with jax.enable_x64(True):
         if chosen == "orc":
             ctx = Context(system, int(samples), int(seed), float(rtol))

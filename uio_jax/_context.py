@@ -150,7 +150,7 @@ class Context:
         system = system or self.system
         if observable is None:
             observable = self.observable_states()
-        notes = list(notes)
+        notes = list(system.notes) + list(notes)
         cert = self.certificate()
         if cert.min_fraction < 0.5:
             notes.append(
@@ -170,6 +170,7 @@ class Context:
             notes=tuple(notes),
             details=details or {},
             system_name=system.name,
+            params=system.joint_param_names,
             _space=SampledSpace(self) if space is None else space,
         )
 
@@ -198,6 +199,9 @@ class SampledSpace:
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
         _, _, vt = np.linalg.svd(g)
         return vt[r:].T.copy()
+
+    def sample_singular_values(self) -> np.ndarray:
+        return self._ctx.codist.sample_ratios()
 
     def is_observable(self, fn) -> bool:
         if not callable(fn):

@@ -586,6 +586,10 @@ class _EorcSpace:
         _, _, wt = np.linalg.svd(P[:, :n])
         return wt[: n - self._dim].T.copy()
 
+    def sample_singular_values(self) -> np.ndarray:
+        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators of ``Omega-bar_k``."""
+        return self._run.ctx.codist.sample_ratios()
+
     def is_observable(self, fn) -> bool:
         """Whether ``d fn`` (padded with zeros) lies in ``Omega-bar_k`` at the samples.
 

@@ -130,6 +130,11 @@ class Experiment:
         sys_ = self.system
         if not isinstance(sys_, System):
             raise ModelError(f"experiment {self.name!r}: system must be a uio_jax.System")
+        if sys_.params:
+            raise ModelError(
+                f"experiment {self.name!r}: the Monte Carlo filter does not take a System with "
+                "params yet; give the parameters values (or make them states with zero derivative)"
+            )
         n, p = sys_.n, len(sys_.unknown)
         _positive(self.dt, "dt", self.name, real=True)
         _positive(self.n_steps, "n_steps", self.name)

@@ -300,6 +300,14 @@ class Codistribution:
             out.append((d.rank <= self.rank, d))
         return out
 
+    def sample_ratios(self) -> np.ndarray:
+        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept set at the valid samples."""
+        if self.rank == 0:
+            return np.zeros((int(self.valid.sum()), 0))
+        with jax.enable_x64(True):
+            ratios = np.asarray(_ratios(self.grads))
+        return ratios[self.valid]
+
     def decision(self) -> RankDecision:
         """SVD rank decision of the kept set alone: its fraction and smallest ``s_r/s_1``."""
         if self.rank == 0:

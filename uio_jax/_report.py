@@ -111,8 +111,12 @@ class Report:
     Attributes:
         method: analysis that ran (``"orc"``, ``"single_ui"`` or ``"eorc"``).
         states: state names (order of the state vector).
-        dim: generic dimension of the observable codistribution on the original state.
+        dim: generic dimension of the observable codistribution on the original state
+            (on ``[x; p]`` when the System has parameters).
         observable: state name -> whether its differential lies in the codistribution.
+        params: names of the unknown constant parameters (empty without ``params=``).
+        identifiable: parameter name -> whether it is identifiable (its differential lies
+            in the codistribution of the joint system ``[x; p]``, ``p' = 0``).
         history: one :class:`Step` per step m (per order k for the EORC).
         certificate: the sampling evidence behind every rank decision.
         generators: labels of the functions whose gradients span the final codistribution.
@@ -135,21 +139,37 @@ class Report:
     details: Mapping = field(default_factory=dict)
     semantics: str = SEMANTICS
     system_name: str = ""
+    params: tuple[str, ...] = ()
+    identifiable: Mapping[str, bool] = field(default_factory=dict)
     _space: object = field(default=None, repr=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "observable", MappingProxyType(dict(self.observable)))
+        params = tuple(self.params)
+        observable = dict(self.observable)
+        identifiable = dict(self.identifiable)
+        for p in params:  # verdicts on parameters given among the states: move them
+            if p in observable:
+                identifiable[p] = observable.pop(p)
+        object.__setattr__(self, "params", params)
+        object.__setattr__(self, "states", tuple(s for s in self.states if s not in params))
+        object.__setattr__(self, "observable", MappingProxyType(observable))
+        object.__setattr__(self, "identifiable", MappingProxyType(identifiable))
         object.__setattr__(self, "details", MappingProxyType(dict(self.details)))
 
     @property
+    def variables(self) -> tuple[str, ...]:
+        """Coordinates of the analysed vector: states, then parameters."""
+        return self.states + self.params
+
+    @property
     def n(self) -> int:
-        """Dimension of the original state."""
-        return len(self.states)
+        """Dimension of the analysed vector (states plus parameters)."""
+        return len(self.variables)
 
     @property
     def fully_observable(self) -> bool:
-        """True when every state component is observable."""
-        return all(self.observable.values())
+        """True when every state component is observable and every parameter identifiable."""
+        return all(self.observable.values()) and all(self.identifiable.values())
 
     @property
     def dims(self) -> tuple[int, ...]:
@@ -163,12 +183,27 @@ class Report:
         does not change the outputs (e.g. a rotation about the feature).
 
         Args:
-            x: a state, shape ``(n,)``.
+            x: a state, shape ``(n,)`` (states then parameters when there are any).
 
         Returns:
             ``(n, n - dim)`` array with orthonormal columns.
         """
         return self._space.unobservable_directions(x)
+
+    def sample_singular_values(self) -> np.ndarray:
+        """How sure the rank is: per-sample singular values of the final generators.
+
+        The kept generators' gradients at every used sample, columns scaled by the
+        sampling box and rows by their norm (as in every rank decision), give a matrix
+        ``(r, n)`` per sample; its singular values divided by the largest are returned.
+        ``certificate.rtol`` and ``certificate.sigma_next_max`` (largest rejected margin)
+        lie below the last column at every sample at the generic rank: the gap is the
+        evidence.
+
+        Returns:
+            ``(S_used, r)`` array, descending along each row (``r = 0``: shape ``(S, 0)``).
+        """
+        return self._space.sample_singular_values()
 
     def is_observable(self, fn) -> bool:
         """Whether the scalar function ``fn(x)`` is observable (``d fn`` in the span).
@@ -188,6 +223,8 @@ class Report:
             "n": self.n,
             "fully_observable": self.fully_observable,
             "observable": dict(self.observable),
+            "params": list(self.params),
+            "identifiable": dict(self.identifiable),
             "dims": list(self.dims),
             "history": [s.to_dict() for s in self.history],
             "generators": list(self.generators),
@@ -206,7 +243,8 @@ class Report:
         title = f"uio_jax report: {self.system_name or 'system'} ({self.method})"
         lines = [title, "=" * len(title)]
         obs = [s for s in self.states if self.observable[s]]
-        lines.append(f"observable codistribution: dim {self.dim} of {self.n}"
+        of = f"{self.n}" + (" (states and parameters)" if self.params else "")
+        lines.append(f"observable codistribution: dim {self.dim} of {of}"
                      + ("  (fully observable)" if self.fully_observable else ""))
         label = "k" if self.method == "eorc" else "m"
         lines.append("steps:")
@@ -224,6 +262,12 @@ class Report:
             lines.append(f"  {s:<{width}}  {verdict}")
         if not obs:
             lines.append("  (no single state component is observable)")
+        if self.params:
+            lines.append("parameters:")
+            width = max(len(p) for p in self.params)
+            for p in self.params:
+                verdict = "identifiable" if self.identifiable[p] else "not identifiable"
+                lines.append(f"  {p:<{width}}  {verdict}")
         lines.append(f"certificate: {self.certificate}")
         for note in self.notes:
             lines.append(f"note: {note}")

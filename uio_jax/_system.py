@@ -7,6 +7,10 @@ A :class:`System` describes
 with ``u`` known inputs (free to choose, may jump) and ``w`` unknown inputs (smooth
 functions of time). Every callable takes the state vector ``x`` of shape ``(n,)``; a field
 returns shape ``(n,)`` and an output returns a scalar (shape ``()``).
+
+With unknown constant parameters ``theta`` (``params=``), every callable takes ``(x, p)``
+and the analyses run on the joint vector ``z = [x; theta]`` with ``theta' = 0``: a
+parameter is identifiable exactly when its coordinate is observable on ``z``.
 """
 
 import keyword
@@ -50,6 +54,18 @@ class System:
         angles: names of states that are angles (sampled in ``[-pi, pi)``; innovations
             and errors on them are wrapped by the Monte Carlo filter).
         name: optional name shown in reports.
+        params: unknown constant parameters, name -> ``(lo, hi)`` sampling box (or a
+            sequence of names: ``DEFAULT_BOX`` each), in the order of the parameter
+            vector ``p``. When given, EVERY callable takes
+            ``(x, p)`` (``x`` of shape ``(n,)``, ``p`` of shape ``(len(params),)``) and
+            returns what it would without parameters. The analyses treat the parameters
+            as states with zero derivative (:meth:`joint`), so ``Report.identifiable``
+            answers identifiability.
+        source: the declarative model this System was built from (model file, sympy),
+            kept so that :func:`uio_jax.save_model` can write it back; ``None`` for
+            Systems built from Python callables.
+        notes: remarks carried into every Report of this System (e.g. how an importer
+            rewrote the model).
 
     Raises:
         ModelError: a one-line message naming the problem (wrong length, non-scalar
@@ -71,6 +87,9 @@ class System:
     domain: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     angles: tuple[str, ...] = ()
     name: str = ""
+    params: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    source: object = field(default=None, repr=False)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         states = _as_names(self.states, "states")
@@ -94,8 +113,17 @@ class System:
         object.__setattr__(self, "domain", _as_domain(self.domain, states, angles))
         if not isinstance(self.name, str):
             raise ModelError(f"name must be a string, got {type(self.name).__name__}")
+        params = _as_params(self.params, states)
+        object.__setattr__(self, "params", params)
+        notes = (self.notes,) if isinstance(self.notes, str) else tuple(self.notes or ())
+        if not all(isinstance(t, str) for t in notes):
+            raise ModelError("notes must be strings")
+        object.__setattr__(self, "notes", notes)
         self._check_shapes()
-        self._check_finite()
+        if params:
+            object.__setattr__(self, "_joint", self._build_joint())  # validated there
+        else:
+            self._check_finite()
 
     # ------------------------------------------------------------------ accessors
     @property
@@ -118,6 +146,28 @@ class System:
         hi = np.array([self.domain[s][1] for s in self.states], dtype=np.float64)
         return lo, hi
 
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the unknown constant parameters (order of ``p``)."""
+        return tuple(self.params)
+
+    @property
+    def joint_param_names(self) -> tuple[str, ...]:
+        """Coordinates of this System's state that are parameters of the user's model.
+
+        Empty for a user's System; set on the System returned by :meth:`joint`.
+        """
+        return getattr(self, "_as_params", ())
+
+    def joint(self) -> "System":
+        """The parameter-free System on ``z = [x; p]`` that the analyses run on.
+
+        States are ``states + params``, every field is padded with ``p' = 0`` and every
+        callable reads ``x = z[:n]``, ``p = z[n:]``; the parameter boxes become domains.
+        Returns ``self`` when there is no parameter.
+        """
+        return getattr(self, "_joint", self)
+
     def with_known(self, names) -> "System":
         """A copy where the unknown inputs ``names`` are treated as known inputs."""
         names = tuple(names)
@@ -128,7 +178,19 @@ class System:
         known.update({nm: self.unknown[nm] for nm in names})
         unknown = {k: v for k, v in self.unknown.items() if k not in names}
         return System(self.states, dict(self.outputs), known, unknown, self.drift,
-                      dict(self.domain), self.angles, self.name)
+                      dict(self.domain), self.angles, self.name, params=dict(self.params),
+                      notes=self.notes)
+
+    @classmethod
+    def from_sympy(cls, *args, **kwargs) -> "System":
+        """A System from sympy expressions; see :func:`uio_jax._sympy_import.system_from_sympy`.
+
+        Needs sympy (``pip install sympy``). The expressions are converted through the
+        same whitelisted parser as model files, and kept so that the System can be saved.
+        """
+        from ._sympy_import import system_from_sympy
+
+        return system_from_sympy(*args, **kwargs)
 
     def __repr__(self) -> str:
         parts = [f"states={self.states}", f"outputs={tuple(self.outputs)}"]
@@ -138,6 +200,8 @@ class System:
             parts.append(f"unknown={tuple(self.unknown)}")
         if self.drift is not None:
             parts.append("drift")
+        if self.params:
+            parts.append(f"params={tuple(self.params)}")
         label = f"{self.name!r}, " if self.name else ""
         return f"System({label}{', '.join(parts)})"
 
@@ -150,18 +214,23 @@ class System:
             yield ("drift", self.drift, (self.n,))
 
     def _check_shapes(self):
-        x = jax.ShapeDtypeStruct((self.n,), jnp.float64)
+        args = [jax.ShapeDtypeStruct((self.n,), jnp.float64)]
+        on = f"a state vector of length {self.n}"
+        if self.params:
+            args.append(jax.ShapeDtypeStruct((len(self.params),), jnp.float64))
+            on = f"(x, p) of lengths ({self.n}, {len(self.params)})"
         with jax.enable_x64(True):
             for what, fn, expected in self._named_functions():
                 try:
-                    out = jax.eval_shape(fn, x)
+                    out = jax.eval_shape(fn, *args)
                 except Exception as exc:  # the user's function fails to trace
                     msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                    if self.params and isinstance(exc, TypeError) and "argument" in msg:
+                        msg += " (with params, every function takes (x, p))"
                     raise ModelError(
-                        f"{what} fails on a state vector of length {self.n}: "
-                        f"{type(exc).__name__}: {msg}"
+                        f"{what} fails on {on}: {type(exc).__name__}: {msg}"
                     ) from None
-                _check_indexing(what, fn, self.n)
+                _check_indexing(what, fn, self.n, len(self.params) if self.params else None)
                 shape = getattr(out, "shape", None)
                 if shape is None:
                     raise ModelError(f"{what} must return an array, got {type(out).__name__}")
@@ -186,17 +255,45 @@ class System:
                     )
 
 
-def _check_indexing(what, fn, n):
+    def _build_joint(self) -> "System":
+        """The System on ``z = [x; p]`` (see :meth:`joint`); it validates itself."""
+        n, P = self.n, len(self.params)
+
+        def scalar(fn):
+            return lambda z: fn(z[:n], z[n:])
+
+        def vector(fn):
+            return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
+
+        joint = System(
+            self.states + tuple(self.params),
+            {k: scalar(fn) for k, fn in self.outputs.items()},
+            known={k: vector(fn) for k, fn in self.known.items()},
+            unknown={k: vector(fn) for k, fn in self.unknown.items()},
+            drift=None if self.drift is None else vector(self.drift),
+            domain={**self.domain, **self.params},
+            angles=self.angles,
+            name=self.name,
+            notes=self.notes,
+        )
+        object.__setattr__(joint, "_as_params", tuple(self.params))
+        return joint
+
+
+def _check_indexing(what, fn, n, n_params=None):
     """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
 
     The function is called once on a plain numpy vector, where out-of-range indexing raises
     IndexError; any other failure is left to the traced checks.
     """
+    args = (np.full(n, 0.75),) if n_params is None else (np.full(n, 0.75), np.full(n_params, 0.75))
     try:
-        fn(np.full(n, 0.75))
+        fn(*args)
     except IndexError as exc:
+        where = f"the state vector of length {n}" if n_params is None else (
+            f"x (length {n}) or p (length {n_params})")
         raise ModelError(
-            f"{what} indexes outside the state vector of length {n}: {exc}"
+            f"{what} indexes outside {where}: {exc}"
         ) from None
     except Exception:  # numpy input not supported by this function: traced checks decide
         pass
@@ -233,6 +330,34 @@ def _as_callables(mapping, what) -> Mapping[str, Callable]:
         if not callable(fn):
             raise ModelError(f"{what} entry {k!r} is not callable (got {type(fn).__name__})")
         out[k] = fn
+    return MappingProxyType(out)
+
+
+def _as_params(params, states) -> Mapping[str, tuple[float, float]]:
+    if params is None:
+        params = {}
+    if not isinstance(params, Mapping) and not isinstance(params, str):
+        try:  # a sequence of names: the default box
+            params = {k: DEFAULT_BOX for k in _as_names(params, "params")}
+        except ModelError:
+            pass
+    if not isinstance(params, Mapping):
+        raise ModelError(f"params must be a mapping name -> (lo, hi), got {type(params).__name__}")
+    out = {}
+    for k, box in params.items():
+        if not isinstance(k, str) or not k:
+            raise ModelError(f"parameter names must be non-empty strings, got {k!r}")
+        if k in states:
+            raise ModelError(f"parameter {k!r} has the name of a state")
+        try:
+            lo, hi = (float(v) for v in box)
+        except (TypeError, ValueError):
+            raise ModelError(f"box of parameter {k!r} must be a pair (lo, hi), got {box!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ModelError(f"box of parameter {k!r} must be finite, got ({lo}, {hi})")
+        if lo >= hi:
+            raise ModelError(f"box of parameter {k!r} is empty: lo={lo} >= hi={hi}")
+        out[k] = (lo, hi)
     return MappingProxyType(out)
 
 
