@@ -9,7 +9,12 @@ Public API (see DESIGN.md section 2)::
 
 from importlib.metadata import PackageNotFoundError, version
 
+from ._analysis_plots import plot_analysis as plot_analysis
 from ._analyze import analyze as analyze
+from ._batch import BatchResult as BatchResult
+from ._batch import BatchRow as BatchRow
+from ._batch import batch_analyze as batch_analyze
+from ._compile_cache import enable_compile_cache as enable_compile_cache
 from ._errors import LoadError as LoadError
 from ._errors import ModelError as ModelError
 from ._errors import OptionError as OptionError

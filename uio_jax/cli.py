@@ -2,15 +2,23 @@
 
 ``main(argv) -> int`` returns the exit code: 0 on success, 2 on bad input (one line on
 stderr, never a traceback from inside JAX), 1 when a batch has failures.
+
+``analyze`` and ``batch`` use JAX's persistent compilation cache
+(:func:`uio_jax.enable_compile_cache`; ``--cache-dir`` moves it, ``--no-cache`` turns it
+off) for the duration of the command: a second run of the same models skips XLA
+compilation.
 """
 
 import argparse
+import contextlib
 import json
+import os
 import sys
 
 from ._errors import UioJaxError
 
 EXIT_USAGE = 2
+EXIT_FAILED = 1
 
 
 class _Parser(argparse.ArgumentParser):
@@ -25,18 +33,26 @@ class _UsageError(Exception):
 
 
 def _build_parser():
-    from ._analyze import METHODS
-
     p = _Parser(prog="uio-jax", description="Unknown-input observability of nonlinear systems.")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
     a = sub.add_parser("analyze", help="observability analysis of one model")
     a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System")
-    a.add_argument("--method", default="auto", choices=METHODS, help="analysis (default auto)")
-    a.add_argument("--samples", type=int, default=4096, help="sampled states (default 4096)")
-    a.add_argument("--seed", type=int, default=0, help="seed of the samples (default 0)")
-    a.add_argument("--rtol", type=float, default=None, help="rank tolerance (default 1e-8)")
-    a.add_argument("--max-order", type=int, default=None, help="cap on the steps m (order k)")
+    _analysis_options(a)
     a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    a.add_argument("--plot", metavar="FILE", help="also draw dims per step and the rank evidence "
+                                                  "(png, pdf, svg by suffix)")
+    _cache_options(a)
+    b = sub.add_parser("batch", help="certify many models into one table")
+    b.add_argument("paths", nargs="*", metavar="PATH",
+                   help="FILE.py:NAME, zoo files (every function returning a System), .toml/.json "
+                        "model files, directories, globs")
+    _analysis_options(b)
+    b.add_argument("--json", metavar="FILE", help="write the table as JSON")
+    b.add_argument("--csv", metavar="FILE", help="write the table as CSV")
+    b.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
+    b.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    b.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _cache_options(b)
     try:
         from . import _montecarlo_cli
     except ImportError:  # the Monte Carlo module is optional at this stage
@@ -44,6 +60,54 @@ def _build_parser():
     if _montecarlo_cli is not None:
         _montecarlo_cli.add_parser(sub)
     return p
+
+
+def _analysis_options(p):
+    from ._analyze import METHODS
+
+    p.add_argument("--method", default="auto", choices=METHODS, help="analysis (default auto)")
+    p.add_argument("--samples", type=int, default=4096, help="sampled states (default 4096)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the samples (default 0)")
+    p.add_argument("--rtol", type=float, default=None, help="rank tolerance (default 1e-8)")
+    p.add_argument("--max-order", type=int, default=None, help="cap on the steps m (order k)")
+    p.add_argument("--k-max", type=int, default=None, help="highest order k of the EORC (default n + 2)")
+
+
+def _cache_options(p):
+    p.add_argument("--no-cache", action="store_true",
+                   help="do not use the persistent compilation cache")
+    p.add_argument("--cache-dir", metavar="DIR",
+                   help="compilation cache directory (default $UIO_JAX_CACHE_DIR or ~/.cache/uio_jax/xla)")
+
+
+@contextlib.contextmanager
+def _compile_cache(args):
+    """JAX's persistent compilation cache for the command, unless ``--no-cache``.
+
+    An unusable default directory only costs the cache (one warning line); an unusable
+    ``--cache-dir`` is an error.
+    """
+    from ._compile_cache import compile_cache
+
+    with contextlib.ExitStack() as stack:
+        if not args.no_cache:
+            try:
+                stack.enter_context(compile_cache(args.cache_dir))
+            except OSError as exc:
+                if args.cache_dir:
+                    raise
+                print(f"uio-jax: warning: compilation cache off ({exc.strerror or exc}: {exc.filename})",
+                      file=sys.stderr)
+        yield
+
+
+def _check_writable(*paths):
+    """Refuse output files whose directory is missing before hours of work, not after."""
+    for path in paths:
+        if path:
+            parent = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(parent):
+                raise _UsageError(f"cannot write {path}: no directory {parent}")
 
 
 def _state_for_directions(report, system):
@@ -56,9 +120,14 @@ def _analyze(args) -> int:
     from ._analyze import analyze
     from ._loading import load_system
 
+    if args.plot:
+        from ._analysis_plots import check_figure_path
+
+        check_figure_path(args.plot)
+    _check_writable(args.json, args.plot)
     system = load_system(args.model)
     rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                  rtol=args.rtol, max_order=args.max_order)
+                  rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
     print(rep)
     if rep.dim < rep.n:
         x = _state_for_directions(rep, system)
@@ -76,7 +145,32 @@ def _analyze(args) -> int:
         with open(args.json, "w") as fh:
             json.dump(d, fh, indent=2)
         print(f"report written to {args.json}")
+    if args.plot:
+        from ._analysis_plots import plot_analysis
+
+        plot_analysis(rep, args.plot)
+        print(f"figure written to {args.plot}")
     return 0
+
+
+def _batch(args) -> int:
+    from ._batch import batch_analyze
+
+    if not args.paths:
+        raise _UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
+    _check_writable(args.json, args.csv, args.markdown)
+    result = batch_analyze(args.paths, jobs=args.jobs, progress=False if args.no_progress else None,
+                           keep_reports=False, method=args.method, samples=args.samples,
+                           seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+    print(result.table())
+    print(result.summary())
+    for path, text in ((args.json, lambda: result.to_json(indent=1)), (args.csv, result.to_csv),
+                       (args.markdown, result.to_markdown)):
+        if path:
+            with open(path, "w") as fh:
+                fh.write(text())
+            print(f"written: {path}")
+    return 0 if result.ok else EXIT_FAILED
 
 
 def main(argv=None) -> int:
@@ -87,8 +181,9 @@ def main(argv=None) -> int:
         if args.command is None:
             parser.print_help()
             return EXIT_USAGE
-        if args.command == "analyze":
-            return _analyze(args)
+        if args.command in ("analyze", "batch"):
+            with _compile_cache(args):
+                return _analyze(args) if args.command == "analyze" else _batch(args)
         if args.command == "montecarlo":
             from . import _montecarlo_cli
 

@@ -1,0 +1,262 @@
+"""``uio-jax batch`` / ``uj.batch_analyze``: discovery, one row per model, outputs, exit codes, cache."""
+
+import csv
+import io
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import jax
+import pytest
+from helpers import zoo_path
+
+import uio_jax as uj
+from uio_jax import _batch, cli
+from uio_jax._compile_cache import compile_cache, default_cache_dir, disable_compile_cache
+
+SAMPLES = 64
+
+# a small zoo file: two models, an experiment-like entry that must not be called, a helper
+# with a required argument, a function giving a non-System, an imported function, a broken one
+ZOO = """
+    import jax.numpy as jnp
+    from math import pi  # noqa: F401  (not a function of this file)
+    from os.path import basename  # imported function: never called
+    import uio_jax as uj
+
+    CALLS = []
+
+    def _private():
+        CALLS.append("_private")
+        return two_states()
+
+    def two_states():
+        return uj.System(("a", "b"), {"y": lambda x: x[0]},
+                         known={"u": lambda x: jnp.stack([x[1], 0.0 * x[0]])}, name="")
+
+    def blind():
+        return uj.System(("a", "b"), {"y": lambda x: x[0]},
+                         known={"u": lambda x: jnp.stack([1.0 + 0.0 * x[0], 0.0 * x[0]])})
+
+    def needs_arg(x):
+        return x
+
+    def not_a_model():
+        return 42
+
+    def flight_experiment():
+        CALLS.append("flight_experiment")
+        raise AssertionError("an experiment must not be called")
+
+    def annotated() -> "Experiment":
+        CALLS.append("annotated")
+        raise AssertionError("annotated to return no System: must not be called")
+
+    def broken():
+        raise RuntimeError("boom")
+
+    CONSTANT = uj.System(("a",), {"y": lambda x: x[0]})
+    """
+
+
+def _write(path, source):
+    path.write_text(textwrap.dedent(source))
+    return str(path)
+
+
+@pytest.fixture
+def zoo_file(tmp_path):
+    return _write(tmp_path / "tiny_zoo.py", ZOO)
+
+
+def _one_line_error(capsys):
+    out, err = capsys.readouterr()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("uio-jax: error: ")
+    assert "Traceback" not in err + out
+    return lines[0]
+
+
+def test_zoo_file_discovery(zoo_file):
+    entries, skipped = _batch.discover(zoo_file)
+    names = [e.label.rpartition(":")[2] for e in entries]
+    assert names == ["two_states", "blind", "broken", "CONSTANT"]  # definition order
+    assert [e.error is not None for e in entries] == [False, False, True, False]
+    assert "raised RuntimeError: boom" in entries[2].error
+    reasons = {name.rpartition(":")[2]: why for name, why in skipped}
+    assert set(reasons) == {"not_a_model", "flight_experiment", "annotated"}
+    assert reasons["not_a_model"] == "returns int"
+    assert "experiment" in reasons["flight_experiment"] and "Experiment" in reasons["annotated"]
+    from uio_jax._loading import load_module
+
+    assert load_module(zoo_file).CALLS == []  # neither private nor skipped functions were called
+    assert entries[0].system.name == "tiny_zoo.py:two_states"  # unnamed: named after its entry
+
+
+def test_batch_analyze_rows(zoo_file):
+    res = uj.batch_analyze([zoo_file, f"{zoo_path('unicycle_polar')}:range_known"], samples=SAMPLES)
+    assert len(res) == 5 and [r.model.rpartition(":")[2] for r in res] == [
+        "two_states", "blind", "broken", "CONSTANT", "range_known"]
+    two, blind, broken, constant, polar = res
+    assert (two.method, two.dim, two.n, two.unobservable, two.observable) == ("orc", 2, 2, 0, ("a", "b"))
+    assert (blind.dim, blind.unobservable, blind.observable) == (1, 1, ("a",))
+    assert constant.ok and constant.dim == 1
+    assert (polar.dim, polar.n, polar.observable) == (2, 3, ("r",))
+    assert polar.fraction == 1.0 and polar.gap_decades > 3 and polar.seconds > 0
+    assert polar.report is not None and polar.report.dim == 2
+    assert not broken.ok and broken.error.endswith("raised RuntimeError: boom") and broken.dim is None
+    assert res.failed == (broken,) and not res.ok
+    assert "4 of 5 models analysed, 1 failed" in res.summary()
+    assert "3 functions giving no System skipped" in res.summary()
+
+
+def test_outputs_json_csv_markdown_table(zoo_file):
+    res = uj.batch_analyze(zoo_file, samples=SAMPLES, keep_reports=False)
+    assert all(r.report is None for r in res)
+    d = json.loads(res.to_json())
+    assert [m["ok"] for m in d["models"]] == [True, True, False, True]
+    assert d["failed"] == 1 and d["options"]["samples"] == SAMPLES
+    assert d["models"][0]["observable"] == ["a", "b"] and d["models"][0]["unobservable"] == 0
+    rows = list(csv.DictReader(io.StringIO(res.to_csv())))
+    assert rows[1]["observable"] == "a" and rows[1]["dim"] == "1" and rows[2]["error"].endswith("boom")
+    md = res.to_markdown().splitlines()
+    assert md[0].startswith("| model | method | dim / n |") and len(md) == 2 + 4
+    assert "FAILED: " in md[4]
+    table = res.table().splitlines()
+    assert len(table) == 2 + 4 and "FAILED:" in table[4]
+    assert len({ln.index("2 / 2") for ln in table[2:3]}) == 1  # aligned column
+
+
+def test_systems_given_directly():
+    sysm = uj.load_system(f"{zoo_path('unicycle_polar')}:phi_known")
+    res = uj.batch_analyze([sysm], samples=SAMPLES, method="orc")
+    assert res[0].model == "unicycle_polar:phi_known" and res[0].dim == 3
+
+
+def test_cli_batch_writes_files_and_exit_codes(tmp_path, zoo_file, capsys):
+    good = f"{zoo_path('unicycle_polar')}:range_known"
+    out = {k: tmp_path / f"t.{k}" for k in ("json", "csv", "md")}
+    argv = ["batch", good, "--samples", str(SAMPLES), "--no-cache", "--json", str(out["json"]),
+            "--csv", str(out["csv"]), "--markdown", str(out["md"])]
+    assert cli.main(argv) == 0
+    stdout, err = capsys.readouterr()
+    assert "range_known" in stdout and "2 / 3" in stdout and "1 of 1 models analysed" in stdout
+    assert err == ""  # no progress bar when not on a terminal
+    assert json.loads(out["json"].read_text())["models"][0]["dim"] == 2
+    assert out["csv"].read_text().startswith("model,ok,method")
+    assert out["md"].read_text().startswith("| model |")
+    # a failing model: one row with its one-line error, the others still analysed, exit 1
+    assert cli.main(["batch", zoo_file, good, "--samples", str(SAMPLES), "--no-cache"]) == 1
+    stdout, err = capsys.readouterr()
+    assert "Traceback" not in stdout + err and err == ""
+    assert sum("FAILED:" in ln for ln in stdout.splitlines()) == 1
+    assert "4 of 5 models analysed, 1 failed" in stdout
+
+
+def test_bad_model_files_are_rows(tmp_path):
+    bad = _write(tmp_path / "syntax.py", "def f(:\n")
+    nan = _write(tmp_path / "nan.py", """
+        import jax.numpy as jnp, uio_jax as uj
+        def f():
+            return uj.System(("a",), {"y": lambda x: jnp.log(-x[0])})
+        """)
+    toml = tmp_path / "model.toml"
+    toml.write_text("this is not a model\n")
+    res = uj.batch_analyze([bad, f"{nan}:f", str(toml)], samples=SAMPLES)
+    assert [r.ok for r in res] == [False, False, False]
+    assert "fails to load" in res[0].error and "NaN" in res[1].error
+    assert res[2].error and "\n" not in res[2].error
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["batch"], "at least one PATH"),
+    (["batch", "no/such/dir"], "no such file, directory or model: no/such/dir"),
+    (["batch", "no/such/*.py"], "no model file matches"),
+    (["batch", "missing.py:f"], "model file not found: missing.py"),
+    (["batch", "systems", "--jobs", "0"], "jobs must be a positive integer"),
+    (["batch", "systems", "--samples", "0"], "samples must be an integer >= 8"),
+    (["batch", "systems", "--method", "magic"], "invalid choice: 'magic'"),
+    (["batch", "systems", "--json", "no/dir/t.json"], "cannot write no/dir/t.json"),
+])
+def test_cli_batch_usage_errors(capsys, argv, message):
+    assert cli.main(argv + ["--no-cache"]) == 2
+    assert message in _one_line_error(capsys)
+
+
+def test_directory_and_glob(tmp_path, zoo_file):
+    sub = tmp_path / "more"
+    sub.mkdir()
+    _write(sub / "one.py", "import uio_jax as uj\ndef m():\n    return uj.System(('a',), {'y': lambda x: x[0]})\n")
+    _write(tmp_path / "_ignored.py", "raise RuntimeError\n")
+    files = _batch._expand(str(tmp_path))
+    assert [os.path.basename(f) for f in files] == ["tiny_zoo.py", "one.py"]  # files, then subdirectories
+    assert _batch._expand(str(tmp_path / "*.py")) == [zoo_file]
+    with pytest.raises(uj.OptionError, match="no model file"):
+        _batch._expand(str(tmp_path / "*.toml"))
+
+
+def test_progress_bar_only_when_asked():
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    quiet = _batch._BatchProgress(3, stream=io.StringIO(), delay=0.0)
+    quiet.start("m")
+    assert quiet.stream.getvalue() == ""  # not a terminal
+    stream = Tty()
+    bar = _batch._BatchProgress(2, stream=stream, delay=0.0)
+    bar.start("sys.py:a")
+    bar.finish()
+    bar.close()
+    text = stream.getvalue()
+    assert "batch [" in text and "1/2" in text and "running sys.py:a" in text
+    late = _batch._BatchProgress(2, stream=Tty(), delay=60.0)
+    late.start("x")
+    assert late.stream.getvalue() == ""  # quick batches print nothing
+
+
+# ----------------------------------------------------------------- persistent compilation cache
+def test_default_cache_dir(monkeypatch, tmp_path):
+    monkeypatch.setenv("UIO_JAX_CACHE_DIR", str(tmp_path / "c"))
+    assert default_cache_dir() == str(tmp_path / "c")
+    monkeypatch.delenv("UIO_JAX_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "x"))
+    assert default_cache_dir() == str(tmp_path / "x" / "uio_jax" / "xla")
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert default_cache_dir() == os.path.join(os.path.expanduser("~"), ".cache", "uio_jax", "xla")
+
+
+def test_compile_cache_settings_and_restore(tmp_path):
+    before = jax.config.values["jax_compilation_cache_dir"]
+    with compile_cache(tmp_path / "cc") as path:
+        assert path == str(tmp_path / "cc") and os.path.isdir(path)
+        assert jax.config.values["jax_compilation_cache_dir"] == path
+        assert jax.config.values["jax_persistent_cache_min_compile_time_secs"] == 0.0
+        assert jax.config.values["jax_persistent_cache_min_entry_size_bytes"] == -1
+        jax.jit(lambda x: x * 3.0 + 1.0)(jax.numpy.ones(5)).block_until_ready()
+        assert os.listdir(path)  # even a tiny compile is written
+    assert jax.config.values["jax_compilation_cache_dir"] == before
+    try:
+        assert uj.enable_compile_cache(tmp_path / "cc2") == str(tmp_path / "cc2")
+        assert jax.config.values["jax_compilation_cache_dir"] == str(tmp_path / "cc2")
+    finally:
+        disable_compile_cache()
+    assert jax.config.values["jax_compilation_cache_dir"] is None
+
+
+def test_cli_uses_the_cache_dir_from_the_environment(tmp_path):
+    """A fresh process: ``batch`` writes compiled programs to ``$UIO_JAX_CACHE_DIR``;
+    ``--no-cache`` writes nothing."""
+    cache = tmp_path / "cache"
+    env = dict(os.environ, UIO_JAX_CACHE_DIR=str(cache))
+    spec = f"{zoo_path('unicycle_polar')}:range_known"
+    cmd = [sys.executable, "-m", "uio_jax", "batch", spec, "--samples", str(SAMPLES)]
+    proc = subprocess.run(cmd + ["--no-cache"], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert not cache.exists()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert len(os.listdir(cache)) > 3

@@ -1,0 +1,660 @@
+"""Batch certification: many models, one table (``uio-jax batch``, :func:`batch_analyze`).
+
+**Where models are found.** A path may be
+
+* ``FILE.py:NAME``: one model, loaded as by :func:`uio_jax.load_system`;
+* ``FILE.py``: a zoo file. Every public module-level function *defined in that file* (its
+  ``__module__`` is the file's; respects ``__all__`` when the file sets it) that takes no
+  required argument is **called** and kept when it returns a :class:`~uio_jax.System`
+  (public module-level ``System`` objects count too). Calling is the only way to know
+  what a zoo function builds, so a zoo file must keep its public no-argument functions
+  free of side effects. Functions are skipped without being called when their name ends
+  in ``_experiment`` (the zoo's convention for Monte Carlo experiments, see
+  :func:`uio_jax.load_experiment`) or their return annotation names another type.
+  A function that returns something else is skipped (listed in ``skipped``); one that
+  raises is a failed model. A StrikePy model module (recognised by
+  ``uio_jax._strikepy_import.is_strikepy_module``, when that importer is installed) is one
+  model;
+* ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
+* a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
+  names starting with ``_`` or ``.`` are ignored);
+* a glob (``systems/*.py``, ``models/**/*.toml``): every match, as above.
+
+**What is reused between models.** Compiled generator evaluators are cached per System
+(:mod:`uio_jax._generators`): two models are two Systems built from distinct Python
+closures, so even models of the same shape trace and compile their own Lie derivatives in
+memory. Shared across models of the same sample count and dimensions are only the rank
+kernels (module-level ``jax.jit`` functions of :mod:`uio_jax._rank`). Across processes, and
+between models whose programs are identical (e.g. zoo aliases), JAX's persistent
+compilation cache (:func:`uio_jax.enable_compile_cache`, on by default in the command
+line) skips XLA compilation; tracing is redone every time.
+
+**Parallel runs.** ``jobs > 1`` analyses models in that many worker processes (spawned,
+each with its own JAX; they use the persistent cache directory of the caller). Only
+models given by path can go to a worker; ``System`` objects run in the calling process.
+"""
+
+import csv
+import inspect
+import io
+import json
+import math
+import numbers
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+
+from ._errors import LoadError, OptionError, UioJaxError
+from ._system import System
+
+#: Suffixes of model files collected from directories and globs.
+MODEL_SUFFIXES = (".py", ".toml", ".json")
+_GLOB_CHARS = "*?["
+
+
+@dataclass(frozen=True)
+class BatchRow:
+    """One model of a batch: its verdict, certificate and time, or its error.
+
+    Attributes:
+        model: the model's name (``FILE.py:NAME``, the model file, or the System's name).
+        method: analysis that ran (None when the model failed before it).
+        n: dimension of the analysed vector (states, plus parameters when there are any).
+        dim: generic dimension of the observable codistribution.
+        observable: names of the observable state components.
+        params: names of the unknown constant parameters (empty when none).
+        identifiable: names of the identifiable parameters.
+        fraction: fraction of the samples at the generic rank (``certificate.fraction``).
+        gap_decades: margin of the weakest rank decision, ``log10(sigma_r_min /
+            sigma_next_max)`` (``certificate.gap_decades``; inf when nothing was rejected).
+        seconds: wall time of loading plus analysing the model, in seconds.
+        error: the one-line error of a failed model, None when it passed.
+        report: the :class:`~uio_jax.Report` (None for a failed model, with
+            ``keep_reports=False``, or when the model ran in a worker process).
+    """
+
+    model: str
+    method: str | None = None
+    n: int | None = None
+    dim: int | None = None
+    observable: tuple[str, ...] = ()
+    params: tuple[str, ...] = ()
+    identifiable: tuple[str, ...] = ()
+    fraction: float | None = None
+    gap_decades: float | None = None
+    seconds: float = 0.0
+    error: str | None = None
+    report: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when the model was analysed."""
+        return self.error is None
+
+    @property
+    def unobservable(self) -> int | None:
+        """Number of unobservable directions, ``n - dim`` (None for a failed model)."""
+        return None if self.n is None or self.dim is None else self.n - self.dim
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary (no report; inf/NaN as strings)."""
+        d = {
+            "model": self.model, "ok": self.ok, "method": self.method, "n": self.n,
+            "dim": self.dim, "unobservable": self.unobservable,
+            "observable": list(self.observable), "params": list(self.params),
+            "identifiable": list(self.identifiable), "fraction": _num(self.fraction),
+            "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
+            "error": self.error,
+        }
+        return d
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Result of :func:`batch_analyze`: a sequence of :class:`BatchRow` (iterate, index, len).
+
+    Attributes:
+        rows: one row per model, in the order the models were given/found.
+        skipped: ``(name, reason)`` of the public functions of zoo files that gave no System.
+        seconds: wall time of the whole batch (s).
+        options: the analysis options used (method, samples, seed, ...).
+    """
+
+    rows: tuple[BatchRow, ...]
+    skipped: tuple[tuple[str, str], ...] = ()
+    seconds: float = 0.0
+    options: dict = field(default_factory=dict)
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __len__(self):
+        return len(self.rows)
+
+    def __getitem__(self, i):
+        return self.rows[i]
+
+    @property
+    def failed(self) -> tuple[BatchRow, ...]:
+        """Rows of the models that failed."""
+        return tuple(r for r in self.rows if not r.ok)
+
+    @property
+    def ok(self) -> bool:
+        """True when every model was analysed."""
+        return not self.failed
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary: ``models`` (rows), ``skipped``, ``options``, ``seconds``."""
+        return {
+            "models": [r.to_dict() for r in self.rows],
+            "failed": len(self.failed),
+            "skipped": [{"name": n, "reason": why} for n, why in self.skipped],
+            "options": dict(self.options),
+            "seconds": round(self.seconds, 3),
+        }
+
+    def to_json(self, **kw) -> str:
+        """``json.dumps(self.to_dict())``."""
+        return json.dumps(self.to_dict(), **kw)
+
+    def to_csv(self) -> str:
+        """CSV text, one line per model (lists joined by ``;``)."""
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        cols = ["model", "ok", "method", "n", "dim", "unobservable", "observable", "params",
+                "identifiable", "fraction", "gap_decades", "seconds", "error"]
+        writer.writerow(cols)
+        for r in self.rows:
+            d = r.to_dict()
+            writer.writerow(["" if d[c] is None else ";".join(d[c]) if isinstance(d[c], list) else d[c]
+                             for c in cols])
+        return buf.getvalue()
+
+    def to_markdown(self) -> str:
+        """A Markdown table (failed models carry their error in the last column)."""
+        headers, body = self._cells(markdown=True)
+        lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
+        return "\n".join(lines) + "\n"
+
+    def table(self) -> str:
+        """The table for a terminal: aligned columns, then one line per failed model's error."""
+        headers, body = self._cells(markdown=False)
+        widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
+                  for i, h in enumerate(headers)]
+        right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
+
+        def fmt(cells):
+            out = [c.rjust(w) if h in right else c.ljust(w) for c, w, h in zip(cells, widths, headers)]
+            return "  ".join(out).rstrip()
+
+        lines = [fmt(headers), fmt(["-" * w for w in widths])]
+        lines += [fmt(row) for row in body]
+        return "\n".join(lines)
+
+    def summary(self) -> str:
+        """One line: models passed / failed, total time, functions skipped."""
+        n_fail = len(self.failed)
+        text = (f"{len(self.rows) - n_fail} of {len(self.rows)} models analysed"
+                + (f", {n_fail} failed" if n_fail else "") + f" in {self.seconds:.1f} s")
+        if self.skipped:
+            text += (f"; {len(self.skipped)} function{'s' if len(self.skipped) != 1 else ''} "
+                     "giving no System skipped")
+        return text
+
+    def _cells(self, markdown):
+        has_params = any(r.params for r in self.rows)
+        headers = ["model", "method", "dim / n", "observable states"]
+        if has_params:
+            headers.append("identifiable params")
+        headers += ["unobs.", "fraction", "gap (dec.)", "time (s)", "error" if markdown else "status"]
+        body = []
+        for r in self.rows:
+            if not r.ok:
+                cells = [r.model, r.method or "-", "-", "-"] + (["-"] if has_params else [])
+                cells += ["-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
+            else:
+                cells = [r.model, r.method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
+                if has_params:
+                    cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
+                cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
+                          "" if markdown else "ok"]
+            body.append(cells)
+        return headers, body
+
+
+def batch_analyze(models, *, jobs: int = 1, progress=None, keep_reports: bool = True, **analyze_kwargs) -> BatchResult:
+    """Analyse many models; one failing model is one row with its error, the others go on.
+
+    Main arguments:
+        models: a path, a :class:`~uio_jax.System`, or a sequence of them. Paths are
+            ``FILE.py:NAME``, zoo files ``FILE.py`` (every public no-argument function
+            that returns a System; see the module docstring for how they are found),
+            ``.toml``/``.json`` model files, directories and globs.
+
+    Other arguments:
+        jobs: worker processes (default 1: everything in this process). Workers are
+            spawned fresh and pay JAX's start-up; they share the persistent compilation
+            cache of this process if one is enabled.
+        progress: ``True`` shows a model-count bar on stderr, ``False`` never, ``None``
+            (default) only on a terminal and once the batch has lasted 2 s.
+        keep_reports: keep each model's :class:`~uio_jax.Report` in ``row.report``
+            (False frees each model's compiled functions as soon as it is done).
+        **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
+            ``seed``, ``rtol``, ``max_order``, ``k_max``).
+
+    Returns:
+        :class:`BatchResult`, a sequence of :class:`BatchRow` in the order the models
+        were given (zoo files in the order their functions are defined).
+
+    Raises:
+        OptionError: no model given, a path that matches nothing, impossible options.
+    """
+    t0 = time.perf_counter()
+    _check_options(jobs, analyze_kwargs)
+    entries, skipped = discover(models)
+    bar = _BatchProgress(len(entries), enabled=progress)
+    try:
+        if jobs > 1 and sum(e.spec is not None for e in entries) > 1:
+            rows = _run_parallel(entries, jobs, analyze_kwargs, bar)
+        else:
+            rows = []
+            for e in entries:
+                bar.start(e.label)
+                rows.append(_run_entry(e, analyze_kwargs, keep_reports))
+                bar.finish()
+    finally:
+        bar.close()
+    options = {k: v for k, v in analyze_kwargs.items() if v is not None}
+    return BatchResult(tuple(rows), tuple(skipped), time.perf_counter() - t0, options)
+
+
+# ---------------------------------------------------------------------------- discovery
+@dataclass(frozen=True)
+class _Entry:
+    """A model to run: its row label, how a process loads it, or why it cannot be."""
+
+    label: str
+    spec: str | None = None  # what a (worker) process loads; None: in-memory System only
+    kind: str = "spec"  # "spec" (FILE.py:NAME), "file" (.toml/.json), "strikepy"
+    system: System | None = field(default=None, repr=False)
+    error: str | None = None
+
+
+def discover(models):
+    """Expand paths, globs, directories and zoo files into models.
+
+    Args:
+        models: a path, a System, or a sequence of them (see :func:`batch_analyze`).
+
+    Returns:
+        ``(entries, skipped)``: the models in order, and ``(name, reason)`` of zoo
+        functions that gave no System.
+
+    Raises:
+        OptionError: nothing given, or a path that matches nothing.
+    """
+    if isinstance(models, (str, os.PathLike, System)):
+        models = [models]
+    models = list(models)
+    if not models:
+        raise OptionError("no model given: pass files, directories, globs or FILE.py:NAME")
+    entries, skipped = [], []
+    for i, item in enumerate(models):
+        if isinstance(item, System):
+            entries.append(_Entry(item.name or f"system {i + 1}", None, "system", item))
+        elif isinstance(item, (str, os.PathLike)):
+            for path in _expand(os.fspath(item)):
+                e, s = _entries_of(path)
+                entries += e
+                skipped += s
+        else:
+            raise OptionError(f"a model must be a path or a uio_jax.System, got {type(item).__name__}")
+    return entries, skipped
+
+
+def _expand(item: str) -> list[str]:
+    """Files (or one ``FILE.py:NAME`` spec) named by a path, directory or glob."""
+    if _is_spec(item):
+        path = item.rpartition(":")[0]
+        if not os.path.isfile(path):
+            raise OptionError(f"model file not found: {path}")
+        return [item]
+    if any(c in item for c in _GLOB_CHARS) and not os.path.exists(item):
+        import glob
+
+        matches = sorted(glob.glob(item, recursive=True))
+        files = []
+        for m in matches:
+            files += _dir_files(m) if os.path.isdir(m) else [m] if _is_model_file(m) else []
+        if not files:
+            raise OptionError(f"no model file matches {item!r}")
+        return files
+    if os.path.isdir(item):
+        files = _dir_files(item)
+        if not files:
+            raise OptionError(f"no model file ({', '.join(MODEL_SUFFIXES)}) in directory {item}")
+        return files
+    if os.path.isfile(item):
+        return [item]
+    raise OptionError(f"no such file, directory or model: {item}")
+
+
+def _is_spec(item: str) -> bool:
+    """``FILE.py:NAME`` (an existing or missing file; NAME an identifier)."""
+    path, sep, name = item.rpartition(":")
+    return bool(sep) and bool(path) and name.isidentifier() and not os.path.exists(item)
+
+
+def _is_model_file(path: str) -> bool:
+    base = os.path.basename(path)
+    return os.path.isfile(path) and base.endswith(MODEL_SUFFIXES) and not base.startswith(("_", "."))
+
+
+def _dir_files(top: str) -> list[str]:
+    out = []
+    for root, dirs, files in os.walk(top):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(("_", ".")))
+        out += [os.path.join(root, f) for f in sorted(files) if _is_model_file(os.path.join(root, f))]
+    return out
+
+
+def _entries_of(path: str):
+    """Entries (and skipped functions) of one file or ``FILE.py:NAME`` spec."""
+    if _is_spec(path):
+        return [_Entry(path, path, "spec")], []
+    if path.endswith((".toml", ".json")):
+        return [_Entry(path, path, "file")], []
+    if not path.endswith(".py"):
+        return [_Entry(path, error=f"not a model file (expected {', '.join(MODEL_SUFFIXES)}): {path}")], []
+    strikepy = _strikepy()
+    if strikepy is not None:
+        try:
+            if strikepy.is_strikepy_module(path):
+                return [_Entry(path, path, "strikepy")], []
+        except Exception as exc:  # a broken file: report it as the zoo loader would
+            return [_Entry(path, error=_one_line(exc))], []
+    return _zoo_entries(path)
+
+
+def _zoo_entries(path: str):
+    """Every System a zoo file's public no-argument functions build (calls them)."""
+    from ._loading import load_module
+
+    try:
+        module = load_module(path)
+    except UioJaxError as exc:
+        return [_Entry(path, error=str(exc))], []
+    names = getattr(module, "__all__", None)
+    items = [(k, getattr(module, k, None)) for k in names] if names is not None else list(vars(module).items())
+    entries, skipped = [], []
+    for name, obj in items:
+        if name.startswith("_"):
+            continue
+        spec = f"{path}:{name}"
+        if isinstance(obj, System):
+            entries.append(_Entry(spec, spec, "spec", _named(obj, path, name)))
+            continue
+        if not inspect.isfunction(obj) or obj.__module__ != module.__name__ or not _no_required_args(obj):
+            continue
+        why = _skip_without_calling(name, obj)
+        if why:
+            skipped.append((spec, why))
+            continue
+        try:
+            built = obj()
+        except UioJaxError as exc:
+            entries.append(_Entry(spec, spec, "spec", error=f"{spec}: {exc}"))
+            continue
+        except Exception as exc:
+            entries.append(_Entry(spec, spec, "spec", error=f"{spec} raised {_one_line(exc)}"))
+            continue
+        if isinstance(built, System):
+            entries.append(_Entry(spec, spec, "spec", _named(built, path, name)))
+        else:
+            skipped.append((spec, f"returns {type(built).__name__}"))
+    if not entries and not skipped:
+        return [_Entry(path, error=f"{path} defines no public function that returns a uio_jax.System")], []
+    return entries, skipped
+
+
+def _no_required_args(fn) -> bool:
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return False
+    return all(p.default is not p.empty or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+               for p in sig.parameters.values())
+
+
+def _skip_without_calling(name, fn) -> str:
+    """Why a zoo function is known not to build a System without calling it ('' if unknown)."""
+    if name.endswith("_experiment"):
+        return "a Monte Carlo experiment (name ends in _experiment)"
+    ann = inspect.signature(fn).return_annotation
+    if ann is inspect.Signature.empty or ann is None:
+        return ""
+    text = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
+    if text and "System" not in text:
+        return f"annotated to return {text}"
+    return ""
+
+
+def _named(system, path, name):
+    if not system.name:
+        object.__setattr__(system, "name", f"{os.path.basename(path)}:{name}")
+    return system
+
+
+def _strikepy():
+    """The StrikePy importer module, or None while it is not part of this uio_jax."""
+    try:
+        from . import _strikepy_import
+    except ImportError:
+        return None
+    return _strikepy_import if hasattr(_strikepy_import, "is_strikepy_module") else None
+
+
+# ---------------------------------------------------------------------------- running
+def _load(entry: _Entry) -> System:
+    """The System of an entry (built already, or loaded from its spec)."""
+    if entry.system is not None:
+        return entry.system
+    from ._loading import load_system
+
+    if entry.kind == "strikepy":
+        strikepy = _strikepy()
+        if strikepy is None:
+            raise LoadError(f"{entry.spec}: StrikePy models are not supported by this version of uio_jax")
+        return strikepy.load_strikepy(entry.spec)
+    if entry.kind == "file":
+        try:
+            return load_system(entry.spec)
+        except LoadError as exc:
+            if "FILE.py:NAME" in str(exc):  # the loader predates model files
+                raise LoadError(f"{entry.spec}: .toml/.json model files are not supported by this "
+                                "version of uio_jax") from None
+            raise
+    return load_system(entry.spec)
+
+
+def _run_entry(entry: _Entry, analyze_kwargs, keep_report=True) -> BatchRow:
+    """Load and analyse one model; every error becomes the row's one-line error."""
+    from ._analyze import analyze
+
+    t0 = time.perf_counter()
+    if entry.error is not None:
+        return BatchRow(entry.label, error=entry.error, seconds=0.0)
+    try:
+        rep = analyze(_load(entry), **analyze_kwargs)
+    except UioJaxError as exc:
+        return BatchRow(entry.label, error=_one_line(exc, with_type=False), seconds=time.perf_counter() - t0)
+    except Exception as exc:  # a bug or a model that breaks JAX: one row, the batch goes on
+        return BatchRow(entry.label, error=_one_line(exc), seconds=time.perf_counter() - t0)
+    return _row(entry.label, rep, time.perf_counter() - t0, rep if keep_report else None)
+
+
+def _row(label, rep, seconds, report=None) -> BatchRow:
+    """A row from a Report."""
+    params = tuple(getattr(rep, "params", ()) or ())
+    ident = getattr(rep, "identifiable", {}) or {}
+    cert = rep.certificate
+    fraction, gap = float(cert.fraction), float(cert.gap_decades)
+    error = None
+    if math.isnan(fraction) or math.isnan(gap):
+        error = "the certificate is NaN (no usable sample?)"
+    return BatchRow(
+        model=label, method=rep.method, n=rep.n, dim=rep.dim,
+        observable=tuple(s for s, ok in rep.observable.items() if ok),
+        params=params, identifiable=tuple(p for p in params if ident.get(p)),
+        fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
+    )
+
+
+def _run_parallel(entries, jobs, analyze_kwargs, bar):
+    """Run the entries that have a spec in ``jobs`` spawned processes, the others here."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from ._compile_cache import cache_dir_in_use
+
+    rows = [None] * len(entries)
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_worker_init,
+                             initargs=(cache_dir_in_use(),)) as pool:
+        futures = {}
+        for i, e in enumerate(entries):
+            if e.spec is not None and e.error is None:
+                futures[pool.submit(_worker_run, e.label, e.spec, e.kind, analyze_kwargs)] = i
+        remote = set(futures.values())
+        try:
+            for i, e in enumerate(entries):  # in-memory Systems and known errors, here
+                if i not in remote:
+                    bar.start(e.label)
+                    rows[i] = _run_entry(e, analyze_kwargs, keep_report=False)
+                    bar.finish()
+            for fut in as_completed(futures):
+                i = futures[fut]
+                try:
+                    rows[i] = BatchRow(**fut.result())
+                except Exception as exc:  # the worker died (memory, signal)
+                    rows[i] = BatchRow(entries[i].label, error=f"worker process failed: {_one_line(exc)}")
+                bar.finish(entries[i].label)
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+    return rows
+
+
+def _worker_init(cache_dir):
+    """Set up a worker: the caller's persistent cache directory, if any."""
+    if cache_dir:
+        from ._compile_cache import enable_compile_cache
+
+        enable_compile_cache(cache_dir)
+
+
+def _worker_run(label, spec, kind, analyze_kwargs) -> dict:
+    """Analyse one model in a worker; returns the row's fields (no Report)."""
+    row = _run_entry(_Entry(label, spec, kind), analyze_kwargs, keep_report=False)
+    return {k: getattr(row, k) for k in BatchRow.__dataclass_fields__ if k != "report"}
+
+
+def _check_options(jobs, kw):
+    """Options that would make every model fail: refused before any model runs."""
+    if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
+        raise OptionError(f"jobs must be a positive integer, got {jobs!r}")
+    from ._analyze import METHODS
+
+    unknown = set(kw) - {"method", "samples", "seed", "rtol", "max_order", "k_max"}
+    if unknown:
+        raise OptionError(f"unknown analysis option {sorted(unknown)[0]!r}")
+    if kw.get("method", "auto") not in METHODS:
+        raise OptionError(f"unknown method {kw['method']!r}; choose one of {', '.join(METHODS)}")
+    samples, seed = kw.get("samples", 8), kw.get("seed", 0)
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 8:
+        raise OptionError(f"samples must be an integer >= 8, got {samples!r}")
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise OptionError(f"seed must be a non-negative integer, got {seed!r}")
+    rtol = kw.get("rtol")
+    if rtol is not None and not (isinstance(rtol, numbers.Real) and 0 < rtol < 1):
+        raise OptionError(f"rtol must be a number in (0, 1), got {rtol!r}")
+
+
+# ---------------------------------------------------------------------------- progress
+class _BatchProgress:
+    """Model-count progress bar on stderr: ``batch [###---] 3/12  running NAME  ETA 40 s``.
+
+    ``enabled=None`` shows it only when the stream is a terminal and the batch has lasted
+    ``delay`` seconds; the line is redrawn when a model starts and when it ends.
+    """
+
+    def __init__(self, total, *, enabled=None, delay=2.0, stream=None):
+        self.stream = stream if stream is not None else sys.stderr
+        if enabled is None:
+            enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.enabled = bool(enabled) and total > 0
+        self.total, self.delay, self.done = total, delay, 0
+        self.t0 = time.perf_counter()
+        self.shown = False
+        self.width = 0
+
+    def start(self, label):
+        """A model starts (drawn only once the bar is due)."""
+        self._draw(f"running {label}")
+
+    def finish(self, label=None):
+        """A model is done."""
+        self.done += 1
+        self._draw(f"done {label}" if label else "")
+
+    def _draw(self, what):
+        elapsed = time.perf_counter() - self.t0
+        if not self.enabled or (not self.shown and elapsed < self.delay):
+            return
+        self.shown = True
+        frac = self.done / self.total
+        fill = int(round(20 * frac))
+        eta = f"  ETA {elapsed / self.done * (self.total - self.done):4.0f} s" if self.done else ""
+        line = f"batch [{'#' * fill}{'-' * (20 - fill)}] {self.done}/{self.total}{eta}  {what}"
+        line = line[:110]
+        self.stream.write("\r" + line.ljust(self.width))
+        self.width = len(line)
+        self.stream.flush()
+
+    def close(self):
+        """Clear the bar's line (if it was shown)."""
+        if self.shown:
+            self.stream.write("\r" + " " * self.width + "\r")
+            self.stream.flush()
+
+
+# ---------------------------------------------------------------------------- formatting
+def _one_line(exc, with_type=True) -> str:
+    text = str(exc).strip()
+    first = text.splitlines()[0] if text else ""
+    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
+
+
+def _names(names, total) -> str:
+    if total and len(names) == total:
+        return "all"
+    return ", ".join(names) if names else "none"
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.1f}%"
+
+
+def _gap(x) -> str:
+    if x is None:
+        return "-"
+    return "inf" if math.isinf(x) else f"{x:.1f}"
+
+
+def _num(x):
+    if x is None:
+        return None
+    return x if math.isfinite(x) else str(x)

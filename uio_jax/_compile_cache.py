@@ -1,0 +1,118 @@
+"""JAX's persistent compilation cache, set up for the many small compiles of an analysis.
+
+An analysis compiles one XLA program per block of generators (tens per model, most well
+under a second each). JAX can keep compiled programs on disk and reuse them in a later
+process when the program is the same (the key is a hash of the program without its source locations,
+the compile options, the jax/jaxlib version and the device): a second ``uio-jax analyze`` or
+``uio-jax batch`` of the same models skips XLA compilation. Tracing (building the jaxpr of
+nested Lie derivatives in Python) is not cached; it is redone in every process.
+
+By default JAX only writes programs that took at least 1 s to compile; uio_jax lowers that
+threshold to 0 and lifts the minimum entry size, so every program is written.
+
+Directory: ``path`` if given, else ``$UIO_JAX_CACHE_DIR``, else ``$XDG_CACHE_HOME/uio_jax/xla``
+(``~/.cache/uio_jax/xla`` when ``XDG_CACHE_HOME`` is unset). The command line enables the
+cache by default (``--no-cache`` disables it, ``--cache-dir`` moves it); the library does
+not touch JAX's configuration unless :func:`enable_compile_cache` is called.
+
+As JAX warns, the cache is trusted input: do not point it at a directory others can write.
+"""
+
+import contextlib
+import os
+
+#: JAX options set by :func:`enable_compile_cache` (name -> value; the directory is added).
+_SETTINGS = {
+    "jax_enable_compilation_cache": True,
+    "jax_persistent_cache_min_compile_time_secs": 0.0,
+    "jax_persistent_cache_min_entry_size_bytes": -1,
+}
+_DIR_KEY = "jax_compilation_cache_dir"
+
+
+def default_cache_dir() -> str:
+    """The default cache directory (not created).
+
+    ``$UIO_JAX_CACHE_DIR`` if set and non-empty, else ``$XDG_CACHE_HOME/uio_jax/xla``, else
+    ``~/.cache/uio_jax/xla``.
+    """
+    env = os.environ.get("UIO_JAX_CACHE_DIR")
+    if env:
+        return os.path.abspath(os.path.expanduser(env))
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "uio_jax", "xla")
+
+
+def enable_compile_cache(path: str | os.PathLike | None = None) -> str:
+    """Turn on JAX's persistent compilation cache for this process.
+
+    Every XLA program compiled afterwards (by any JAX code in the process, not only uio_jax)
+    is written to the cache directory, whatever its compile time or size, and a later
+    process that compiles the same program loads it from there instead. Call it before the
+    analyses; calling it again with another directory switches to that directory.
+
+    Args:
+        path: cache directory, created if missing. Default: ``$UIO_JAX_CACHE_DIR``, else
+            ``$XDG_CACHE_HOME/uio_jax/xla``, else ``~/.cache/uio_jax/xla``.
+
+    Returns:
+        The absolute directory in use.
+
+    Raises:
+        OSError: the directory cannot be created.
+    """
+    import jax
+
+    path = os.path.abspath(os.path.expanduser(os.fspath(path))) if path is not None else default_cache_dir()
+    os.makedirs(path, exist_ok=True)
+    changed = jax.config.values.get(_DIR_KEY) != path
+    for key, value in _SETTINGS.items():
+        jax.config.update(key, value)
+    jax.config.update(_DIR_KEY, path)
+    if changed:
+        _reset_jax_cache()
+    return path
+
+
+def disable_compile_cache() -> None:
+    """Turn the persistent compilation cache off again (JAX's default: no directory)."""
+    import jax
+
+    jax.config.update(_DIR_KEY, None)
+    _reset_jax_cache()
+
+
+@contextlib.contextmanager
+def compile_cache(path: str | os.PathLike | None = None):
+    """Context manager: :func:`enable_compile_cache` inside, JAX's previous settings after.
+
+    Yields:
+        The absolute directory in use.
+    """
+    import jax
+
+    saved = {key: jax.config.values.get(key) for key in (*_SETTINGS, _DIR_KEY)}
+    try:
+        yield enable_compile_cache(path)
+    finally:
+        for key, value in saved.items():
+            jax.config.update(key, value)
+        _reset_jax_cache()
+
+
+def cache_dir_in_use() -> str | None:
+    """The persistent cache directory JAX is configured with, or None."""
+    import jax
+
+    return jax.config.values.get(_DIR_KEY) or None
+
+
+def _reset_jax_cache():
+    """Make JAX re-read the cache settings at its next compile (it reads them once)."""
+    try:
+        from jax._src import compilation_cache
+    except ImportError:  # pragma: no cover - private module moved: settings apply to a fresh process
+        return
+    reset = getattr(compilation_cache, "reset_cache", None)
+    if reset is not None:
+        reset()
