@@ -1,4 +1,14 @@
-"""``load_system("path/to/model.py:function")``: models loaded by path, not installed."""
+"""``load_system(...)``: models loaded by path, not installed.
+
+Three kinds of model files:
+
+* ``path/to/file.py:NAME``: a Python file (executed) whose ``NAME`` is a System or a
+  function returning one (the model zoo);
+* ``path/to/model.toml`` / ``path/to/model.json``: a declarative model (data only, see
+  :mod:`uio_jax._model_file`);
+* ``path/to/model.py`` without ``:NAME``: a StrikePy / STRIKE-GOLDD model module, read
+  without executing it (see :mod:`uio_jax._strikepy_import`).
+"""
 
 import importlib.util
 import os
@@ -9,16 +19,44 @@ from ._errors import LoadError, UioJaxError
 from ._system import System
 
 
-def load_system(spec: str, *args, **kwargs) -> System:
-    """Load a System from ``"path/to/file.py:name"``.
+def load_system(spec, *args, **kwargs) -> System:
+    """Load a System from ``"file.py:name"``, ``"model.toml"``/``"model.json"`` or a StrikePy module.
 
-    ``name`` is a function returning a System (called with ``*args, **kwargs``) or a
-    System object. The file is executed as a module named after it.
+    * ``"path/to/file.py:name"``: ``name`` is a function returning a System (called with
+      ``*args, **kwargs``) or a System object; the file is executed as a module named
+      after it.
+    * ``"path/to/model.toml"`` or ``.json``: a declarative model file
+      (:func:`uio_jax.load_model_file`).
+    * ``"path/to/model.py"`` (no ``:name``) that is a StrikePy model module
+      (:func:`uio_jax.load_strikepy`; read, never executed).
 
     Raises:
         LoadError: bad spec, missing file, file that fails to import, missing name,
             or a name that does not give a System.
+        ModelError: a declarative model or StrikePy module with a bad entry.
     """
+    if isinstance(spec, os.PathLike):
+        spec = os.fspath(spec)
+    if isinstance(spec, str):
+        suffix = os.path.splitext(spec)[1].lower()
+        if suffix in (".toml", ".json"):
+            if args or kwargs:
+                raise LoadError(f"{spec}: a model file takes no arguments")
+            from ._model_file import load_model_file
+
+            return load_model_file(spec)
+        if suffix == ".py":
+            from ._strikepy_import import is_strikepy_module, load_strikepy
+
+            if not os.path.isfile(spec):
+                raise LoadError(f"model file not found: {spec} (give a Python model as FILE.py:NAME, "
+                                "or the path of a StrikePy model module)")
+            if is_strikepy_module(spec):
+                if args or kwargs:
+                    raise LoadError(f"{spec}: a StrikePy model takes no arguments")
+                return load_strikepy(spec)
+            raise LoadError(f"{spec} is not a StrikePy model module (no sympy import or no top-level x, f, h): "
+                            "name the entry as FILE.py:NAME")
     path, name = split_spec(spec)
     module = load_module(path)
     if not hasattr(module, name):
@@ -42,10 +80,12 @@ def load_system(spec: str, *args, **kwargs) -> System:
 def split_spec(spec: str) -> tuple[str, str]:
     """``"a/b.py:fn"`` -> ``("a/b.py", "fn")``, with a LoadError for a malformed spec."""
     if not isinstance(spec, str) or ":" not in spec:
-        raise LoadError(f"model must be given as FILE.py:NAME, got {spec!r}")
+        raise LoadError(f"model must be given as FILE.py:NAME, MODEL.toml, MODEL.json or a StrikePy "
+                        f"MODEL.py, got {spec!r}")
     path, name = spec.rsplit(":", 1)
     if not path or not name.isidentifier():
-        raise LoadError(f"model must be given as FILE.py:NAME, got {spec!r}")
+        raise LoadError(f"model must be given as FILE.py:NAME, MODEL.toml, MODEL.json or a StrikePy "
+                        f"MODEL.py, got {spec!r}")
     return path, name
 
 
