@@ -66,7 +66,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._errors import LoadError, ModelError
-from ._expressions import ExpressionError, parse_expression
+from ._expressions import ExpressionError, Num, parse_expression
 
 _TOP_KEYS = ("name", "description", "notes", "states", "angles", "params", "constants", "domain",
              "outputs", "drift", "known", "unknown", "inputs", "dynamics")
@@ -367,6 +367,8 @@ def build_system(spec: ModelSpec):
     def trees(table):
         return {k: parse_expression(t, allowed) for k, t in table.items()}
 
+    drift = {k: e for k, e in trees(spec.drift).items() if e != Num(0.0)}  # "0" entries: no drift
+
     if spec.general:
         parts = split_general(spec.states, trees(spec.dynamics), trees(spec.outputs), spec.inputs_known,
                               spec.inputs_unknown, dict(spec.params), consts, dict(spec.domain), spec.angles)
@@ -376,7 +378,7 @@ def build_system(spec: ModelSpec):
             outputs={k: to_function(e, base, consts) for k, e in trees(spec.outputs).items()},
             known={k: vector_function(trees(f), spec.states, base, consts) for k, f in spec.known.items()},
             unknown={k: vector_function(trees(f), spec.states, base, consts) for k, f in spec.unknown.items()},
-            drift=vector_function(trees(spec.drift), spec.states, base, consts) if spec.drift else None,
+            drift=vector_function(drift, spec.states, base, consts) if drift else None,
             domain=dict(spec.domain), angles=tuple(spec.angles),
         )
     n = len(parts.states)
