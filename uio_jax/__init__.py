@@ -22,7 +22,10 @@ from ._errors import UioJaxError as UioJaxError
 from ._experiment import Experiment as Experiment
 from ._experiment import Measurement as Measurement
 from ._experiment import Quantity as Quantity
+from ._expressions import ExpressionError as ExpressionError
 from ._loading import load_system as load_system
+from ._model_file import load_model_file as load_model_file
+from ._model_file import save_model as save_model
 from ._montecarlo import run_montecarlo as run_montecarlo
 from ._montecarlo import trajectories as trajectories
 from ._montecarlo_cli import load_experiment as load_experiment
@@ -37,6 +40,7 @@ from ._report import Certificate as Certificate
 from ._report import Report as Report
 from ._report import Step as Step
 from ._result import MonteCarloResult as MonteCarloResult
+from ._strikepy_import import load_strikepy as load_strikepy
 from ._system import System as System
 
 try:
