@@ -450,34 +450,31 @@ def _named(system, path, name):
 
 def _strikepy():
     """The StrikePy importer module, or None while it is not part of this uio_jax."""
-    try:
-        from . import _strikepy_import
-    except ImportError:
+    if not _has_module("_strikepy_import"):
         return None
+    from . import _strikepy_import
+
     return _strikepy_import if hasattr(_strikepy_import, "is_strikepy_module") else None
 
 
 # ---------------------------------------------------------------------------- running
 def _load(entry: _Entry) -> System:
-    """The System of an entry (built already, or loaded from its spec)."""
+    """The System of an entry (built already, or loaded from its spec by ``load_system``)."""
     if entry.system is not None:
         return entry.system
     from ._loading import load_system
 
-    if entry.kind == "strikepy":
-        strikepy = _strikepy()
-        if strikepy is None:
-            raise LoadError(f"{entry.spec}: StrikePy models are not supported by this version of uio_jax")
-        return strikepy.load_strikepy(entry.spec)
-    if entry.kind == "file":
-        try:
-            return load_system(entry.spec)
-        except LoadError as exc:
-            if "FILE.py:NAME" in str(exc):  # the loader predates model files
-                raise LoadError(f"{entry.spec}: .toml/.json model files are not supported by this "
-                                "version of uio_jax") from None
-            raise
+    if entry.kind == "strikepy" and _strikepy() is None:
+        raise LoadError(f"{entry.spec}: StrikePy models are not supported by this version of uio_jax")
+    if entry.kind == "file" and not _has_module("_model_file"):
+        raise LoadError(f"{entry.spec}: .toml/.json model files are not supported by this version of uio_jax")
     return load_system(entry.spec)
+
+
+def _has_module(name) -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec(f"{__package__}.{name}") is not None
 
 
 def _run_entry(entry: _Entry, analyze_kwargs, keep_report=True) -> BatchRow:
