@@ -346,13 +346,12 @@ def split_general(states, dynamics, outputs, known_inputs, unknown_inputs, param
     for v in inputs:
         if v in nonsmooth and v not in reasons:
             reasons[v] = "enters through abs/sign/min/max"
-    rest = [v for v in inputs if v not in reasons]
-    if rest:
-        pattern = nonaffine_pattern(states, dynamics, rest, params, constants, domain, angles, seed=seed)
-        for a, v in enumerate(rest):
-            if pattern[a, a]:
+    if any(v not in reasons for v in inputs):
+        pattern = nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angles, seed=seed)
+        for a, v in enumerate(inputs):
+            if pattern[a, a] and v not in reasons:
                 reasons[v] = "enters the dynamics non-affinely (second derivative in it is not 0)"
-        _cover_cross_terms(rest, pattern, reasons, set(unknown_inputs))
+        _cover_cross_terms(list(inputs), pattern, reasons, set(unknown_inputs))
     promoted = tuple(v for v in inputs if v in reasons)
     return _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
                      constants, domain, angles, tuple(notes))
