@@ -304,6 +304,7 @@ class _Converter:
 def _attribute_node(node: ast.Attribute):
     """A stand-in node located at the attribute's name (``.attr``)."""
     fake = ast.Name(id="", ctx=ast.Load())
+    fake.lineno = getattr(node, "end_lineno", None) or getattr(node, "lineno", None)
     end = getattr(node, "end_col_offset", None)
     fake.col_offset = node.col_offset if end is None else max(end - len(node.attr), node.col_offset)
     return fake
@@ -313,6 +314,7 @@ def _operator_node(node: ast.BinOp):
     """A stand-in node located just after the left operand (where the operator is)."""
     col = getattr(node.left, "end_col_offset", None)
     fake = ast.Name(id="", ctx=ast.Load())
+    fake.lineno = getattr(node.left, "end_lineno", None) or getattr(node, "lineno", None)
     fake.col_offset = col if col is not None else node.col_offset
     return fake
 
