@@ -105,6 +105,13 @@ def test_two_compartment_parameters_are_identifiable():
     assert rep.identifiable == {"k01": True, "k12": True, "k21": True}
 
 
+@pytest.mark.slow
+def test_pendulum_damping_is_hidden_by_the_unknown_torque():
+    rep = analyze(uj.load_system(os.path.join(SYSTEMS, "pendulum_torque_unknown.toml")))
+    assert rep.method == "eorc"
+    assert rep.observable == {"theta": True, "omega": True} and rep.identifiable == {"c": False}
+
+
 # ----------------------------------------------------------------------------- round trips
 def _round_trip(system, tmp_path, suffix):
     path = str(tmp_path / f"model{suffix}")
