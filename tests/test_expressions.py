@@ -95,6 +95,16 @@ def test_deep_nesting_is_refused_not_crashing():
         parse_expression("-" * 100_000 + "x1", NAMES)
 
 
+def test_depth_and_size_limits():
+    from uio_jax._expressions import MAX_DEPTH, depth, size
+
+    e = parse_expression("+".join(["x1"] * MAX_DEPTH), NAMES)
+    assert depth(e) == MAX_DEPTH and size(e) == 2 * MAX_DEPTH - 1
+    assert float(to_function(e, NAMES)(np.array([1.0, 0.0, 0.0]))) == MAX_DEPTH
+    with pytest.raises(ExpressionError, match="nested too deeply"):
+        parse_expression("+".join(["x1"] * (MAX_DEPTH + 1)), NAMES)
+
+
 def test_column_counts_characters_not_bytes():
     with pytest.raises(ExpressionError, match="at column 7: name 'y'"):
         parse_expression("θ + θ*y", ("θ",))

@@ -264,6 +264,15 @@ def test_broken_strikepy_modules(tmp_path, change, fragment):
     assert "\n" not in msg and path in msg and fragment in msg
 
 
+def test_inlining_cannot_blow_up(tmp_path):
+    text = GOOD.replace("h = [x1]", "a = x1*x1\n" + "a = a*a\n" * 60 + "h = [a]")
+    with pytest.raises(uj.LoadError, match=r"line \d+: too large"):
+        uj.load_strikepy(_write(tmp_path, text))
+    text = GOOD.replace("h = [x1]", "a = x1\n" + "a = a + x1\n" * 500 + "h = [a]")
+    with pytest.raises(uj.LoadError, match="nested too deeply"):
+        uj.load_strikepy(_write(tmp_path, text))
+
+
 def test_load_system_dispatch(tmp_path):
     assert not is_strikepy_module(zoo_path("gps"))
     assert not is_strikepy_module(str(tmp_path / "none.py"))

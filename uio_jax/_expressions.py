@@ -40,6 +40,13 @@ from ._errors import ModelError
 
 #: Longest expression text accepted (characters); longer text is refused before parsing.
 MAX_LENGTH = 100_000
+#: Deepest expression tree accepted (a flat sum of N terms is N deep). Printing, compiling
+#: and evaluating walk the tree recursively, so this keeps them far from Python's
+#: recursion limit.
+MAX_DEPTH = 400
+#: Most nodes of an expression tree, counted with repetitions (the StrikePy reader inlines
+#: named subexpressions: ``b = a*a; c = b*b; ...`` doubles the tree at each line).
+MAX_NODES = 200_000
 #: Integer exponents up to this size use ``lax.integer_pow``; larger ones ``jnp.power``.
 _MAX_INTEGER_POW = 64
 #: Names of mathematical constants, usable in every expression unless a variable shadows them.
@@ -224,9 +231,14 @@ class _Converter:
 
     def convert(self, node) -> Expr:
         try:
-            return self._visit(node)
+            out = self._visit(node)
         except RecursionError:
-            self.fail(node, "nested too deeply")
+            self.fail(node, f"nested too deeply (more than {MAX_DEPTH} levels)")
+        if depth(out) > MAX_DEPTH:
+            self.fail(node, f"nested too deeply (more than {MAX_DEPTH} levels; a sum of N terms is N levels)")
+        if size(out) > MAX_NODES:
+            self.fail(node, f"too large (more than {MAX_NODES} operations once named subexpressions are inlined)")
+        return out
 
     def _visit(self, node) -> Expr:
         if isinstance(node, ast.Constant):
@@ -365,6 +377,43 @@ def names_of(expr: Expr) -> set[str]:
         elif isinstance(e, Call):
             stack.extend(e.args)
     return out
+
+
+def _children(e: Expr) -> tuple:
+    if isinstance(e, Unary):
+        return (e.operand,)
+    if isinstance(e, Binary):
+        return (e.left, e.right)
+    if isinstance(e, Call):
+        return e.args
+    return ()
+
+
+def _fold(expr: Expr, combine) -> int:
+    """Bottom-up value over the DAG of shared subtrees (memoised by identity, no recursion)."""
+    memo, stack = {}, [expr]
+    while stack:
+        e = stack[-1]
+        if id(e) in memo:
+            stack.pop()
+            continue
+        todo = [c for c in _children(e) if id(c) not in memo]
+        if todo:
+            stack.extend(todo)
+            continue
+        stack.pop()
+        memo[id(e)] = combine([memo[id(c)] for c in _children(e)])
+    return memo[id(expr)]
+
+
+def depth(expr: Expr) -> int:
+    """Number of levels of a tree (a leaf is 1)."""
+    return _fold(expr, lambda kids: 1 + max(kids, default=0))
+
+
+def size(expr: Expr) -> int:
+    """Number of nodes of a tree, shared subtrees counted every time they occur."""
+    return _fold(expr, lambda kids: 1 + sum(kids))
 
 
 def substitute(expr: Expr, mapping: Mapping[str, Expr]) -> Expr:
