@@ -381,8 +381,7 @@ def build_system(spec: ModelSpec):
             drift=vector_function(drift, spec.states, base, consts) if drift else None,
             domain=dict(spec.domain), angles=tuple(spec.angles),
         )
-    n = len(parts.states)
-    wrap = _with_params(n) if spec.params else _no_params
+    wrap = _with_params if spec.params else _no_params
     return System(
         parts.states,
         {k: wrap(f) for k, f in parts.outputs.items()},
@@ -395,19 +394,19 @@ def build_system(spec: ModelSpec):
 
 
 def _no_params(fn):
+    """``fn(z)`` with ``z = x``: the System's callable as is."""
     return fn
 
 
-def _with_params(n):
-    def wrap(fn):
-        def f(x, p):
-            if isinstance(x, np.ndarray) and isinstance(p, np.ndarray):  # one-off numpy evaluation
-                return fn(np.concatenate([x, p]).astype(np.float64))
-            return fn(jnp.concatenate([jnp.asarray(x), jnp.asarray(p)]))
+def _with_params(fn):
+    """``fn(z)`` on ``z = [x; p]`` -> the System's callable ``(x, p)``."""
 
-        return f
+    def f(x, p):
+        if isinstance(x, np.ndarray) and isinstance(p, np.ndarray):  # one-off numpy evaluation
+            return fn(np.concatenate([x, p]).astype(np.float64))
+        return fn(jnp.concatenate([jnp.asarray(x), jnp.asarray(p)]))
 
-    return wrap
+    return f
 
 
 # ----------------------------------------------------------------------------- files
