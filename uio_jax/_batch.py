@@ -68,7 +68,7 @@ class BatchRow:
         fraction: fraction of the samples at the generic rank (``certificate.fraction``).
         gap_decades: margin of the weakest rank decision, ``log10(sigma_r_min /
             sigma_next_max)`` (``certificate.gap_decades``; inf when nothing was rejected).
-        seconds: wall time of loading plus analysing the model, in seconds.
+        seconds: wall time of building/loading plus analysing the model, in seconds.
         error: the one-line error of a failed model, None when it passed.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
@@ -281,6 +281,7 @@ class _Entry:
     kind: str = "spec"  # "spec" (FILE.py:NAME), "file" (.toml/.json), "strikepy"
     system: System | None = field(default=None, repr=False)
     error: str | None = None
+    build_s: float = 0.0  # time spent building ``system`` during discovery (added to the row)
 
 
 def discover(models):
@@ -403,16 +404,18 @@ def _zoo_entries(path: str):
         if why:
             skipped.append((spec, why))
             continue
+        t0 = time.perf_counter()
         try:
             built = obj()
         except UioJaxError as exc:
-            entries.append(_Entry(spec, spec, "spec", error=f"{spec}: {exc}"))
+            entries.append(_Entry(spec, spec, "spec", error=f"{spec}: {exc}", build_s=time.perf_counter() - t0))
             continue
         except Exception as exc:
-            entries.append(_Entry(spec, spec, "spec", error=f"{spec} raised {_one_line(exc)}"))
+            entries.append(_Entry(spec, spec, "spec", error=f"{spec} raised {_one_line(exc)}",
+                                  build_s=time.perf_counter() - t0))
             continue
         if isinstance(built, System):
-            entries.append(_Entry(spec, spec, "spec", _named(built, path, name)))
+            entries.append(_Entry(spec, spec, "spec", _named(built, path, name), build_s=time.perf_counter() - t0))
         else:
             skipped.append((spec, f"returns {type(built).__name__}"))
     if not entries and not skipped:
@@ -481,9 +484,9 @@ def _run_entry(entry: _Entry, analyze_kwargs, keep_report=True) -> BatchRow:
     """Load and analyse one model; every error becomes the row's one-line error."""
     from ._analyze import analyze
 
-    t0 = time.perf_counter()
+    t0 = time.perf_counter() - entry.build_s
     if entry.error is not None:
-        return BatchRow(entry.label, error=entry.error, seconds=0.0)
+        return BatchRow(entry.label, error=entry.error, seconds=entry.build_s)
     try:
         rep = analyze(_load(entry), **analyze_kwargs)
     except UioJaxError as exc:
