@@ -260,3 +260,15 @@ def test_cli_uses_the_cache_dir_from_the_environment(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert len(os.listdir(cache)) > 3
+
+
+def test_jobs_run_models_in_worker_processes(zoo_file):
+    polar = zoo_path("unicycle_polar")
+    sysm = uj.load_system(f"{polar}:phi_known")
+    models = [f"{polar}:range_known", sysm, f"{polar}:bearing_known", f"{zoo_file}:broken"]
+    res = uj.batch_analyze(models, jobs=2, samples=SAMPLES)
+    assert [r.model for r in res] == [f"{polar}:range_known", "unicycle_polar:phi_known",
+                                      f"{polar}:bearing_known", f"{zoo_file}:broken"]
+    assert [r.dim for r in res] == [2, 3, 2, None] and [r.ok for r in res] == [True, True, True, False]
+    assert res[0].report is None and res[0].seconds > 0  # reports stay in the workers
+    assert "raised RuntimeError: boom" in res[3].error
