@@ -261,9 +261,10 @@ def batch_analyze(models, *, jobs: int = 1, progress=None, keep_reports: bool = 
             rows = _run_parallel(entries, jobs, analyze_kwargs, bar)
         else:
             rows = []
-            for e in entries:
+            for i, e in enumerate(entries):
                 bar.start(e.label)
                 rows.append(_run_entry(e, analyze_kwargs, keep_reports))
+                entries[i] = e = None  # without its report, the System and its compiled code can go
                 bar.finish()
     finally:
         bar.close()
