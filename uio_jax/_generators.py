@@ -44,6 +44,7 @@ class Builder:
     def __init__(self):
         self._nodes: dict[tuple, Node] = {}
         self._compiled: dict[tuple, object] = {}
+        self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
         self.stats: list[CompileStat] = []
 
     def _get(self, key, make):
@@ -62,16 +63,28 @@ class Builder:
         return self._get(("field", label), lambda: Node(label, fn, "field"))
 
     def lie(self, v: Node, phi: Node) -> Node:
-        """``L_v phi``."""
-        return self._get(
-            ("lie", v.label, phi.label),
-            lambda: Node(
-                f"L_{_wrap(v.label)} {phi.label}",
-                _lie.lie_derivative(phi.fn, v.fn),
-                "scalar",
-                phi.depth + v.depth + 1,
-            ),
-        )
+        """``L_v phi``.
+
+        Repeated derivatives along the same field, ``L_v^j base`` with ``j >=
+        TAYLOR_FROM``, are built as one Taylor pass along the flow of ``v``
+        (:func:`uio_jax._taylor.lie_powers`) instead of ``j`` nested ``jvp``: the traced
+        graph grows linearly in ``j`` instead of geometrically (a 35-state model needs
+        ``j`` ~ 15). A model using a primitive without a Taylor rule keeps the nested form.
+        """
+        key = ("lie", v.label, phi.label)
+        node = self._nodes.get(key)
+        if node is not None:
+            return node
+        base, j = self._powers.get((phi, v.label), (phi, 0))
+        fn = None
+        if j + 1 >= TAYLOR_FROM:
+            fn = _taylor_power(base.fn, v.fn, j + 1, phi.fn)
+        if fn is None:
+            fn = _lie.lie_derivative(phi.fn, v.fn)
+        node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1)
+        self._nodes[key] = node
+        self._powers[(node, v.label)] = (base, j + 1)
+        return node
 
     def bracket(self, a: Node, b: Node) -> Node:
         """``[a, b]``."""
@@ -180,6 +193,34 @@ class Builder:
 
 #: Graphs with more jaxpr equations than this are compiled at XLA optimization level 0.
 LARGE_GRAPH = 20000
+
+#: ``L_v^j base`` with ``j`` at least this is one Taylor pass rather than nested jvp.
+TAYLOR_FROM = 3
+
+
+def _taylor_power(psi, v, j, nested):
+    """``x -> L_v^j psi (x)`` by one Taylor pass, or None when a primitive has no rule.
+
+    The Taylor form is traced once on a dummy state (shape of ``nested``'s argument is
+    unknown here, so the check happens on first call through a fallback wrapper).
+    """
+    from ._taylor import lie_powers
+
+    powers = lie_powers(psi, v, j)
+    state = {"fn": None}
+
+    def power(x):
+        fn = state["fn"]
+        if fn is None:
+            try:
+                jax.eval_shape(powers, jax.ShapeDtypeStruct(x.shape, x.dtype))
+                fn = lambda y: powers(y)[j]  # noqa: E731
+            except (NotImplementedError, KeyError, TypeError, ValueError):  # no Taylor rule
+                fn = _lie.lie_derivative(nested, v)
+            state["fn"] = fn
+        return fn(x)
+
+    return power
 
 
 @dataclass(frozen=True)
