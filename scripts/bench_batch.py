@@ -117,8 +117,13 @@ def main(argv=None):
         print(json.dumps(_driver(args.paths, args.samples, args.k_max, args.cache_dir)))
         return 0
 
+    from uio_jax._batch import _expand
+
+    # the model files are listed once, so that every phase runs the same ones even if files
+    # are added to a directory meanwhile
+    files = [f for path in args.paths for f in _expand(path)]
     tmp = Path(tempfile.mkdtemp(prefix="uio_bench_batch_"))
-    raw = {"paths": args.paths, "samples": args.samples, "k_max": args.k_max, "runs": [],
+    raw = {"paths": args.paths, "files": files, "samples": args.samples, "k_max": args.k_max, "runs": [],
            "started": datetime.datetime.now().isoformat(timespec="seconds")}
     try:
         for i in range(args.runs):
@@ -127,7 +132,7 @@ def main(argv=None):
                 rec = {"run": i, "jobs": jobs}
                 for phase in ("cold", "warm"):
                     out = tmp / f"{phase}_{i}_{jobs}.json"
-                    m = _measure(_cli(args.paths, args, cache, jobs, out), f"run {i} jobs {jobs} {phase}")
+                    m = _measure(_cli(files, args, cache, jobs, out), f"run {i} jobs {jobs} {phase}")
                     m["batch"] = json.loads(out.read_text())
                     m.pop("stdout")
                     rec[phase] = m
@@ -135,7 +140,7 @@ def main(argv=None):
                         rec["cache_bytes"] = _dir_size(cache)
                 raw["runs"].append(rec)
             if i == 0 and not args.no_run_only:
-                cmd = [sys.executable, str(Path(__file__).resolve()), "--driver", *args.paths,
+                cmd = [sys.executable, str(Path(__file__).resolve()), "--driver", *files,
                        "--samples", str(args.samples), "--k-max", str(args.k_max),
                        "--cache-dir", str(tmp / "cache_0_1" if 1 in args.jobs else tmp / f"cache_0_{args.jobs[0]}")]
                 m = _measure(cmd, "evaluation-only driver")
@@ -205,8 +210,9 @@ def report(raw, argv) -> str:
     for r in rs1:
         for phase in ("cold", "warm"):
             for m in r[phase]["batch"]["models"]:
-                per.setdefault(m["model"], {"cold": [], "warm": []})[phase].append(m["seconds"])
-                info[m["model"]] = m
+                if m["model"] in per:
+                    per[m["model"]][phase].append(m["seconds"])
+                    info[m["model"]] = m
     evaluation = raw.get("evaluation", {})
     lines += [
         f"## Per model (jobs {jobs_values[0]}; medians of {len(rs1)} runs; seconds)",
