@@ -94,7 +94,7 @@ def _with_param(system, scale_field):
 
 
 @pytest.mark.parametrize("spec, field, method", [
-    ("unicycle_polar.py:range_v_unknown", "omega", "single_ui"),
+    pytest.param("unicycle_polar.py:range_v_unknown", "omega", "single_ui", marks=pytest.mark.slow),
     ("unicycle_polar.py:bearing_omega_unknown", "v", "single_ui"),
     ("counterexamples.py:drift_example", "w", "eorc"),
 ])
