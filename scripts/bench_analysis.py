@@ -123,9 +123,8 @@ def bench_ours(spec, method, repeats):
 # --------------------------------------------------------------------------------------
 
 def bench_sympy(spec, method, repeats, long_s, budget_s):
-    import sympy.core.cache
-
     import _sympy_models
+    import sympy.core.cache
     import sympy_oracle
 
     def run():

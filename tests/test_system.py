@@ -28,7 +28,8 @@ def test_a_valid_system_builds_with_default_domain():
 @pytest.mark.parametrize(
     "kw, message",
     [
-        (dict(known={"u": lambda x: jnp.array([1.0, 0.0, 0.0])}), "known field 'u' returns shape (3,), expected shape (2,)"),
+        (dict(known={"u": lambda x: jnp.array([1.0, 0.0, 0.0])}),
+         "known field 'u' returns shape (3,), expected shape (2,)"),
         (dict(unknown={"w": lambda x: jnp.array([1.0])}), "unknown field 'w' returns shape (1,)"),
         (dict(drift=lambda x: x[0]), "drift returns shape ()"),
         (dict(outputs={"y": lambda x: x}), "output 'y' returns shape (2,), expected a scalar"),
