@@ -79,6 +79,7 @@ from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
+from ._program_cache import compile_program
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System
 from ._taylor import lie_powers
@@ -310,7 +311,8 @@ class _Eorc:
         return fn
 
     def _node(self, label, depth):
-        return Node(label, self._fn(label), "scalar", depth)
+        # labels name the structure uniquely (self.struct); the function also depends on the mode
+        return Node(label, self._fn(label), "scalar", depth, f"eorc:{self.cache['mode']}:{label}")
 
     def _children(self, phi):
         """Labels of ``L_F0 phi`` then ``L_{F_i} phi`` (registering their structures)."""
@@ -381,7 +383,8 @@ class _Eorc:
             if compiled is not None:
                 break
             try:
-                compiled = self._block(frontier, labels).lower(xs).compile()
+                parts = ["eorc-block", self.cache["mode"], "\n".join(p.label for p in frontier)]
+                compiled, _ = compile_program(self.ext, parts, lambda: self._block(frontier, labels), xs)
                 self.cache["compiled"][key] = compiled
                 break
             except (NotImplementedError, KeyError, TypeError, ValueError):  # no rule

@@ -8,14 +8,14 @@ caches keyed on function identity keep hitting across steps and across calls of
 cached the same way.
 """
 
-import time
+import hashlib
 import weakref
 from dataclasses import dataclass
 
 import jax
 import numpy as np
 
-from . import _lie
+from . import _lie, _program_cache
 
 
 @dataclass(frozen=True, eq=False)
@@ -27,12 +27,16 @@ class Node:
         fn: the callable, ``x (n,) -> ()`` or ``(n,)``.
         kind: ``"scalar"`` or ``"field"``.
         depth: number of differentiations behind it (a measure of trace size).
+        sig: structural signature (the operation tree down to the model's named outputs
+            and fields, hashed); empty for a node of unknown provenance. Programs of
+            nodes that all have one can be kept on disk (:mod:`uio_jax._program_cache`).
     """
 
     label: str
     fn: object
     kind: str
     depth: int = 0
+    sig: str = ""
 
     def __repr__(self):
         return f"Node({self.label!r})"
@@ -41,7 +45,8 @@ class Node:
 class Builder:
     """Creates and memoizes the nodes of one System."""
 
-    def __init__(self):
+    def __init__(self, system=None):
+        self._system = weakref.ref(system) if system is not None else (lambda: None)
         self._nodes: dict[tuple, Node] = {}
         self._compiled: dict[tuple, object] = {}
         self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
@@ -56,11 +61,11 @@ class Builder:
 
     def scalar(self, label, fn) -> Node:
         """A named scalar function given by the user (an output)."""
-        return self._get(("scalar", label), lambda: Node(label, fn, "scalar"))
+        return self._get(("scalar", label), lambda: Node(label, fn, "scalar", sig=_sig("out", label)))
 
     def field(self, label, fn) -> Node:
         """A named vector field given by the user."""
-        return self._get(("field", label), lambda: Node(label, fn, "field"))
+        return self._get(("field", label), lambda: Node(label, fn, "field", sig=_sig("field", label)))
 
     def lie(self, v: Node, phi: Node) -> Node:
         """``L_v phi``.
@@ -81,7 +86,8 @@ class Builder:
             fn = _taylor_power(base.fn, v.fn, j + 1, phi.fn)
         if fn is None:
             fn = _lie.lie_derivative(phi.fn, v.fn)
-        node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1)
+        node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
+                    _sig("lie", v.sig, phi.sig))
         self._nodes[key] = node
         self._powers[(node, v.label)] = (base, j + 1)
         return node
@@ -95,6 +101,7 @@ class Builder:
                 _lie.lie_bracket(a.fn, b.fn),
                 "field",
                 max(a.depth, b.depth) + 1,
+                _sig("bracket", a.sig, b.sig),
             ),
         )
 
@@ -107,6 +114,7 @@ class Builder:
                 _lie.scaled_field(v.fn, s.fn),
                 "field",
                 max(v.depth, s.depth),
+                _sig("scaled", v.sig, s.sig),
             ),
         )
 
@@ -119,6 +127,7 @@ class Builder:
                 _lie.ratio(num.fn, den.fn, power),
                 "scalar",
                 max(num.depth, den.depth),
+                _sig("ratio", num.sig, den.sig, str(power)),
             ),
         )
 
@@ -127,22 +136,25 @@ class Builder:
 
         Large graphs (nested Lie derivatives) are compiled with XLA's backend optimization
         level 0: it roughly halves compile time, which dominates for these one-off
-        functions, at the cost of a slower (still millisecond-scale) execution. Trace
-        size and compile time are recorded in ``self.stats`` for the benchmarks.
+        functions, at the cost of a slower (still millisecond-scale) execution. With the
+        persistent compilation cache on, the traced program is also kept on disk
+        (:mod:`uio_jax._program_cache`) and a later process skips the tracing. Trace size
+        and compile time are recorded in ``self.stats`` for the benchmarks.
         """
         ck = (key, tuple(xs.shape))
         compiled = self._compiled.get(ck)
         with jax.enable_x64(True):
             if compiled is None:
-                t0 = time.perf_counter()
-                traced = jax.jit(jax.vmap(make())).trace(xs)
-                eqns = _count_eqns(traced.jaxpr.jaxpr)
-                t1 = time.perf_counter()
-                opts = {"xla_backend_optimization_level": 0} if eqns > LARGE_GRAPH else None
-                compiled = traced.lower().compile(opts) if opts else traced.lower().compile()
-                t2 = time.perf_counter()
+                kind, *groups = key
+                parts = [kind] + [",".join(nd.sig for nd in g) if all(nd.sig for nd in g) else ""
+                                  for g in groups]
+                system = self._system()
+                if system is None:
+                    parts = [""]  # not keyable without the model's fingerprint
+                compiled, t = _program_cache.compile_program(
+                    system, parts, lambda: jax.jit(jax.vmap(make())), xs, _large_graph_options)
                 self._compiled[ck] = compiled
-                self.stats.append(CompileStat(_key_label(key), eqns, t1 - t0, t2 - t1))
+                self.stats.append(CompileStat(_key_label(key), t.eqns, t.trace_s, t.compile_s, t.from_disk))
             return compiled(xs)
 
     def gradients(self, nodes, xs) -> np.ndarray:
@@ -225,12 +237,32 @@ def _taylor_power(psi, v, j, nested):
 
 @dataclass(frozen=True)
 class CompileStat:
-    """Trace size and compile cost of one jitted evaluation (for benchmarks)."""
+    """Trace size and compile cost of one jitted evaluation (for benchmarks).
+
+    ``from_disk``: the traced program came from the program cache (``trace_s`` is 0).
+    """
 
     what: str
     eqns: int
     trace_s: float
     compile_s: float
+    from_disk: bool = False
+
+
+def _large_graph_options(traced):
+    """``(eqns, XLA options)``: optimization level 0 above :data:`LARGE_GRAPH` equations."""
+    eqns = _count_eqns(traced.jaxpr.jaxpr)
+    return eqns, ({"xla_backend_optimization_level": 0} if eqns > LARGE_GRAPH else None)
+
+
+def _sig(op, *operands) -> str:
+    """Signature of a node made by ``op`` from operands (their signatures, or plain names).
+
+    Empty when an operand has none (provenance unknown).
+    """
+    if any(not o for o in operands):
+        return ""
+    return hashlib.sha256(repr((op, operands)).encode()).hexdigest()[:32]
 
 
 def _count_eqns(jaxpr) -> int:
@@ -263,6 +295,6 @@ def builder_for(system) -> Builder:
     """The (cached) Builder of a System: the same System reuses its nodes and jit caches."""
     b = _BUILDERS.get(system)
     if b is None:
-        b = Builder()
+        b = Builder(system)
         _BUILDERS[system] = b
     return b

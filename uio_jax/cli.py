@@ -36,7 +36,8 @@ def _build_parser():
     p = _Parser(prog="uio-jax", description="Unknown-input observability of nonlinear systems.")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
     a = sub.add_parser("analyze", help="observability analysis of one model")
-    a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System")
+    a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System, a .toml/.json model file, "
+                   "or a StrikePy model module (FILE.py)")
     _analysis_options(a)
     a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     a.add_argument("--plot", metavar="FILE", help="also draw dims per step and the rank evidence "

@@ -1,0 +1,123 @@
+"""The on-disk program cache: a later analysis of the same model skips tracing, and nothing
+that changes the computation can reuse a stale program."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from helpers import zoo_system
+
+import uio_jax as uj
+from uio_jax import _program_cache
+from uio_jax._compile_cache import compile_cache
+
+
+def _programs(cache_dir):
+    return sorted((cache_dir / _program_cache.SUBDIR).glob("*.prog"))
+
+
+def _same_report(a, b):
+    assert a.method == b.method and a.dim == b.dim and a.observable == b.observable
+    assert [s.dim for s in a.history] == [s.dim for s in b.history]
+    assert a.certificate.fraction == b.certificate.fraction
+    assert a.generators == b.generators
+
+
+@pytest.mark.parametrize("spec", ["unicycle_polar:range_v_unknown", "gps:inputs_unknown",
+                                  "unicycle_polar:bearing_known"])
+def test_a_fresh_system_object_loads_every_program_and_reports_the_same(tmp_path, spec, monkeypatch):
+    """Second analysis on a new System object (as in a new process): no program traced."""
+    with compile_cache(tmp_path):
+        first = uj.analyze(zoo_system(*spec.split(':')), samples=256)
+        assert _programs(tmp_path), "nothing was stored"
+        traced = []
+        real = _program_cache._trace_and_compile
+        monkeypatch.setattr(_program_cache, "_trace_and_compile",
+                            lambda *a: traced.append(a[0]) or real(*a))
+        second = uj.analyze(zoo_system(*spec.split(':')), samples=256)
+    assert traced == []
+    _same_report(first, second)
+
+
+def _system(scale, name="scaled"):
+    return uj.System(
+        states=("a", "b"),
+        outputs={"y": lambda x: scale * x[0]},
+        drift=lambda x: jnp.stack([x[1], -x[0]]),
+        name=name,
+    )
+
+
+def test_a_changed_constant_or_function_changes_the_model_fingerprint():
+    fp = _program_cache.model_fingerprint
+    assert fp(_system(1.0)) == fp(_system(1.0))  # same computation, other objects
+    assert fp(_system(1.0)) != fp(_system(2.0))  # a literal
+    const = np.array([1.0, 2.0])
+    other = uj.System(states=("a", "b"), outputs={"y": lambda x: jnp.dot(const, x)},
+                      drift=lambda x: jnp.stack([x[1], -x[0]]))
+    const2 = np.array([1.0, 3.0])
+    other2 = uj.System(states=("a", "b"), outputs={"y": lambda x: jnp.dot(const2, x)},
+                       drift=lambda x: jnp.stack([x[1], -x[0]]))
+    assert fp(other) != fp(other2)  # a captured array constant
+    renamed = uj.System(states=("a", "b"), outputs={"z": lambda x: x[0]}, drift=lambda x: jnp.stack([x[1], -x[0]]))
+    assert fp(renamed) != fp(_system(1.0))
+
+
+def test_a_model_change_is_not_answered_from_a_stale_program(tmp_path):
+    """Same names and structure, another constant: a new program, the right answer."""
+    with compile_cache(tmp_path):
+        uj.analyze(_system(1.0), samples=128)
+        n_files = len(_programs(tmp_path))
+        # y = 0 * a: nothing observable; a stale program (y = a) would say both are
+        rep = uj.analyze(_system(0.0), samples=128)
+        assert len(_programs(tmp_path)) > n_files
+    assert rep.dim == 0
+
+
+def test_nodes_without_a_signature_are_not_keyed(tmp_path):
+    sys = _system(1.0)
+    xs = jnp.zeros((4, 2))
+    with compile_cache(tmp_path):
+        assert _program_cache.program_key(sys, ["grad", ""], xs) is None
+        assert _program_cache.program_key(sys, ["grad", "abc"], xs) is not None
+        assert (_program_cache.program_key(sys, ["grad", "abc"], xs)
+                != _program_cache.program_key(sys, ["grad", "abc"], jnp.zeros((8, 2))))
+    assert _program_cache.program_key(sys, ["grad", "abc"], xs) is None  # cache off: no key
+
+
+def test_corrupt_program_files_are_ignored_and_rewritten(tmp_path):
+    spec = "unicycle_polar:range_known"
+    with compile_cache(tmp_path):
+        first = uj.analyze(zoo_system(*spec.split(':')), samples=128)
+        files = _programs(tmp_path)
+        for f in files:
+            f.write_bytes(b"not a program")
+        second = uj.analyze(zoo_system(*spec.split(':')), samples=128)
+        assert all(f.read_bytes() != b"not a program" for f in files)
+    _same_report(first, second)
+
+
+def test_a_loaded_program_that_fails_to_run_is_dropped_and_rebuilt(tmp_path):
+    calls = []
+
+    def broken(*args):
+        raise jax.errors.JaxRuntimeError("NOT_FOUND: Function fusion not found")
+
+    def rebuild():
+        calls.append(1)
+        return lambda x: x + 1.0
+
+    with compile_cache(tmp_path):
+        path = tmp_path / _program_cache.SUBDIR / "k.prog"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"{}\n")
+        loaded = _program_cache._Loaded(broken, "k", rebuild)
+        assert loaded(1.0) == 2.0 and loaded(2.0) == 3.0
+    assert calls == [1] and not path.exists()
+
+
+def test_no_cache_no_files(tmp_path, monkeypatch):
+    monkeypatch.setenv("UIO_JAX_CACHE_DIR", str(tmp_path))
+    assert _program_cache.program_dir() is None  # the library leaves JAX's settings alone
+    uj.analyze(_system(1.0, name="nocache"), samples=64)
+    assert not (tmp_path / _program_cache.SUBDIR).exists()
