@@ -52,7 +52,7 @@ def test_unobservable_directions_checks_its_input():
 @pytest.mark.parametrize(
     "kw, message",
     [
-        (dict(method="fast"), "unknown method 'fast'"),
+        (dict(method="quick"), "unknown method 'quick'"),
         (dict(samples=4), "samples must be an integer >= 8"),
         (dict(samples=10.5), "samples must be an integer"),
         (dict(seed=-2), "seed must be a non-negative integer"),

@@ -12,7 +12,8 @@ from the models shipped with StrikePy 1.0), the test
   rank (then the codistribution is invariant). Ranks are taken in 50-digit arithmetic (mpmath
   SVD) at random rational points; a state or parameter ``z_j`` is observable / identifiable
   exactly when the unit covector ``e_j`` lies in that span;
-* asserts both give the same verdict for every state and every parameter.
+* asserts both give the same verdict for every state and every parameter, and so does the
+  generic-input series test (``method="series"``, the kind of test StrikePy runs).
 
 StrikePy itself is not imported: it is not a dependency of the test suite. Where it is installed,
 ``test_data_files_match_the_shipped_models`` checks that the re-typed files define the same
@@ -242,11 +243,14 @@ def test_importer_and_analysis_match_the_sympy_oracle(name):
 
     path = DATA / f"{name}.py"
     obs, ident, dim = hk_oracle(_read_model(path))
-    rep = uj.analyze(load_strikepy(str(path)), samples=SAMPLES)
-    assert rep.method == "orc"
-    assert {s: bool(rep.observable[s]) for s in obs} == obs
-    assert {q: bool(rep.identifiable[q]) for q in ident} == ident
-    assert rep.dim == dim
+    system = load_strikepy(str(path))
+    rep = uj.analyze(system, samples=SAMPLES)
+    series = uj.analyze(system, samples=SAMPLES, method="series")  # StrikePy's own kind of test
+    assert (rep.method, series.method) == ("orc", "series")
+    for r in (rep, series):
+        assert {s: bool(r.observable[s]) for s in obs} == obs
+        assert {q: bool(r.identifiable[q]) for q in ident} == ident
+        assert r.dim == dim
 
 
 def test_oracle_on_a_hand_checked_model():

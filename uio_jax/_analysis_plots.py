@@ -86,7 +86,7 @@ def _axes(ax, standalone):
 
 def _plot_dims(report, ax):
     steps = [s.m for s in report.history]
-    label = "order k" if report.method == "eorc" else "step m"
+    label = "order k" if report.method in ("eorc", "series") else "step m"
     ax.plot(steps, report.dims, "o-", color="C0", label="dim of the codistribution")
     aug = [s.extra.get("augmented_rank") for s in report.history]
     top = report.n

@@ -11,7 +11,7 @@ from ._rank import default_rtol
 from ._single_ui import check_applicable, single_ui_report
 from ._system import System
 
-METHODS = ("auto", "orc", "single_ui", "eorc")
+METHODS = ("auto", "orc", "single_ui", "eorc", "series", "fast")
 
 
 def analyze(
@@ -30,11 +30,17 @@ def analyze(
         system: a :class:`~uio_jax.System`.
 
     Other arguments:
-        method: ``"auto"`` (default), ``"orc"``, ``"single_ui"`` or ``"eorc"``.
+        method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"eorc"``,
+            ``"series"`` or ``"fast"``.
             ``"auto"`` picks, in order: no unknown input -> ``"orc"`` (Hermann-Krener);
             one unknown input and no drift -> ``"single_ui"`` (Martinelli's analytic
             solution); otherwise ``"eorc"`` (extended observability rank criterion,
-            sufficient only). ``Report.method`` records the choice.
+            sufficient only). ``"series"`` (every input known): rank of the output Taylor
+            coefficients along a generic known input (STRIKE-GOLDD's test, see
+            :mod:`uio_jax._series`): the ORC's final verdict without nested brackets, much
+            faster on large models, but per-order dims that are not the ORC's steps.
+            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
+            ``Report.method`` records the choice.
         samples: number S of random states of the domain at which every rank is
             evaluated (the certificate). More samples, surer verdict; cost is linear.
         seed: seed of the sampled states (same seed, same report).
@@ -83,6 +89,13 @@ def analyze(
         if chosen == "orc":
             ctx = Context(system, int(samples), int(seed), float(rtol))
             return _orc_report(ctx, why, max_order)
+        if chosen == "series":
+            from ._series import check_applicable as series_applicable
+            from ._series import series_report
+
+            series_applicable(system)
+            ctx = Context(system, int(samples), int(seed), float(rtol))
+            return series_report(ctx, seed=int(seed), why=why, max_order=max_order)
         if chosen == "single_ui":
             check_applicable(system)
             ctx = Context(system, int(samples), int(seed), float(rtol))
@@ -104,6 +117,11 @@ def analyze(
 def _choose(system, method):
     """The analysis to run and, for ``auto``, why."""
     n_unknown = len(system.unknown)
+    if method == "fast":
+        if n_unknown == 0:
+            return "series", "fast: no unknown input -> series (generic-input output series; ORC's verdict)"
+        chosen, why = _choose(system, "auto")
+        return chosen, why.replace("auto:", "fast:", 1)
     if method == "auto":
         if n_unknown == 0:
             return "orc", "auto: no unknown input -> ORC"
@@ -114,9 +132,9 @@ def _choose(system, method):
             + (" and a drift" if system.drift else "")
             + " -> EORC"
         )
-    if method == "orc" and n_unknown:
+    if method in ("orc", "series") and n_unknown:
         raise OptionError(
-            f"method 'orc' needs every input known, but {', '.join(system.unknown)} "
+            f"method {method!r} needs every input known, but {', '.join(system.unknown)} "
             "is unknown; use method='auto' (or treat it as known with "
             "System.with_known([...]))"
         )

@@ -59,6 +59,10 @@ class Builder:
             self._nodes[key] = node
         return node
 
+    def node(self, key, make) -> Node:
+        """The node memoized under ``key`` (a tuple), created by ``make()`` the first time."""
+        return self._get(key, make)
+
     def scalar(self, label, fn) -> Node:
         """A named scalar function given by the user (an output)."""
         return self._get(("scalar", label), lambda: Node(label, fn, "scalar", sig=_sig("out", label)))
@@ -152,7 +156,8 @@ class Builder:
                 if system is None:
                     parts = [""]  # not keyable without the model's fingerprint
                 compiled, t = _program_cache.compile_program(
-                    system, parts, lambda: jax.jit(jax.vmap(make())), xs, _large_graph_options)
+                    system, parts, lambda batch: _program_cache.vmapped(make(), batch), xs,
+                    _large_graph_options)
                 self._compiled[ck] = compiled
                 self.stats.append(CompileStat(_key_label(key), t.eqns, t.trace_s, t.compile_s, t.from_disk))
             return compiled(xs)
@@ -181,6 +186,14 @@ class Builder:
         fns = tuple(nd.fn for nd in nodes)
         make = lambda: (lambda x: tuple(f(x) for f in fns))
         return [np.asarray(v) for v in self._evaluate(("values", nodes), make, xs)]
+
+    def program(self, kind, nodes, make, xs) -> np.ndarray:
+        """Evaluate ``jax.vmap(make())`` at ``xs``, a program about the scalar ``nodes``.
+
+        Compiled once per ``(kind, nodes, shape)`` like the built-in evaluations, and kept
+        on disk by the program cache when every node has a signature.
+        """
+        return np.asarray(self._evaluate((kind, tuple(nodes)), make, xs))
 
     def lie_block(self, phis, fields, xs):
         """All ``L_v phi`` for ``phi in phis`` (scalar nodes), ``v in fields`` (field nodes).

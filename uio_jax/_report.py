@@ -109,7 +109,7 @@ class Report:
     """Result of :func:`uio_jax.analyze`.
 
     Attributes:
-        method: analysis that ran (``"orc"``, ``"single_ui"`` or ``"eorc"``).
+        method: analysis that ran (``"orc"``, ``"single_ui"``, ``"eorc"`` or ``"series"``).
         states: state names (order of the state vector).
         dim: generic dimension of the observable codistribution on the original state
             (on ``[x; p]`` when the System has parameters).
@@ -246,7 +246,7 @@ class Report:
         of = f"{self.n}" + (" (states and parameters)" if self.params else "")
         lines.append(f"observable codistribution: dim {self.dim} of {of}"
                      + ("  (fully observable)" if self.fully_observable else ""))
-        label = "k" if self.method == "eorc" else "m"
+        label = "k" if self.method in ("eorc", "series") else "m"
         lines.append("steps:")
         for st in self.history:
             extra = "".join(f", {k}={v}" for k, v in st.extra.items())
