@@ -4,16 +4,17 @@ Each run, in fresh processes (what a user gets from the command line):
 
 * **cold**: ``uio-jax batch PATHS --cache-dir D`` with an empty directory D: tracing, XLA
   compilation (written to D) and evaluation of every model;
-* **warm**: the same command again with the same D: XLA programs are loaded from D, tracing
-  and evaluation are redone.
+* **warm**: the same command again with the same D: the compiled programs are loaded from D
+  (the program cache, ``D/uio_jax_programs``, keyed without tracing; JAX's own persistent
+  cache for the small shared kernels), evaluation is redone.
 
 Once (after the first run, ``--no-run-only`` skips it), a driver process analyses every
 model twice in one process (``uj.batch_analyze`` on the same System objects, warm cache):
 the second pass reuses the in-memory compiled functions, so it measures **evaluation
 only** (sampling, vmapped gradients, rank decisions). Hence per model:
 
-    cold - warm        = what the persistent cache saves (XLA compile, minus cache reads)
-    warm - evaluation  = what the cache cannot save (tracing, lowering, cache reads)
+    cold - warm        = what the caches save (tracing, lowering, XLA compile, minus reads)
+    warm - evaluation  = what they cannot save (model loading, fingerprints, cache reads)
 
 ``--jobs 1 2`` repeats cold and warm with ``uio-jax batch --jobs 2`` (worker processes).
 Every process records wall time, CPU time (children's rusage) and ``os.getloadavg()``
@@ -25,6 +26,8 @@ Usage (from the repository root)::
 
     python scripts/bench_batch.py --runs 3 --out docs/benchmarks/batch.md
     python scripts/bench_batch.py systems/unicycle_polar.py --runs 1 --samples 256   # quick look
+    SP=$(python -c 'import StrikePy, os; print(os.path.dirname(StrikePy.__file__))')
+    python scripts/bench_batch.py systems "$SP/models" --method fast
 """
 
 from __future__ import annotations
@@ -51,6 +54,8 @@ def _cli(paths, args, cache_dir, jobs, out_json):
            "--seed", "0", "--cache-dir", str(cache_dir), "--json", str(out_json), "--no-progress"]
     if args.k_max:
         cmd += ["--k-max", str(args.k_max)]
+    if args.method != "auto":
+        cmd += ["--method", args.method]
     if jobs > 1:
         cmd += ["--jobs", str(jobs)]
     return cmd
@@ -78,7 +83,7 @@ def _dir_size(path) -> int:
     return sum(f.stat().st_size for f in Path(path).rglob("*") if f.is_file())
 
 
-def _driver(paths, samples, k_max, cache_dir):
+def _driver(paths, samples, k_max, cache_dir, method):
     """In this process: every model analysed twice (second pass = evaluation only)."""
     import uio_jax as uj
     from uio_jax._batch import _load, discover
@@ -92,7 +97,7 @@ def _driver(paths, samples, k_max, cache_dir):
             labels.append(e.label)
         except Exception:  # failed models are rows of the CLI runs already
             pass
-    kw = {"samples": samples, **({"k_max": k_max} if k_max else {})}
+    kw = {"samples": samples, "method": method, **({"k_max": k_max} if k_max else {})}
     first = uj.batch_analyze(systems, **kw)
     second = uj.batch_analyze(systems, **kw)
     return {lab: [a.seconds, b.seconds] for lab, a, b in zip(labels, first, second) if a.ok and b.ok}
@@ -105,6 +110,7 @@ def main(argv=None):
     p.add_argument("--k-max", type=int, default=2,
                    help="EORC order cap (default 2: the 16-19 state visual-inertial models would "
                         "otherwise run to k = n + 2); 0 = the library default")
+    p.add_argument("--method", default="auto", help="analysis method for every model (default auto)")
     p.add_argument("--runs", type=int, default=3, help="cold/warm pairs (median)")
     p.add_argument("--jobs", type=int, nargs="+", default=[1], help="jobs values to measure (e.g. 1 2)")
     p.add_argument("--no-run-only", action="store_true", help="skip the evaluation-only driver")
@@ -114,7 +120,7 @@ def main(argv=None):
     p.add_argument("--cache-dir", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.driver:
-        print(json.dumps(_driver(args.paths, args.samples, args.k_max, args.cache_dir)))
+        print(json.dumps(_driver(args.paths, args.samples, args.k_max, args.cache_dir, args.method)))
         return 0
 
     from uio_jax._batch import _expand
@@ -123,7 +129,8 @@ def main(argv=None):
     # are added to a directory meanwhile
     files = [f for path in args.paths for f in _expand(path)]
     tmp = Path(tempfile.mkdtemp(prefix="uio_bench_batch_"))
-    raw = {"paths": args.paths, "files": files, "samples": args.samples, "k_max": args.k_max, "runs": [],
+    raw = {"paths": args.paths, "files": files, "samples": args.samples, "k_max": args.k_max,
+           "method": args.method, "runs": [],
            "started": datetime.datetime.now().isoformat(timespec="seconds")}
     try:
         for i in range(args.runs):
@@ -141,7 +148,7 @@ def main(argv=None):
                 raw["runs"].append(rec)
             if i == 0 and not args.no_run_only:
                 cmd = [sys.executable, str(Path(__file__).resolve()), "--driver", *files,
-                       "--samples", str(args.samples), "--k-max", str(args.k_max),
+                       "--samples", str(args.samples), "--k-max", str(args.k_max), "--method", args.method,
                        "--cache-dir", str(tmp / "cache_0_1" if 1 in args.jobs else tmp / f"cache_0_{args.jobs[0]}")]
                 m = _measure(cmd, "evaluation-only driver")
                 raw["evaluation"] = json.loads(m.pop("stdout").strip().splitlines()[-1])
@@ -174,13 +181,15 @@ def report(raw, argv) -> str:
     runs = raw["runs"]
     jobs_values = sorted({r["jobs"] for r in runs})
     lines = [
-        "# Batch certification: cold and warm persistent compilation cache",
+        "# Batch certification: cold and warm caches",
         "",
         f"Command: `python scripts/bench_batch.py {' '.join(argv)}` ({raw['started']} to {raw['finished']}).",
         f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, jax {jax.__version__} (CPU, float64). Batch: "
         f"`uio-jax batch {' '.join(raw['paths'])} --samples {raw['samples']}"
-        + (f" --k-max {raw['k_max']}" if raw["k_max"] else "") + "`, each phase a fresh process; "
+        + (f" --k-max {raw['k_max']}" if raw["k_max"] else "")
+        + (f" --method {raw.get('method')}" if raw.get("method", "auto") != "auto" else "")
+        + "`, each phase a fresh process; "
         "load = `os.getloadavg()[0]` before -> after each process (above 2 = waiting for a core).",
         "",
         "## Whole batch",
@@ -217,10 +226,10 @@ def report(raw, argv) -> str:
     lines += [
         f"## Per model (jobs {jobs_values[0]}; medians of {len(rs1)} runs; seconds)",
         "",
-        "cold = trace + XLA compile + evaluation; warm = trace + cache read + evaluation; "
+        "cold = trace + XLA compile + evaluation; warm = program load + evaluation; "
         "evaluation = second analysis of the same System in one process (nothing compiled).",
         "",
-        "| model | method | dim / n | cold | warm | saved by the cache | evaluation | trace + cache read |",
+        "| model | method | dim / n | cold | warm | saved by the caches | evaluation | warm - evaluation |",
         "|---|---|---|---|---|---|---|---|",
     ]
     tot = {"cold": 0.0, "warm": 0.0, "eval": 0.0}

@@ -309,7 +309,7 @@ def _timed(fn):
     return out, {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0, "load1": load}
 
 
-def _ours_worker(path, samples, warm):
+def _ours_worker(path, samples, warm, method="auto"):
     """In the worker process: import ``path`` with the project's importer and analyse it (cold + warm)."""
     import uio_jax as uj
     from uio_jax._strikepy_import import load_strikepy
@@ -318,8 +318,8 @@ def _ours_worker(path, samples, warm):
     rec = {"load_before": os.getloadavg()}
     try:
         system, t_load = _timed(lambda: load_strikepy(str(path)))
-        rep, cold = _timed(lambda: uj.analyze(system, samples=samples))
-        warms = [_timed(lambda: uj.analyze(system, samples=samples))[1] for _ in range(warm)]
+        rep, cold = _timed(lambda: uj.analyze(system, samples=samples, method=method))
+        warms = [_timed(lambda: uj.analyze(system, samples=samples, method=method))[1] for _ in range(warm)]
     except Exception as e:  # recorded in the table: a failure is a result too
         rec.update(ok=False, error=f"{type(e).__name__}: {e}")
         return rec
@@ -335,9 +335,10 @@ def _ours_worker(path, samples, warm):
     return rec
 
 
-def run_ours(path, samples, warm, timeout_s):
+def run_ours(path, samples, warm, timeout_s, method="auto"):
     """Our analysis of ``path`` in a fresh process (``--ours-worker``), under a wall-time limit."""
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--ours-worker", str(path), "--samples", str(samples)]
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--ours-worker", str(path), "--samples", str(samples),
+           "--method", method]
     load = os.getloadavg()
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, cwd=str(ROOT),
@@ -586,7 +587,8 @@ def render(models, decls, ours, sps, cmps, meta, sp_dir, oracles=None):
               + (dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}") +
               (" (this run)." if meta["rerun"] else " (from the cache `strikepy_runs.json`; "
                "`--rerun` to measure them in the same run)."),
-              f"- **ours**: `load_strikepy(path)` then `uj.analyze(system, method=\"auto\", samples={SAMPLES})`, "
+              f"- **ours**: `load_strikepy(path)` then `uj.analyze(system, method=\"{meta.get('method', 'auto')}\", "
+              f"samples={meta.get('samples', SAMPLES)})`, "
               "each model in a fresh Python process (limit "
               f"{meta['ours_timeout']:.0f} s). *cold* = the first call on the freshly loaded `System`: tracing "
               "and XLA compilation included (JAX's persistent compilation cache is off; the JAX backend is "
@@ -755,6 +757,8 @@ def main(argv=None):
     ap.add_argument("--cpu-limit", action="store_true",
                     help="apply --timeout to StrikePy's CPU time (RLIMIT_CPU) instead of wall time")
     ap.add_argument("--samples", type=int, default=SAMPLES)
+    ap.add_argument("--method", default="auto",
+                    help="our method (default auto; 'fast' = the series test for known-input models)")
     ap.add_argument("--strikepy-only", action="store_true", help="only fill the StrikePy cache")
     ap.add_argument("--ours-timeout", type=float, default=900.0,
                     help="wall-time limit of our analysis of one model (s), compile included")
@@ -773,7 +777,7 @@ def main(argv=None):
         print("UJ_ORACLE " + json.dumps(_oracle_worker(args.oracle_worker)), flush=True)
         return 0
     if args.ours_worker:
-        print("UJ_OURS " + json.dumps(_ours_worker(args.ours_worker, args.samples, WARM)), flush=True)
+        print("UJ_OURS " + json.dumps(_ours_worker(args.ours_worker, args.samples, WARM, args.method)), flush=True)
         return 0
 
     def log(msg):
@@ -792,6 +796,7 @@ def main(argv=None):
     meta = {"command": "python scripts/compare_strikepy.py " + " ".join(argv if argv is not None else sys.argv[1:]),
             "date": _now(), "git": _git(), "machine": _machine(), "load_start": os.getloadavg(),
             "timeout": args.timeout, "rerun": args.rerun, "ours_timeout": args.ours_timeout,
+            "method": args.method, "samples": args.samples,
             "cpu_limit": args.cpu_limit, "oracle_timeout": args.oracle_timeout,
             "versions": {k: _version(k) for k in ("uio_jax", "jax", "jaxlib", "numpy", "sympy", "strikepy",
                                                   "symbtools")}}
@@ -811,7 +816,7 @@ def main(argv=None):
     ours = {}
     for m in models:
         log(f"ours {m} ...")
-        ours[m] = run_ours(sp_dir / "models" / f"{m}.py", args.samples, WARM, args.ours_timeout)
+        ours[m] = run_ours(sp_dir / "models" / f"{m}.py", args.samples, WARM, args.ours_timeout, args.method)
         o = ours[m]
         log(f"  {'ok' if o.get('ok') else 'FAILED ' + o.get('error', '')[:200]}"
             + (f" {o['method']} dim {o['dim']}/{o['n']} cold {o['cold']['wall_s']:.2f} s warm {o['warm_s']:.3f} s"

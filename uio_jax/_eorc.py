@@ -79,7 +79,7 @@ from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
-from ._program_cache import compile_program
+from ._program_cache import compile_program, vmapped
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System
 from ._taylor import lie_powers
@@ -338,14 +338,14 @@ class _Eorc:
         fns = [power(self._fn(base), self.ext.drift, i) for i in (j, j + 1)]
         return lambda x: jnp.stack([jnp.zeros(()) for _ in range(j)] + [f(x) for f in fns])
 
-    def _block(self, phis, labels):
+    def _block(self, phis, labels, batch=None):
         """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``.
 
         Per phi = ``L_F0^j base``: one pass ``g = [L_F0^i base]_{i <= j+1}``;
         ``L_F0 phi = g[j+1]`` and ``L_{F_i} phi = (dg . F_i)[j]`` (one jvp, vmapped over
         the known fields); then ``jax.jacfwd`` of the stacked children.
         """
-        key = (tuple(p.label for p in phis), self.cache["mode"])
+        key = (tuple(p.label for p in phis), self.cache["mode"], batch)
         fn = self.cache["blocks"].get(key)
         if fn is not None:
             return fn
@@ -366,7 +366,7 @@ class _Eorc:
                     vals.append(g(x)[j + 1][None])
             return jnp.concatenate(vals)
 
-        fn = jax.jit(jax.vmap(_JAC(children)))
+        fn = vmapped(_JAC(children), batch)
         self.cache["blocks"][key] = fn
         return fn
 
@@ -384,7 +384,8 @@ class _Eorc:
                 break
             try:
                 parts = ["eorc-block", self.cache["mode"], "\n".join(p.label for p in frontier)]
-                compiled, _ = compile_program(self.ext, parts, lambda: self._block(frontier, labels), xs)
+                compiled, _ = compile_program(self.ext, parts, lambda batch: self._block(frontier, labels, batch),
+                                              xs)
                 self.cache["compiled"][key] = compiled
                 break
             except (NotImplementedError, KeyError, TypeError, ValueError):  # no rule

@@ -31,6 +31,7 @@ unpickled): keep it in a directory only you can write.
 import contextlib
 import hashlib
 import json
+import math
 import os
 import pickle
 import platform
@@ -44,6 +45,20 @@ import jax
 import numpy as np
 
 from ._compile_cache import cache_dir_in_use
+
+
+def _physical_memory() -> int:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # not POSIX: assume 8 GiB
+        return 8 << 30
+
+
+#: A program whose temporaries would take more bytes than this (a quarter of the machine's
+#: memory, at least 1 GiB) runs over the samples in batches (``lax.map``) instead of all at
+#: once (``vmap``): deep Taylor passes of large models at 4096 samples can otherwise ask for
+#: tens of GB. The check reads XLA's memory analysis of the compiled program.
+MEMORY_BUDGET = max(1 << 30, _physical_memory() // 4)
 
 #: Sub-directory of the compilation cache directory holding the serialized programs.
 SUBDIR = "uio_jax_programs"
@@ -192,7 +207,9 @@ def compile_program(system, parts, make_jitted, xs, options_for=None):
     Args:
         system: the System whose functions the program differentiates (for the key).
         parts: structural names of the program (see :func:`program_key`).
-        make_jitted: ``() -> jax.jit(...)`` function of one array argument like ``xs``.
+        make_jitted: ``batch -> jax.jit(...)`` function of one array argument like ``xs``
+            (``batch`` None: all samples at once; else that many at a time, see
+            :func:`vmapped`).
         xs: the argument (float64 samples).
         options_for: ``traced -> (eqns, xla_options or None)``, called after tracing.
 
@@ -230,18 +247,52 @@ class _Loaded:
 
 
 def _trace_and_compile(key, make_jitted, xs, options_for):
+    """Trace and compile ``make_jitted(None)``; if its temporaries exceed
+    :data:`MEMORY_BUDGET`, trace and compile ``make_jitted(batch)`` instead (the samples in
+    batches of a power of two that fits). The result is stored under ``key``."""
     t0 = time.perf_counter()
-    jitted = make_jitted()
-    traced = jitted.trace(xs)
-    eqns, options = options_for(traced) if options_for else (0, None)
+    traced, eqns, options = _trace(make_jitted, None, xs, options_for)
     t1 = time.perf_counter()
-    lowered = traced.lower()
-    with _fresh_compile() as fresh:
-        compiled = lowered.compile(options) if options else lowered.compile()
+    compiled, fresh = _compile(traced, options)
+    temp = _temp_bytes(compiled)
+    if temp > MEMORY_BUDGET and xs.shape[0] > 1:
+        batch = max(1, 2 ** int(math.floor(math.log2(xs.shape[0] * MEMORY_BUDGET / temp))))
+        t2 = time.perf_counter()
+        traced, eqns, options = _trace(make_jitted, batch, xs, options_for)
+        t1 += time.perf_counter() - t2
+        compiled, fresh = _compile(traced, options)
     t2 = time.perf_counter()
     if key and fresh:
         store(key, compiled, {"eqns": eqns, "options": options})
     return compiled, Timing(eqns, t1 - t0, t2 - t1, False)
+
+
+def _trace(make_jitted, batch, xs, options_for):
+    traced = make_jitted(batch).trace(xs)
+    eqns, options = options_for(traced) if options_for else (0, None)
+    return traced, eqns, options
+
+
+def _compile(traced, options):
+    """``(compiled, fresh)``: fresh when JAX's persistent cache was bypassed (storable)."""
+    lowered = traced.lower()
+    with _fresh_compile() as fresh:
+        compiled = lowered.compile(options) if options else lowered.compile()
+    return compiled, fresh
+
+
+def _temp_bytes(compiled) -> int:
+    try:
+        return int(compiled.memory_analysis().temp_size_in_bytes)
+    except Exception:  # a backend without memory analysis
+        return 0
+
+
+def vmapped(fn, batch=None):
+    """``jax.jit`` of ``fn`` over a leading sample axis: ``vmap``, or ``lax.map`` in batches."""
+    if batch is None:
+        return jax.jit(jax.vmap(fn))
+    return jax.jit(lambda xs: jax.lax.map(fn, xs, batch_size=batch))
 
 
 @contextlib.contextmanager
@@ -271,4 +322,4 @@ def _fresh_compile():
 
 
 __all__ = ["program_dir", "model_fingerprint", "program_key", "load", "store", "compile_program",
-           "Timing"]
+           "Timing", "vmapped", "MEMORY_BUDGET"]
