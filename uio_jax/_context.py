@@ -59,6 +59,11 @@ class Context:
                 self._grads[nd] = grads[:, i]
         return np.stack([self._grads[nd] for nd in nodes], axis=1)
 
+    def remember_gradients(self, nodes, grads) -> None:
+        """Keep gradients ``(S, c, n)`` of ``nodes`` evaluated elsewhere (no re-evaluation)."""
+        for i, nd in enumerate(nodes):
+            self._grads.setdefault(nd, grads[:, i])
+
     def absorb(self, nodes, grads=None) -> list[Node]:
         """Keep the candidate nodes that raise the generic rank.
 
@@ -89,8 +94,7 @@ class Context:
     def lie_block(self, phis, field_nodes):
         """Nodes ``L_v phi`` and their gradients ``(S, c, n)`` (cached per node)."""
         nodes, grads = self.builder.lie_block(phis, field_nodes, self.xs)
-        for i, nd in enumerate(nodes):
-            self._grads.setdefault(nd, grads[:, i])
+        self.remember_gradients(nodes, grads)
         return nodes, grads
 
     def contains(self, covectors) -> list[bool]:

@@ -59,7 +59,9 @@ def input_coefficients(system, orders: int, seed: int) -> np.ndarray:
     the rank drops with probability 1).
     """
     rng = np.random.default_rng([seed, 0x5E41E5])
-    return rng.standard_normal((len(system.known), orders + 1))
+    # order by order, so that a[:, k] does not depend on how many orders are drawn
+    cols = [rng.standard_normal(len(system.known)) for _ in range(orders + 1)]
+    return np.stack(cols, axis=1).reshape(len(system.known), orders + 1)
 
 
 def output_series(system, a, K):
@@ -129,8 +131,7 @@ class _Series:
             return jax.jacfwd(lambda x: coefficients(x)[k_lo:].reshape(-1))
 
         grads = self.ctx.builder.program("series", nodes, make, self.ctx.xs)
-        for j, nd in enumerate(nodes):
-            self.ctx._grads.setdefault(nd, grads[:, j])
+        self.ctx.remember_gradients(nodes, grads)
         return nodes, grads
 
 
