@@ -202,7 +202,7 @@ class Timing:
 
 
 def compile_program(system, parts, make_jitted, xs, options_for=None):
-    """Compile ``make_jitted()`` for ``xs``, through the program cache when it is on.
+    """Compile ``make_jitted(batch)`` for ``xs``, through the program cache when it is on.
 
     Args:
         system: the System whose functions the program differentiates (for the key).
