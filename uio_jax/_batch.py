@@ -24,10 +24,12 @@
 (:mod:`uio_jax._generators`): two models are two Systems built from distinct Python
 closures, so even models of the same shape trace and compile their own Lie derivatives in
 memory. Shared across models of the same sample count and dimensions are only the rank
-kernels (module-level ``jax.jit`` functions of :mod:`uio_jax._rank`). Across processes, and
-between models whose programs are identical (e.g. zoo aliases), JAX's persistent
-compilation cache (:func:`uio_jax.enable_compile_cache`, on by default in the command
-line) skips XLA compilation; tracing is redone every time.
+kernels (module-level ``jax.jit`` functions of :mod:`uio_jax._rank`). Across processes,
+with the caches on (:func:`uio_jax.enable_compile_cache`, the command line's default), every
+analysis program is loaded from the program cache (:mod:`uio_jax._program_cache`, keyed by
+the model's own jaxprs and the generator structure, no tracing) and the small shared
+kernels from JAX's persistent compilation cache: a second run of the same batch evaluates
+only.
 
 **Parallel runs.** ``jobs > 1`` analyses models in that many worker processes (spawned,
 each with its own JAX; they use the persistent cache directory of the caller). Only
