@@ -121,3 +121,17 @@ def test_no_cache_no_files(tmp_path, monkeypatch):
     assert _program_cache.program_dir() is None  # the library leaves JAX's settings alone
     uj.analyze(_system(1.0, name="nocache"), samples=64)
     assert not (tmp_path / _program_cache.SUBDIR).exists()
+
+
+def test_programs_over_the_memory_budget_run_in_batches(monkeypatch):
+    """A program whose temporaries exceed the budget is rebuilt over batches of samples
+    (``lax.map``): same numbers, bounded memory."""
+    normal = uj.analyze(zoo_system("unicycle_polar", "range_v_unknown"), samples=64)
+    batches = []
+    real = _program_cache._trace
+    monkeypatch.setattr(_program_cache, "_trace", lambda make, batch, xs, of: batches.append(batch)
+                        or real(make, batch, xs, of))
+    monkeypatch.setattr(_program_cache, "MEMORY_BUDGET", 1)  # every program is over it
+    batched = uj.analyze(zoo_system("unicycle_polar", "range_v_unknown"), samples=64)
+    assert any(b is not None and b < 64 for b in batches)
+    _same_report(normal, batched)
