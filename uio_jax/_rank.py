@@ -220,9 +220,10 @@ class Codistribution:
     def _distances(self, cands):
         """``rho (C, S)`` and unit residuals ``(C, S, n)`` of scaled candidates, in chunks."""
         C, S, n = cands.shape
-        # one fixed chunk size -> one compile per (S, n); at most ~64 MB per chunk
+        # chunk sizes are powers of two (a few compiles per (S, n)): at most _CHUNK and
+        # ~64 MB per chunk, and no larger than C needs (single re-tests are the hot path)
         limit = max(1, _BLOCK_BYTES // (S * n * 8 * 4))
-        chunk = min(_CHUNK, 1 << (limit.bit_length() - 1))
+        chunk = min(_CHUNK, 1 << (limit.bit_length() - 1), 1 << (C - 1).bit_length())
         rhos, dirs = [], []
         with jax.enable_x64(True):
             for start in range(0, C, chunk):
@@ -265,17 +266,25 @@ class Codistribution:
         first = [decide_increase(r, self.valid, self.rtol, self.rank) for r in rho]
         rising = [i for i, d in enumerate(first) if d.rank > self.rank]
         self.rejections.extend(d for d in first if d.rank <= self.rank)
+        # residuals of the rising candidates against the current span; each kept direction
+        # is projected out of the later ones (twice), so no candidate is re-tested in full
+        res = rho[rising, :, None] * dirs[rising]
         for j, i in enumerate(rising):
             if self.rank >= self.n:
                 break
             if j == 0:  # tested against the current span already
                 d, r_i, dir_i = first[i], rho[i], dirs[i]
             else:
-                r_i, dir_i = (a[0] for a in self._distances(cands[i : i + 1]))
+                r_i = np.linalg.norm(res[j], axis=-1)
+                dir_i = res[j] / np.where(r_i > 0, r_i, 1.0)[:, None]
                 d = decide_increase(r_i, self.valid, self.rtol, self.rank)
             if d.rank > self.rank:
                 self._keep(nodes[i], cands[i], r_i, dir_i, d)
                 added.append(nodes[i])
+                new = self.basis[:, self.rank - 1]  # (S, n), zero where not independent
+                for _ in range(2):
+                    coef = np.einsum("csn,sn->cs", res[j + 1:], new)
+                    res[j + 1:] -= coef[..., None] * new
             else:
                 self.rejections.append(d)
         return added

@@ -24,9 +24,10 @@ the output filtration), so the first order that adds nothing closes the span; ot
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
 Cost: all coefficients up to order K come from one univariate Taylor pass
-(:mod:`uio_jax._taylor`, ``O(K^2)`` work per operation of the model, a graph linear in K)
-and one forward-mode Jacobian: no nested differentiation, so models whose ORC graphs grow
-geometrically with the step (tens of states and parameters, several fields) take seconds.
+(the coefficient recurrence of :mod:`uio_jax._taylor_flow`, ``O(K^2)`` work per operation
+of the model, F's graph traced once) and one forward-mode Jacobian: no nested
+differentiation, so models whose ORC graphs grow geometrically with the step (tens of
+states and parameters, several fields) take seconds.
 """
 
 import hashlib
@@ -39,7 +40,8 @@ import numpy as np
 from ._context import Context
 from ._errors import OptionError
 from ._generators import Node
-from ._taylor import flow_series_loop, taylor
+from ._taylor import taylor
+from ._taylor_flow import flow_coefficients
 
 
 def check_applicable(system) -> None:
@@ -67,35 +69,35 @@ def input_coefficients(system, orders: int, seed: int) -> np.ndarray:
 def output_series(system, a, K):
     """``x -> (K + 1, p)``: normalized Taylor coefficients ``y_k(x)`` of the outputs.
 
+    The flow's coefficients come from the coefficient recurrence of
+    :func:`uio_jax._taylor_flow.flow_coefficients` (``O(K^2)`` per operation of the model),
+    with the generic input entering as a known series; the outputs from one stacked Taylor
+    pass (:func:`uio_jax._taylor.taylor`).
+
     Args:
         system: a System without unknown inputs (states only; parameters already joint).
-        a: input coefficients ``(m_u, >= K)`` from :func:`input_coefficients`.
+        a: input coefficients ``(m_u, >= K + 1)`` from :func:`input_coefficients`.
         K: highest order.
     """
     n = system.n
     drift = system.drift
     known = tuple(system.known.values())
-    a = jnp.asarray(a)
+    u_series = (jnp.asarray(a[:, :K + 1].T),) if known else ()  # (K + 1, m_u)
     outputs = tuple(system.outputs.values())
 
-    def field(z):  # z = [x; t]
-        x, t = z[:n], z[n]
-        dx = drift(x) if drift is not None else jnp.zeros((n,), z.dtype)
+    def field(x, *u):
+        dx = drift(x) if drift is not None else jnp.zeros((n,), x.dtype)
         for i, f in enumerate(known):
-            u = a[i, K]  # Horner: sum_{k <= K} a[i, k] t^k (higher orders never reach y_K)
-            for j in range(K - 1, -1, -1):
-                u = u * t + a[i, j]
-            dx = dx + f(x) * u
-        return jnp.concatenate([dx, jnp.ones((1,), z.dtype)])
+            dx = dx + f(x) * u[0][i]
+        return dx
 
-    def out(z):
-        return jnp.stack([jnp.asarray(h(z[:n])).reshape(()) for h in outputs])
+    def out(x):
+        return jnp.stack([jnp.asarray(h(x)).reshape(()) for h in outputs])
 
     def coefficients(x):
-        z = jnp.concatenate([x, jnp.zeros((1,), x.dtype)])
         if K == 0:
-            return out(z)[None]
-        return taylor(out, z, flow_series_loop(field, z, K))
+            return out(x)[None]
+        return taylor(out, x, flow_coefficients(field, x, K, known=u_series))
 
     return coefficients
 

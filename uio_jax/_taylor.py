@@ -309,25 +309,6 @@ def flow_series(F, x, K):
     return jnp.stack(coeffs)
 
 
-def flow_series_loop(F, x, K):
-    """Same as :func:`flow_series`, with F's Taylor graph traced once inside a ``fori_loop``.
-
-    Taylor arithmetic is causal (output order k depends on input orders <= k only), so pass
-    k may run F on the full-length stack whose orders above k are still zero and read its
-    order-k coefficient. The traced graph holds one copy of F's series rules instead of K
-    (``O(K^3)`` flops instead of ``O(K^3 / 3)``, a graph and a compile time K times smaller).
-    """
-    closed = jax.make_jaxpr(F)(x)
-
-    def body(k, c):
-        (out,) = _eval(closed.jaxpr, closed.consts, [_S(c)], K)
-        fk = jax.lax.dynamic_index_in_dim(_series(out, K).c, k, keepdims=False)
-        return jax.lax.dynamic_update_index_in_dim(c, fk / (k + 1).astype(c.dtype), k + 1, 0)
-
-    c0 = jnp.zeros((K + 1,) + x.shape, x.dtype).at[0].set(x)
-    return jax.lax.fori_loop(0, K, body, c0)[1:]
-
-
 def lie_powers(psi, F, j):
     """``x -> [L_F^0 psi, ..., L_F^j psi](x)`` (shape ``(j + 1,)``) in one Taylor pass."""
 
@@ -339,4 +320,4 @@ def lie_powers(psi, F, j):
     return powers
 
 
-__all__ = ["taylor", "flow_series", "flow_series_loop", "lie_powers"]
+__all__ = ["taylor", "flow_series", "lie_powers"]

@@ -1,0 +1,74 @@
+"""The coefficient-recurrence flow (``_taylor_flow``) against the stacked passes and autodiff."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from uio_jax._taylor import flow_series
+from uio_jax._taylor_flow import flow_coefficients
+
+
+def _field(x):
+    """Every rule: mul, div, sin, cos, tan, exp, log, sqrt, rsqrt, integer and real powers,
+    negative powers, dot products with and without constants, where, abs, max."""
+    A = jnp.array([[1.0, 2.0, -1.0], [0.5, 0.0, 3.0]])
+    a = A @ x
+    return jnp.stack([
+        jnp.sin(x[1]) * x[2] + jnp.cos(a[0]) - jnp.tan(0.3 * x[0]),
+        jnp.exp(-x[0]) + x[2] ** 2 + jnp.log(x[2]) * x[0] ** -2 + jnp.dot(x, x),
+        jnp.sqrt(x[0]) / (1.0 + x[1] ** 3) + x[1] ** 1.7 + jax.lax.rsqrt(x[2])
+        + jnp.where(x[0] > 0, x[1] * x[0], 0.0) + jnp.abs(x[2]) + jnp.maximum(x[0], 0.2) + x[0] ** x[1],
+    ])
+
+
+@pytest.mark.parametrize("K", [1, 2, 4, 7])
+def test_recurrence_equals_stacked_passes(K):
+    """Values and Jacobians equal flow_series (K full stacked passes) to round-off."""
+    x = jnp.array([0.7, 1.1, 0.9])
+    a, b = flow_series(_field, x, K), flow_coefficients(_field, x, K)
+    scale = float(jnp.max(jnp.abs(a)))
+    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-13 * scale)
+    ja = jax.jacfwd(lambda z: flow_series(_field, z, K))(x)
+    jb = jax.jacfwd(lambda z: flow_coefficients(_field, z, K))(x)
+    np.testing.assert_allclose(jb, ja, rtol=1e-11, atol=1e-12 * float(jnp.max(jnp.abs(ja))))
+
+
+def test_recurrence_equals_nested_derivatives():
+    """x^(k)(0) / k! from the recurrence = nested jvp of the flow's Lie derivatives (oracle)."""
+    x = jnp.array([0.8, 1.3, 0.6])
+    K = 4
+    got = flow_coefficients(_field, x, K)
+    # x^(k) = L_F^(k-1) F: d/dt of g(x(t)) is jvp(g, x, F(x))
+    g = _field
+    want = []
+    for k in range(1, K + 1):
+        want.append(g(x) / math.factorial(k))
+        g = (lambda g: lambda z: jax.jvp(g, (z,), (_field(z),))[1])(g)
+    np.testing.assert_allclose(got, jnp.stack(want), rtol=1e-10)
+
+
+def test_known_series_enters_as_given_coefficients():
+    """A known input u(t) = sum a_k t^k given as a stack equals the time-augmented field."""
+    u = jnp.array([[0.3], [1.2], [-0.5], [0.8], [0.1], [0.2]])
+    K = 5
+
+    def G(x, u):
+        return jnp.stack([x[1] * u[0], -jnp.sin(x[0]) + u[0] * u[0] / (1.0 + x[1] ** 2)])
+
+    def G_time(z):  # z = [x; t], u by Horner in t
+        t, uu = z[2], u[K, 0]
+        for j in range(K - 1, -1, -1):
+            uu = uu * t + u[j, 0]
+        return jnp.concatenate([G(z[:2], jnp.array([uu])), jnp.ones(1)])
+
+    got = flow_coefficients(G, jnp.array([1.0, 0.5]), K, known=(u,))
+    want = flow_series(G_time, jnp.array([1.0, 0.5, 0.0]), K)[:, :2]
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-15)
+
+
+def test_operation_without_a_rule_is_named():
+    with pytest.raises(NotImplementedError, match="atan2"):
+        flow_coefficients(lambda x: jnp.arctan2(x, 2.0 + x), jnp.array([0.3, 0.4]), 3)
