@@ -272,3 +272,41 @@ def test_jobs_run_models_in_worker_processes(zoo_file):
     assert [r.dim for r in res] == [2, 3, 2, None] and [r.ok for r in res] == [True, True, True, False]
     assert res[0].report is None and res[0].seconds > 0  # reports stay in the workers
     assert "raised RuntimeError: boom" in res[3].error
+
+
+SLOW_ZOO = """
+    import multiprocessing
+    import time
+
+    import uio_jax as uj
+
+    def _output(x):
+        if multiprocessing.parent_process() is not None:  # only when analysed in a worker
+            time.sleep(600)
+        return x[0]
+
+    def slow():
+        return uj.System(("a",), {"y": _output})
+
+    def fast():
+        return uj.System(("a", "b"), {"y": lambda x: x[0] * x[1]})
+    """
+
+
+def test_timeout_stops_a_slow_model_and_goes_on(tmp_path, capsys):
+    """A model over the limit is killed with its worker; a fresh worker runs the next one."""
+    slow = _write(tmp_path / "slow_zoo.py", SLOW_ZOO)
+    models = [f"{slow}:slow", f"{slow}:fast", f"{slow}:slow"]
+    res = uj.batch_analyze(models, timeout=2.0, samples=SAMPLES)
+    assert [r.ok for r in res] == [False, True, False]
+    assert "timed out after 2 s" in res[0].error and 2.0 <= res[0].seconds < 30
+    assert res[1].dim == 1
+    code = cli.main(["batch", f"{slow}:slow", "--timeout", "1.5", "--samples", "64", "--no-cache"])
+    out = capsys.readouterr().out
+    assert code == 1 and "timed out after 1.5 s" in out
+
+
+@pytest.mark.parametrize("timeout", [0, -1.0, float("nan"), True, "5"])
+def test_timeout_must_be_positive(timeout):
+    with pytest.raises(uj.OptionError, match="timeout must be a positive number"):
+        uj.batch_analyze(["systems"], timeout=timeout)

@@ -31,9 +31,11 @@ the model's own jaxprs and the generator structure, no tracing) and the small sh
 kernels from JAX's persistent compilation cache: a second run of the same batch evaluates
 only.
 
-**Parallel runs.** ``jobs > 1`` analyses models in that many worker processes (spawned,
-each with its own JAX; they use the persistent cache directory of the caller). Only
-models given by path can go to a worker; ``System`` objects run in the calling process.
+**Parallel runs and time limits.** ``jobs > 1`` analyses models in that many worker
+processes (spawned, each with its own JAX; they use the persistent cache directory of the
+caller), one model at a time each. With ``timeout``, a model that runs too long has its
+worker killed (its row says so) and a fresh worker goes on with the others. Only models
+given by path can go to a worker; ``System`` objects run in the calling process.
 """
 
 import csv
@@ -227,7 +229,8 @@ class BatchResult:
         return headers, body
 
 
-def batch_analyze(models, *, jobs: int = 1, progress=None, keep_reports: bool = True, **analyze_kwargs) -> BatchResult:
+def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_reports: bool = True,
+                  **analyze_kwargs) -> BatchResult:
     """Analyse many models; one failing model is one row with its error, the others go on.
 
     Main arguments:
@@ -240,6 +243,11 @@ def batch_analyze(models, *, jobs: int = 1, progress=None, keep_reports: bool = 
         jobs: worker processes (default 1: everything in this process). Workers are
             spawned fresh and pay JAX's start-up; they share the persistent compilation
             cache of this process if one is enabled.
+        timeout: seconds one model may run (None, the default: no limit). With a limit,
+            models given by path run in worker processes (``jobs`` of them, at least
+            one); a model over the limit has its worker killed, its row says "timed
+            out", and a fresh worker takes the next model. ``System`` objects given
+            directly run in this process, without a limit.
         progress: ``True`` shows a model-count bar on stderr, ``False`` never, ``None``
             (default) only on a terminal and once the batch has lasted 2 s.
         keep_reports: keep each model's :class:`~uio_jax.Report` in ``row.report``
@@ -256,11 +264,15 @@ def batch_analyze(models, *, jobs: int = 1, progress=None, keep_reports: bool = 
     """
     t0 = time.perf_counter()
     _check_options(jobs, analyze_kwargs)
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, numbers.Real)
+                                or not timeout > 0):
+        raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
     entries, skipped = discover(models)
     bar = _BatchProgress(len(entries), enabled=progress)
     try:
-        if jobs > 1 and sum(e.spec is not None for e in entries) > 1:
-            rows = _run_parallel(entries, jobs, analyze_kwargs, bar)
+        remote = sum(e.spec is not None and e.error is None for e in entries)
+        if (jobs > 1 and remote > 1) or (timeout is not None and remote):
+            rows = _run_parallel(entries, jobs, timeout, analyze_kwargs, bar)
         else:
             rows = []
             for i, e in enumerate(entries):
@@ -516,39 +528,147 @@ def _row(label, rep, seconds, report=None) -> BatchRow:
     )
 
 
-def _run_parallel(entries, jobs, analyze_kwargs, bar):
-    """Run the entries that have a spec in ``jobs`` spawned processes, the others here."""
+def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar):
+    """Entries with a spec go to worker processes; in-memory Systems and known errors run here."""
+    rows = [None] * len(entries)
+    remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
+    for i, e in enumerate(entries):
+        if i not in remote:
+            bar.start(e.label)
+            rows[i] = _run_entry(e, analyze_kwargs, keep_report=False)
+            bar.finish()
+    _run_in_workers(entries, remote, jobs, timeout, analyze_kwargs, bar, rows)
+    return rows
+
+
+def _run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, bar, rows):
+    """Run ``entries[i]`` for ``i in todo`` in ``jobs`` spawned worker processes.
+
+    Each worker takes one model at a time through a pipe (its clock starts when the model is
+    sent, after the worker has imported JAX and said it is ready). A model that runs longer
+    than ``timeout`` seconds (None: no limit) has its worker killed and gets a row saying
+    so; a worker that dies (memory, signal) gives its model a row with the exit code. A
+    fresh worker replaces a killed or dead one, so the other models go on.
+    """
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from multiprocessing.connection import wait
 
     from ._compile_cache import cache_dir_in_use
 
-    rows = [None] * len(entries)
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_worker_init,
-                             initargs=(cache_dir_in_use(),)) as pool:
-        futures = {}
-        for i, e in enumerate(entries):
-            if e.spec is not None and e.error is None:
-                futures[pool.submit(_worker_run, e.label, e.spec, e.kind, analyze_kwargs)] = i
-        remote = set(futures.values())
+    cache_dir = cache_dir_in_use()
+    pending = list(todo)[::-1]  # popped from the end: in order
+    slots = [None] * min(jobs, len(pending))
+
+    def finish(i, row):
+        rows[i] = row
+        bar.finish(entries[i].label)
+
+    try:
+        while True:
+            for k, w in enumerate(slots):
+                if w is None and pending:
+                    slots[k] = w = _Worker(ctx, cache_dir)
+                if w is not None and w.task is None and w.ready and pending:
+                    i = pending.pop()
+                    w.send(i, (entries[i].label, entries[i].spec, entries[i].kind, analyze_kwargs))
+                    bar.start(entries[i].label)
+            live = [w for w in slots if w is not None and (w.task is not None or not w.ready)]
+            if not live:
+                break
+            deadlines = [w.since + timeout - time.monotonic() for w in live
+                         if timeout is not None and w.task is not None]
+            ready = wait([w.conn for w in live], max(0.0, min(deadlines)) if deadlines else None)
+            for k, w in enumerate(slots):
+                if w not in live:
+                    continue
+                if w.conn in ready:
+                    msg = w.receive()
+                    if msg is _Worker.DIED:
+                        code = w.stop()
+                        slots[k] = None
+                        if w.task is None:  # died while starting: the others would too
+                            while pending:
+                                i = pending.pop()
+                                finish(i, BatchRow(entries[i].label,
+                                                   error=f"batch worker process failed to start (exit code {code})"))
+                        else:
+                            finish(w.task, BatchRow(entries[w.task].label, seconds=w.elapsed(),
+                                                    error=f"worker process died (exit code {code})"))
+                    elif msg == "ready":
+                        w.ready = True
+                    else:
+                        finish(w.task, BatchRow(**msg))
+                        w.task = None
+                elif w.task is not None and timeout is not None and w.elapsed() >= timeout:
+                    w.stop()
+                    slots[k] = None
+                    finish(w.task, BatchRow(entries[w.task].label, seconds=w.elapsed(),
+                                            error=f"timed out after {timeout:g} s (worker stopped)"))
+    finally:
+        for w in slots:
+            if w is not None:
+                w.close()
+
+
+class _Worker:
+    """One spawned analysis process and the parent's end of its pipe."""
+
+    DIED = object()
+
+    def __init__(self, ctx, cache_dir):
+        self.conn, there = ctx.Pipe()
+        self.proc = ctx.Process(target=_worker_main, args=(there, cache_dir), daemon=True)
+        self.proc.start()
+        there.close()
+        self.ready = False
+        self.task = None  # index of the entry being analysed
+        self.since = time.monotonic()
+
+    def send(self, i, task):
+        self.conn.send(task)
+        self.task, self.since = i, time.monotonic()
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.since
+
+    def receive(self):
         try:
-            for i, e in enumerate(entries):  # in-memory Systems and known errors, here
-                if i not in remote:
-                    bar.start(e.label)
-                    rows[i] = _run_entry(e, analyze_kwargs, keep_report=False)
-                    bar.finish()
-            for fut in as_completed(futures):
-                i = futures[fut]
-                try:
-                    rows[i] = BatchRow(**fut.result())
-                except Exception as exc:  # the worker died (memory, signal)
-                    rows[i] = BatchRow(entries[i].label, error=f"worker process failed: {_one_line(exc)}")
-                bar.finish(entries[i].label)
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-    return rows
+            return self.conn.recv()
+        except (EOFError, OSError):
+            return self.DIED
+
+    def stop(self):
+        """Kill the process; returns its exit code."""
+        if self.proc.is_alive():
+            self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+        return self.proc.exitcode
+
+    def close(self):
+        """Ask the process to finish (it is idle), else kill it."""
+        try:
+            if self.task is None and self.ready:
+                self.conn.send(None)
+                self.proc.join(timeout=5)
+        except (OSError, ValueError):
+            pass
+        self.stop()
+
+
+def _worker_main(conn, cache_dir):
+    """A worker process: set up the caches, say ready, then analyse models until told to stop."""
+    _worker_init(cache_dir)
+    conn.send("ready")
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        conn.send(_worker_run(*task))
 
 
 def _worker_init(cache_dir):

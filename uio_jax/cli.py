@@ -52,6 +52,9 @@ def _build_parser():
     b.add_argument("--csv", metavar="FILE", help="write the table as CSV")
     b.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
     b.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    b.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="time limit per model: a model over it is stopped and reported as timed out "
+                        "(runs models in worker processes; default: no limit)")
     b.add_argument("--no-progress", action="store_true", help="no progress bar")
     _cache_options(b)
     try:
@@ -160,7 +163,8 @@ def _batch(args) -> int:
     if not args.paths:
         raise _UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     _check_writable(args.json, args.csv, args.markdown)
-    result = batch_analyze(args.paths, jobs=args.jobs, progress=False if args.no_progress else None,
+    result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout,
+                           progress=False if args.no_progress else None,
                            keep_reports=False, method=args.method, samples=args.samples,
                            seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
     print(result.table())
