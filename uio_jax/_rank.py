@@ -205,6 +205,7 @@ class Codistribution:
         self.nodes = []
         self.rejections: list[RankDecision] = []
         self.acceptances: list[RankDecision] = []
+        self._decided = (None, None)  # (key, RankDecision) of the last decision()
 
     @property
     def rank(self) -> int:
@@ -321,6 +322,9 @@ class Codistribution:
         """SVD rank decision of the kept set alone: its fraction and smallest ``s_r/s_1``."""
         if self.rank == 0:
             return RankDecision(0, 1.0, 1.0, 0.0, int(self.valid.sum()))
-        with jax.enable_x64(True):
-            ratios = np.asarray(_ratios(self.grads))
-        return decide_rank(ratios, self.valid, self.rtol)
+        key = (self.rank, int(self.valid.sum()))  # rows only grow, valid samples only shrink
+        if self._decided[0] != key:
+            with jax.enable_x64(True):
+                ratios = np.asarray(_ratios(self.grads))
+            self._decided = (key, decide_rank(ratios, self.valid, self.rtol))
+        return self._decided[1]
