@@ -114,6 +114,8 @@ def main(argv=None):
     p.add_argument("--runs", type=int, default=3, help="cold/warm pairs (median)")
     p.add_argument("--jobs", type=int, nargs="+", default=[1], help="jobs values to measure (e.g. 1 2)")
     p.add_argument("--no-run-only", action="store_true", help="skip the evaluation-only driver")
+    p.add_argument("--share-cache", action="store_true",
+                   help="later --jobs values run warm only, on the cache the first one filled")
     p.add_argument("--out", help="write the Markdown report here")
     p.add_argument("--raw", help="write every measurement as JSON here")
     p.add_argument("--driver", action="store_true", help=argparse.SUPPRESS)
@@ -134,10 +136,11 @@ def main(argv=None):
            "started": datetime.datetime.now().isoformat(timespec="seconds")}
     try:
         for i in range(args.runs):
-            for jobs in args.jobs:
-                cache = tmp / f"cache_{i}_{jobs}"
+            for idx, jobs in enumerate(args.jobs):
+                shared = args.share_cache and idx > 0  # warm only, on the first jobs value's cache
+                cache = tmp / f"cache_{i}_{args.jobs[0] if shared else jobs}"
                 rec = {"run": i, "jobs": jobs}
-                for phase in ("cold", "warm"):
+                for phase in ("warm",) if shared else ("cold", "warm"):
                     out = tmp / f"{phase}_{i}_{jobs}.json"
                     m = _measure(_cli(files, args, cache, jobs, out), f"run {i} jobs {jobs} {phase}")
                     m["batch"] = json.loads(out.read_text())
@@ -201,7 +204,9 @@ def report(raw, argv) -> str:
     for jobs in jobs_values:
         rs = [r for r in runs if r["jobs"] == jobs]
         for phase in ("cold", "warm"):
-            ms = [r[phase] for r in rs]
+            ms = [r[phase] for r in rs if phase in r]
+            if not ms:
+                continue
             loads = [x for m in ms for x in m["load"]]
             b = ms[-1]["batch"]
             ok = sum(m["ok"] for m in b["models"])
