@@ -81,7 +81,7 @@ from ._generators import Node
 from ._lie import lie_derivative
 from ._program_cache import compile_program, vmapped
 from ._report import Report, Step
-from ._system import DEFAULT_BOX, System
+from ._system import DEFAULT_BOX, System, derived_system
 from ._taylor import lie_powers
 
 #: Name of the extended drift field in generator labels.
@@ -162,15 +162,16 @@ def extended_system(system: System, K: int) -> System:
 
     domain = dict(system.domain)
     domain.update({nm: DEFAULT_BOX for nm in names})
-    ext = System(
-        states=system.states + names,
-        outputs={k: pad_output(h) for k, h in system.outputs.items()},
-        known={k: pad_field(f) for k, f in system.known.items()},
-        drift=F0,
-        domain=domain,
-        angles=system.angles,
-        name=f"{system.name or 'system'} extended to order {K}",
-    )
+    with derived_system():  # the parts are the validated system's functions, padded
+        ext = System(
+            states=system.states + names,
+            outputs={k: pad_output(h) for k, h in system.outputs.items()},
+            known={k: pad_field(f) for k, f in system.known.items()},
+            drift=F0,
+            domain=domain,
+            angles=system.angles,
+            name=f"{system.name or 'system'} extended to order {K}",
+        )
     per[K] = ext
     return ext
 

@@ -13,6 +13,8 @@ and the analyses run on the joint vector ``z = [x; theta]`` with ``theta' = 0``:
 parameter is identifiable exactly when its coordinate is observable on ``z``.
 """
 
+import contextlib
+import contextvars
 import keyword
 import math
 from collections.abc import Callable, Mapping
@@ -36,6 +38,25 @@ DEFAULT_BOX = (0.5, 1.5)
 ANGLE_BOX = (-math.pi, math.pi)
 #: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
 _CHECK_SAMPLES = 64
+
+#: True while a System is built from the functions of an already validated one (the EORC's
+#: extended system): the traced checks (shapes, NaN at sampled states) are skipped.
+_DERIVED = contextvars.ContextVar("uio_jax_derived_system", default=False)
+
+
+@contextlib.contextmanager
+def derived_system():
+    """Build Systems whose functions are those of a validated System, reshaped by us.
+
+    Inside the block the traced checks of :class:`System` (output and field shapes,
+    finiteness at sampled states) are skipped: they cost a trace and a compile per
+    System, and the parts were checked when the user's System was built.
+    """
+    token = _DERIVED.set(True)
+    try:
+        yield
+    finally:
+        _DERIVED.reset(token)
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,10 +140,11 @@ class System:
         if not all(isinstance(t, str) for t in notes):
             raise ModelError("notes must be strings")
         object.__setattr__(self, "notes", notes)
-        self._check_shapes()
+        if not _DERIVED.get():
+            self._check_shapes()
         if params:
             object.__setattr__(self, "_joint", self._build_joint())  # validated there
-        else:
+        elif not _DERIVED.get():
             self._check_finite()
 
     # ------------------------------------------------------------------ accessors
@@ -177,9 +199,10 @@ class System:
         known = dict(self.known)
         known.update({nm: self.unknown[nm] for nm in names})
         unknown = {k: v for k, v in self.unknown.items() if k not in names}
-        return System(self.states, dict(self.outputs), known, unknown, self.drift,
-                      dict(self.domain), self.angles, self.name, params=dict(self.params),
-                      notes=self.notes)
+        with derived_system():  # the same (validated) functions
+            return System(self.states, dict(self.outputs), known, unknown, self.drift,
+                          dict(self.domain), self.angles, self.name, params=dict(self.params),
+                          notes=self.notes)
 
     @classmethod
     def from_sympy(cls, *args, **kwargs) -> "System":
