@@ -151,15 +151,20 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     history = []
     k, computed, grads_by_k = 0, -1, {}
     chunk = max(1, math.ceil(n / max(p, 1)))  # fewest orders that could reach rank n
+    added = None
     while True:
         if k > computed:
+            if added is not None:
+                # an order adds at most what the last one added (non-increasing increments):
+                # reaching rank n needs at least this many more orders; 2 at least, since
+                # every block re-runs the Taylor pass from order 0
+                chunk = max(2, math.ceil((n - ctx.dim) / len(added)))
             hi = min(cap, max(k + chunk - 1, k))
             nodes, grads = series.gradients(k, hi)
             for j in range(k, hi + 1):
                 sl = slice((j - k) * p, (j - k + 1) * p)
                 grads_by_k[j] = (nodes[sl], grads[:, sl])
             computed = hi
-            chunk = max(2, chunk // 2)
         nodes, grads = grads_by_k.pop(k)
         added = ctx.absorb(list(nodes), grads)
         history.append(ctx.step(k, added))
