@@ -261,7 +261,8 @@ def _apply(prim, params, ins, K):
     raise NotImplementedError(f"no Taylor rule for {name}")
 
 
-def _eval(jaxpr, consts, args, K):
+def interpret(jaxpr, consts, args, apply):
+    """Run a jaxpr with ``apply(i, eqn, input values) -> output values`` per equation ``i``."""
     env = {}
 
     def read(v):
@@ -271,11 +272,15 @@ def _eval(jaxpr, consts, args, K):
         env[v] = c
     for v, a in zip(jaxpr.invars, args):
         env[v] = a
-    for eqn in jaxpr.eqns:
-        outs = _apply(eqn.primitive, eqn.params, [read(v) for v in eqn.invars], K)
+    for i, eqn in enumerate(jaxpr.eqns):
+        outs = apply(i, eqn, [read(v) for v in eqn.invars])
         for v, o in zip(eqn.outvars, outs):
             env[v] = o
     return [read(v) for v in jaxpr.outvars]
+
+
+def _eval(jaxpr, consts, args, K):
+    return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(eqn.primitive, eqn.params, ins, K))
 
 
 def taylor(fn, x, coeffs):

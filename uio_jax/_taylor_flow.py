@@ -34,22 +34,13 @@ import jax.numpy as jnp
 from jax import lax
 from jax.extend import core as jcore
 
-from ._taylor import _BILINEAR, _CONSTANT, _LINEAR
+from ._taylor import _BILINEAR, _S, interpret
+from ._taylor import _apply as _stacked_apply
 
 _CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
           "custom_vjp_call", "custom_vjp_call_jaxpr")
-#: data operands of the indexing primitives (the other operands are indices, constant in t)
-_DATA = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
-         "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
-
-
-class _T:
-    """A series value: its stack ``c`` of shape ``(K + 1, *shape)``, orders <= k valid."""
-
-    __slots__ = ("c",)
-
-    def __init__(self, c):
-        self.c = c
+#: operations with a rule of their own here (their order-k coefficient needs lower orders)
+_NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
 
 
 class _Pass:
@@ -63,7 +54,7 @@ class _Pass:
     # -- helpers on stacks -------------------------------------------------------------
     def lift(self, v):
         """A constant as a series: value at order 0, zeros above."""
-        if isinstance(v, _T):
+        if isinstance(v, _S):
             return v.c
         v = jnp.asarray(v)
         return jnp.concatenate([v[None], jnp.zeros((self.K,) + v.shape, v.dtype)])
@@ -167,32 +158,16 @@ def _apply(ps, key, eqn, ins):
             raise NotImplementedError(f"no Taylor rule for {name}")
         closed = sub if hasattr(sub, "consts") else jcore.ClosedJaxpr(sub, ())
         return _eval(ps, key, closed.jaxpr, closed.consts, ins)
-    if not any(isinstance(v, _T) for v in ins) or name in _CONSTANT:
-        vals = [v.c[0] if isinstance(v, _T) else v for v in ins]
-        out = prim.bind(*vals, **params)
-        return out if prim.multiple_results else [out]
-    if name in _LINEAR:
-        if name == "select_n":  # predicate constant along t
-            pred = ins[0].c[0] if isinstance(ins[0], _T) else ins[0]
-            cases = [ps.lift(v) for v in ins[1:]]
-            return [_T(jax.vmap(lambda *cs: prim.bind(pred, *cs, **params))(*cases))]
-        data = _DATA.get(name)
-        if data is not None:
-            if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in data):
-                raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
-            args = [ps.lift(v) if i in data else v for i, v in enumerate(ins)]
-            axes = [0 if i in data else None for i in range(len(ins))]
-            return [_T(jax.vmap(lambda *a: prim.bind(*a, **params), in_axes=axes)(*args))]
-        out = jax.vmap(lambda *c: prim.bind(*c, **params))(*[ps.lift(v) for v in ins])
-        return [_T(o) for o in out] if prim.multiple_results else [_T(out)]
-    if name in _BILINEAR:
+    series = [isinstance(v, _S) for v in ins]
+    moving = name in _BILINEAR and all(series) or (name == "div" and series[1])
+    if not any(series) or (not moving and name not in _NONLINEAR):
+        # constants, linear operations, products and quotients linear in their series:
+        # the stacked rules of uio_jax._taylor act order by order, hence on our stacks
+        return _stacked_apply(prim, params, ins, ps.K)
+    if name == "mul":
+        return [_S(ps.mul(key, ins[0].c, ins[1].c, shape, dtype))]
+    if name == "dot_general":
         a, b = ins
-        if not isinstance(a, _T) or not isinstance(b, _T):  # linear in the series
-            if isinstance(a, _T):
-                return [_T(jax.vmap(lambda c: prim.bind(c, b, **params))(a.c))]
-            return [_T(jax.vmap(lambda c: prim.bind(a, c, **params))(b.c))]
-        if name == "mul":
-            return [_T(ps.mul(key, a.c, b.c, shape, dtype))]
 
         def coef(own):  # sum_i dot(a[i], b[k - i])
             K = ps.K
@@ -200,62 +175,40 @@ def _apply(ps, key, eqn, ins):
             w = lax.dynamic_slice_in_dim(rev, K - ps.k, K + 1)
             return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a.c, w), axis=0)
 
-        return [_T(ps.slot(key, coef, shape, dtype))]
+        return [_S(ps.slot(key, coef, shape, dtype))]
     if name == "div":
-        if not isinstance(ins[1], _T):  # linear in the numerator
-            return [_T(jax.vmap(lambda c: prim.bind(c, ins[1], **params))(ins[0].c))]
-        return [_T(ps.div(key, ps.lift(ins[0]), ins[1].c, shape, dtype))]
+        return [_S(ps.div(key, ps.lift(ins[0]), ins[1].c, shape, dtype))]
     a = ins[0].c
     if name == "integer_pow":
-        return [_T(ps.ipow(key, a, params["y"], shape, dtype))]
+        return [_S(ps.ipow(key, a, params["y"], shape, dtype))]
     if name == "square":
-        return [_T(ps.mul(key, a, a, shape, dtype))]
+        return [_S(ps.mul(key, a, a, shape, dtype))]
     if name in ("sin", "cos", "tan"):
         cdt = jnp.result_type(dtype, jnp.complex64)
         z = ps.exp(key + ("z",), 1j * a.astype(cdt), shape, cdt)
         s, c = jnp.imag(z), jnp.real(z)
         if name == "sin":
-            return [_T(s)]
+            return [_S(s)]
         if name == "cos":
-            return [_T(c)]
-        return [_T(ps.div(key, s, c, shape, dtype))]
+            return [_S(c)]
+        return [_S(ps.div(key, s, c, shape, dtype))]
     if name == "exp":
-        return [_T(ps.exp(key, a, shape, dtype))]
+        return [_S(ps.exp(key, a, shape, dtype))]
     if name == "log":
-        return [_T(ps.log(key, a, shape, dtype))]
+        return [_S(ps.log(key, a, shape, dtype))]
     if name == "sqrt":
-        return [_T(ps.sqrt(key, a, shape, dtype))]
+        return [_S(ps.sqrt(key, a, shape, dtype))]
     if name == "rsqrt":
         r = ps.sqrt(key + ("r",), a, shape, dtype)
-        return [_T(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
-    if name == "pow":  # a ** b = exp(b log a), base and exponent either constant or moving
-        lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
-        arg = ps.mul(key + ("m",), lg, ps.lift(ins[1]), shape, dtype)
-        return [_T(ps.exp(key, arg, shape, dtype))]
-    if name == "abs":
-        return [_T(jnp.sign(a[0]) * a)]
-    if name in ("max", "min"):
-        a, b = ps.lift(ins[0]), ps.lift(ins[1])
-        pick = (a[0] >= b[0]) if name == "max" else (a[0] <= b[0])
-        return [_T(jnp.where(pick, a, b))]
-    raise NotImplementedError(f"no Taylor rule for {name}")
+        return [_S(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
+    # pow: a ** b = exp(b log a), base and exponent either constant or moving
+    lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
+    arg = ps.mul(key + ("m",), lg, ps.lift(ins[1]), shape, dtype)
+    return [_S(ps.exp(key, arg, shape, dtype))]
 
 
 def _eval(ps, prefix, jaxpr, consts, args):
-    env = {}
-
-    def read(v):
-        return v.val if isinstance(v, jcore.Literal) else env[v]
-
-    for v, c in zip(jaxpr.constvars, consts):
-        env[v] = c
-    for v, a in zip(jaxpr.invars, args):
-        env[v] = a
-    for i, eqn in enumerate(jaxpr.eqns):
-        outs = _apply(ps, prefix + (i,), eqn, [read(v) for v in eqn.invars])
-        for v, o in zip(eqn.outvars, outs):
-            env[v] = o
-    return [read(v) for v in jaxpr.outvars]
+    return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(ps, prefix + (i,), eqn, ins))
 
 
 def flow_coefficients(F, x, K, known=()):
@@ -278,8 +231,8 @@ def flow_coefficients(F, x, K, known=()):
 
     def run(k, xs, state):
         ps = _Pass(k, K, state)
-        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [_T(xs)] + [_T(s) for s in known])
-        fk = ps.at_k(out.c) if isinstance(out, _T) else jnp.where(k == 0, out, 0.0)
+        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [_S(xs)] + [_S(s) for s in known])
+        fk = ps.at_k(out.c) if isinstance(out, _S) else jnp.where(k == 0, out, 0.0)
         fk = jnp.broadcast_to(jnp.asarray(fk, xs.dtype), (N,))
         nxt = fk / jnp.asarray(k + 1, xs.dtype)
         if isinstance(k, int):
