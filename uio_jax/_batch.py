@@ -532,8 +532,9 @@ def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar):
     """Entries with a spec go to worker processes; in-memory Systems and known errors run here."""
     rows = [None] * len(entries)
     remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
+    local = set(range(len(entries))) - set(remote)
     for i, e in enumerate(entries):
-        if i not in remote:
+        if i in local:
             bar.start(e.label)
             rows[i] = _run_entry(e, analyze_kwargs, keep_report=False)
             bar.finish()

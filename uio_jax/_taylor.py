@@ -40,6 +40,9 @@ _LINEAR = {
     "scatter", "scatter-add", "scatter_add", "tile", "repeat", "reduce_and_broadcast",
 }
 _BILINEAR = {"mul", "dot_general"}
+#: call-like primitives: their sub-jaxpr is evaluated inline
+CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
+         "custom_vjp_call", "custom_vjp_call_jaxpr")
 _CONSTANT = {  # outputs treated as constant along t (evaluated on order 0)
     "lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not", "sign", "floor", "ceil",
     "round", "is_finite", "stop_gradient", "iota", "argmax", "argmin",
@@ -186,8 +189,7 @@ def _ipow(a, p, K):
 
 def _apply(prim, params, ins, K):
     name = prim.name
-    if name in ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
-                "custom_vjp_call", "custom_vjp_call_jaxpr"):
+    if name in CALLS:
         sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
         if sub is None:
             raise NotImplementedError(f"no Taylor rule for {name}")

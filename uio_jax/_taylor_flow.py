@@ -34,11 +34,9 @@ import jax.numpy as jnp
 from jax import lax
 from jax.extend import core as jcore
 
-from ._taylor import _BILINEAR, _S, interpret
+from ._taylor import _BILINEAR, _S, CALLS, interpret
 from ._taylor import _apply as _stacked_apply
 
-_CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
-          "custom_vjp_call", "custom_vjp_call_jaxpr")
 #: operations with a rule of their own here (their order-k coefficient needs lower orders)
 _NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
 
@@ -64,7 +62,6 @@ class _Pass:
 
     def conv(self, a, b):
         """``sum_{i <= k} a[i] b[k - i]`` for stacks ``a``, ``b`` (broadcasting elements)."""
-        K = self.K
         ra, rb = a.ndim, b.ndim
         if ra < rb:
             a = a.reshape(a.shape[:1] + (1,) * (rb - ra) + a.shape[1:])
@@ -73,10 +70,13 @@ class _Pass:
         if isinstance(self.k, int):  # concrete order: a static slice
             w = jnp.flip(b[: self.k + 1], axis=0)
             return jnp.sum(a[: self.k + 1] * w, axis=0)
-        # w[i] = b[k - i] for i <= k, 0 above: a window of the reversed, zero-padded b
+        return jnp.sum(a * self.window(b), axis=0)
+
+    def window(self, b):
+        """``w[i] = b[k - i]`` for ``i <= k``, 0 above: a window of the reversed, zero-padded b."""
+        K = self.K
         rev = jnp.flip(jnp.concatenate([jnp.zeros((K,) + b.shape[1:], b.dtype), b]), axis=0)
-        w = lax.dynamic_slice_in_dim(rev, K - self.k, K + 1)
-        return jnp.sum(a * w, axis=0)
+        return lax.dynamic_slice_in_dim(rev, K - self.k, K + 1)
 
     def slot(self, key, coef_fn, shape, dtype):
         """The stack named ``key`` with its order-k coefficient ``coef_fn(own)`` written."""
@@ -152,7 +152,7 @@ def _apply(ps, key, eqn, ins):
     name = prim.name
     out_aval = eqn.outvars[0].aval
     shape, dtype = out_aval.shape, out_aval.dtype
-    if name in _CALLS:
+    if name in CALLS:
         sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
         if sub is None:
             raise NotImplementedError(f"no Taylor rule for {name}")
@@ -170,10 +170,7 @@ def _apply(ps, key, eqn, ins):
         a, b = ins
 
         def coef(own):  # sum_i dot(a[i], b[k - i])
-            K = ps.K
-            rev = jnp.flip(jnp.concatenate([jnp.zeros((K,) + b.c.shape[1:], b.c.dtype), b.c]), axis=0)
-            w = lax.dynamic_slice_in_dim(rev, K - ps.k, K + 1)
-            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a.c, w), axis=0)
+            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a.c, ps.window(b.c)), axis=0)
 
         return [_S(ps.slot(key, coef, shape, dtype))]
     if name == "div":
