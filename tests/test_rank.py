@@ -104,3 +104,30 @@ def test_samples_where_the_model_is_undefined_are_dropped_and_counted():
     assert 300 < rep.certificate.dropped < 700
     assert rep.certificate.used + rep.certificate.dropped == 1000
     assert rep.dim == 2
+
+
+def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
+    """``test_units`` (residuals of every e_j from ``I - B^T B``) equals ``test`` of the
+    unit covectors; ``contains`` and ``absorb`` accept either without re-testing."""
+    from uio_jax._generators import Node
+    from uio_jax._rank import Codistribution
+
+    rng = np.random.default_rng(1)
+    S, n = 300, 6
+    codist = Codistribution(n, S, rng.uniform(0.5, 2.0, n), uj.default_rtol())
+    g = rng.normal(size=(S, 3, n))
+    g[:, 0, 3:] = g[:, 1, 3:] = 0.0  # the span lies in span{e_1, e_2, e_3}
+    g[:, 2] = g[:, 0] + 2.0 * g[:, 1]  # dependent: rank 2
+    codist.absorb([Node(f"g{i}", None, "scalar") for i in range(3)], g)
+    assert codist.rank == 2
+    units = np.zeros((n, S, n))
+    units[np.arange(n), :, np.arange(n)] = 1.0
+    generic, fast = codist.test(units), codist.test_units(n)
+    for field in ("cands", "rho", "dirs"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(generic, field), atol=1e-13)
+    member = [m for m, _ in codist.contains(None, fast)]
+    assert member == [m for m, _ in codist.contains(units)] == [False] * n
+    # absorbing e_1..e_3 from the one test raises the rank by exactly 1 (span is 2 of 3)
+    first = type(fast)(fast.cands[:3], fast.finite, fast.rho[:3], fast.dirs[:3])
+    added = codist.absorb([Node(f"e{i}", None, "scalar") for i in range(3)], None, first)
+    assert len(added) == 1 and codist.rank == 3

@@ -183,6 +183,23 @@ def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
     )
 
 
+@dataclass(frozen=True)
+class Tested:
+    """Covectors tested against a span (:meth:`Codistribution.test`).
+
+    Attributes:
+        cands: ``(C, S, n)`` column-scaled covectors (non-finite entries set to 0).
+        finite: ``(S,)`` samples where every covector is finite.
+        rho: ``(C, S)`` distances of the unit-normalized covectors to the span.
+        dirs: ``(C, S, n)`` unit residuals.
+    """
+
+    cands: np.ndarray
+    finite: np.ndarray
+    rho: np.ndarray
+    dirs: np.ndarray
+
+
 class Codistribution:
     """A growing set of kept generators, evaluated at fixed sample states.
 
@@ -244,26 +261,60 @@ class Codistribution:
         self.nodes.append(node)
         self.acceptances.append(decision)
 
-    def absorb(self, nodes, grads):
+    def test(self, covectors) -> "Tested":
+        """Distances of covector families ``(C, S, n)`` to the current span (one pass).
+
+        The result can serve :meth:`contains` and :meth:`absorb` (of this codistribution or
+        of a copy with the same basis) without testing the same covectors twice.
+        """
+        cands, finite = self._scaled(np.asarray(covectors))
+        rho, dirs = self._distances(cands) if len(cands) else (np.zeros((0, len(finite))), cands)
+        return Tested(cands, finite, rho, dirs)
+
+    def test_units(self, count: int) -> "Tested":
+        """:meth:`test` of the unit covectors ``e_1..e_count`` (same arithmetic, cheaper).
+
+        With ``B (S, r, n)`` the kept orthonormal rows, the residuals of every ``e_j`` at
+        once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
+        :meth:`test`, ``R2 = R1 - B^T (B R1)``: three small matrix products per sample
+        instead of four per covector.
+        """
+        S, n = self.basis.shape[0], self.n
+        B = self.basis[:, : self.rank]  # (S, r, n)
+        Bt = np.swapaxes(B, 1, 2)
+        r1 = np.eye(n) - Bt @ B
+        r2 = r1 - Bt @ (B @ r1)  # (S, n, n), column j = residual of e_j
+        res = np.moveaxis(r2[:, :, :count], 2, 0)  # (count, S, n)
+        rho = np.linalg.norm(res, axis=-1)
+        dirs = res / np.where(rho > 0, rho, 1.0)[..., None]
+        cands = np.zeros((count, S, n))
+        cands[np.arange(count), :, np.arange(count)] = np.broadcast_to(self.col_scale, (n,))[:count, None]
+        return Tested(cands, np.ones(S, dtype=bool), rho, dirs)
+
+    def absorb(self, nodes, grads, tested: "Tested | None" = None):
         """Keep the candidates that raise the generic rank, in order.
 
         Args:
             nodes: c candidate Nodes.
-            grads: their gradients at the samples, ``(S, c, n)``.
+            grads: their gradients at the samples, ``(S, c, n)`` (unused when ``tested``).
+            tested: :meth:`test` of the same ``(c, S, n)`` covectors against this span.
 
         Returns:
             The list of kept nodes.
         """
         if not nodes:
             return []
-        cands, finite = self._scaled(np.moveaxis(np.asarray(grads), 1, 0))
+        if tested is None:
+            cands, finite = self._scaled(np.moveaxis(np.asarray(grads), 1, 0))
+        else:
+            cands, finite = tested.cands, tested.finite
         self.valid &= finite
         if not self.valid.any():
             raise FloatingPointError("every sample is NaN/inf")
         added = []
         if self.rank >= self.n:
             return added
-        rho, dirs = self._distances(cands)
+        rho, dirs = self._distances(cands) if tested is None else (tested.rho, tested.dirs)
         first = [decide_increase(r, self.valid, self.rtol, self.rank) for r in rho]
         rising = [i for i, d in enumerate(first) if d.rank > self.rank]
         self.rejections.extend(d for d in first if d.rank <= self.rank)
@@ -290,22 +341,24 @@ class Codistribution:
                 self.rejections.append(d)
         return added
 
-    def contains(self, covectors):
+    def contains(self, covectors, tested: "Tested | None" = None):
         """Membership of covector families in the span.
 
         Args:
-            covectors: ``(C, S, n)`` unscaled covectors (e.g. gradients, or unit vectors).
+            covectors: ``(C, S, n)`` unscaled covectors (e.g. gradients, or unit vectors);
+                unused when ``tested`` is given.
+            tested: :meth:`test` of the same covectors against this span.
 
         Returns:
             list of ``(bool, RankDecision)``: member iff the generic rank does not grow.
         """
-        cov, finite = self._scaled(covectors)
-        valid = self.valid & finite
+        if tested is None:
+            tested = self.test(covectors)
+        valid = self.valid & tested.finite
         if not valid.any():
             raise FloatingPointError("the covector is NaN/inf at every valid sample")
-        rho, _ = self._distances(cov)
         out = []
-        for r in rho:
+        for r in tested.rho:
             d = decide_increase(r, valid, self.rtol, self.rank)
             out.append((d.rank <= self.rank, d))
         return out
