@@ -135,3 +135,16 @@ def test_programs_over_the_memory_budget_run_in_batches(monkeypatch):
     batched = uj.analyze(zoo_system("unicycle_polar", "range_v_unknown"), samples=64)
     assert any(b is not None and b < 64 for b in batches)
     _same_report(normal, batched)
+
+
+def test_xla_options_the_backend_does_not_know_fall_back_to_its_defaults():
+    """Options are a speed choice (e.g. the EORC blocks' emitters): an XLA that lacks one
+    compiles with its defaults instead of failing; other compile errors still raise."""
+    xs = jnp.linspace(0.0, 1.0, 8, dtype=jnp.float32)[:, None]
+    make = lambda batch: _program_cache.vmapped(lambda x: jnp.sin(x) * 2.0, batch)  # noqa: E731
+    unknown = lambda traced: (0, {"xla_no_such_option_for_uio_jax": True})  # noqa: E731
+    compiled, _ = _program_cache.compile_program(None, [""], make, xs, unknown)
+    np.testing.assert_allclose(np.asarray(compiled(xs)), 2.0 * np.sin(np.asarray(xs)), rtol=1e-6)
+    with pytest.raises(Exception, match="not a valid bool"):
+        bad = lambda traced: (0, {"xla_cpu_use_fusion_emitters": "not a boolean"})  # noqa: E731
+        _program_cache.compile_program(None, [""], make, xs, bad)

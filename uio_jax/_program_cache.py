@@ -277,7 +277,12 @@ def _compile(traced, options):
     """``(compiled, fresh)``: fresh when JAX's persistent cache was bypassed (storable)."""
     lowered = traced.lower()
     with _fresh_compile() as fresh:
-        compiled = lowered.compile(options) if options else lowered.compile()
+        try:
+            compiled = lowered.compile(options) if options else lowered.compile()
+        except jax.errors.JaxRuntimeError as exc:
+            if not (options and "compile option" in str(exc)):
+                raise
+            compiled = lowered.compile()  # an XLA without one of the options: its defaults
     return compiled, fresh
 
 
