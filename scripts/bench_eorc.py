@@ -11,7 +11,8 @@ once): trace size of the jitted gradient block of the order (jaxpr equations, co
 recursively), compile seconds (trace + lower + XLA compile, first call), warm seconds
 (median of ``--repeats`` calls of the compiled block on the samples) and the rank work of
 the order. Then the whole ``uj.analyze(..., k_max=k)`` warm (second and later calls of the
-same System: every block cached), median of ``--repeats``. The sympy EORC (exact
+same System: every block cached), median of ``--repeats``, for ``k = k_max`` and each
+``--warm-k`` (default 6; a smaller ``k_max`` is another extension, compiled once first). The sympy EORC (exact
 Lie derivatives and gradients, the same pruning, ranks at one random rational point) runs in
 a subprocess stopped after ``--sympy-limit`` seconds. ``os.getloadavg()`` is recorded with
 every number: the machine is shared.
@@ -41,7 +42,7 @@ def _eqns(jaxpr):
     return _count_eqns(jaxpr)
 
 
-def bench_jax(system_fn, k_max, samples, repeats):
+def bench_jax(system_fn, k_max, samples, repeats, warm_ks=()):
     import uio_jax as uj
     from uio_jax import _eorc
 
@@ -69,7 +70,9 @@ def bench_jax(system_fn, k_max, samples, repeats):
         dims = [s.dim for s in history]
         aug = [s.extra["augmented_rank"] for s in history]
         warm_total = {}
-        for kk in (k_max,):  # the same extension Sigma^(k_max): every block cached
+        for kk in sorted({k_max, *(w for w in warm_ks if w < k_max)}):
+            if kk != k_max:  # another extension Sigma^(kk): its blocks compile once first
+                uj.analyze(system, method="eorc", samples=samples, k_max=kk)
             ts = []
             for _ in range(repeats):
                 t = time.perf_counter()
@@ -154,6 +157,8 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--sympy-limit", type=float, default=120.0)
     ap.add_argument("--vi-k", type=int, default=3)
+    ap.add_argument("--warm-k", type=int, nargs="*", default=[6],
+                    help="also time analyze(k_max=k) warm for these k (vehicle)")
     ap.add_argument("--skip-sympy", action="store_true")
     ap.add_argument("--skip-vehicle", action="store_true")
     ap.add_argument("--skip-vi", action="store_true")
@@ -166,7 +171,7 @@ def main(argv=None):
     lines = [f"machine: {os.cpu_count()} cores, jax {jax.__version__} "
              f"{jax.default_backend()}, load at start {_load():.2f}", ""]
     res = None if args.skip_vehicle else bench_jax(vehicle_wind.wind_unknown, args.k_max,
-                                                     args.samples, args.repeats)
+                                                     args.samples, args.repeats, args.warm_k)
     lines += [] if res is None else [f"### Vehicle in wind (`vehicle_wind.py:wind_unknown`), EORC to k = {args.k_max}, "
               f"{args.samples} samples", "",
               f"dims on the original state per k: {res['dims']}; augmented ranks: {res['aug']}; "
