@@ -80,7 +80,7 @@ from ._context import Context
 from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
-from ._program_cache import compile_program, vmapped
+from ._program_cache import FAST_COMPILE, compile_program, vmapped
 from ._rank import Tested
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System, derived_system
@@ -261,12 +261,10 @@ def _fork(codist):
 
 _RUNS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
-#: XLA options of the gradient blocks: the CPU's fusion emitters off (XLA's older loop
-#: emitters compile these large element-wise graphs faster, and they run as fast).
+#: XLA options of the gradient blocks (:data:`uio_jax._program_cache.FAST_COMPILE`).
 #: Measured, fresh processes, 4096 samples: vehicle in wind to k = 8 cold 86 -> 64 s,
-#: visual-inertial to k = 3 cold 105 -> 56 s; warm times equal. A backend without the
-#: option compiles with its defaults (:func:`uio_jax._program_cache.compile_program`).
-_BLOCK_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+#: visual-inertial to k = 3 cold 105 -> 56 s; warm times equal.
+_BLOCK_OPTIONS = FAST_COMPILE
 
 
 class _Eorc:

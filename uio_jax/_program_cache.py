@@ -60,6 +60,12 @@ def _physical_memory() -> int:
 #: tens of GB. The check reads XLA's memory analysis of the compiled program.
 MEMORY_BUDGET = max(1 << 30, _physical_memory() // 4)
 
+#: XLA options that shorten compiling large element-wise graphs: the CPU's fusion emitters
+#: off (XLA's older loop emitters compile them 20-45 % faster and run them as fast; see
+#: the EORC blocks and the streamed series programs). An XLA without the option compiles
+#: with its defaults (:func:`_compile`).
+FAST_COMPILE = {"xla_cpu_use_fusion_emitters": False}
+
 #: Sub-directory of the compilation cache directory holding the serialized programs.
 SUBDIR = "uio_jax_programs"
 

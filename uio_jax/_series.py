@@ -132,7 +132,7 @@ class _Series:
         def make():
             return jax.jacfwd(lambda x: coefficients(x)[k_lo:].reshape(-1))
 
-        grads = self.ctx.builder.program("series", nodes, make, self.ctx.xs)
+        grads = self.ctx.builder.program("series", nodes, make, self.ctx.xs, streamed=True)
         self.ctx.remember_gradients(nodes, grads)
         return nodes, grads
 
