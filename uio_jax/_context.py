@@ -108,15 +108,11 @@ class Context:
         grads = self.gradients(list(nodes))
         return self.contains(np.moveaxis(grads, 1, 0))
 
-    def unit_covectors(self) -> np.ndarray:
-        """``e_1 .. e_n`` at every sample, ``(n, S, n)``."""
-        n, S = self.system.n, self.samples
-        return np.broadcast_to(np.eye(n)[:, None, :], (n, S, n))
-
     def observable_states(self) -> dict[str, bool]:
-        """State name -> ``e_j`` in the span."""
-        member = self.contains(self.unit_covectors())
-        return dict(zip(self.system.states, member))
+        """State name -> ``e_j`` in the span (one test of every unit covector)."""
+        results = self.codist.contains(None, self.codist.test_units(self.system.n))
+        self.memberships.extend(results)
+        return dict(zip(self.system.states, [member for member, _ in results]))
 
     def step(self, m, added, **extra) -> Step:
         """A history entry for the current state of the codistribution."""

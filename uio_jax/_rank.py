@@ -277,7 +277,9 @@ class Codistribution:
         With ``B (S, r, n)`` the kept orthonormal rows, the residuals of every ``e_j`` at
         once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
         :meth:`test`, ``R2 = R1 - B^T (B R1)``: three small matrix products per sample
-        instead of four per covector.
+        instead of four per covector. Unlike :meth:`test`, a unit covector is never taken
+        for a round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm
+        is exact, however large the kept gradients are.
         """
         S, n = self.basis.shape[0], self.n
         B = self.basis[:, : self.rank]  # (S, r, n)
