@@ -3,7 +3,7 @@ it, and the visual-inertial model.
 
 Usage::
 
-    python scripts/bench_eorc.py [--k-max 8] [--samples 4096] [--repeats 3]
+    python scripts/bench_eorc.py [--k-max 8] [--samples 4096] [--repeats 3] [--warm-k 6]
                                  [--sympy-limit 120] [--vi-k 3] [--out docs/benchmarks/eorc.md]
 
 Per order k of one EORC run on ``vehicle_wind.py:wind_unknown`` (``Sigma^(k_max)``, built
@@ -12,9 +12,9 @@ recursively), compile seconds (trace + lower + XLA compile, first call), warm se
 (median of ``--repeats`` calls of the compiled block on the samples) and the rank work of
 the order. Then the whole ``uj.analyze(..., k_max=k)`` warm (second and later calls of the
 same System: every block cached), median of ``--repeats``, for ``k = k_max`` and each
-``--warm-k`` (default 6; a smaller ``k_max`` is another extension, compiled once first). The sympy EORC (exact
-Lie derivatives and gradients, the same pruning, ranks at one random rational point) runs in
-a subprocess stopped after ``--sympy-limit`` seconds. ``os.getloadavg()`` is recorded with
+``--warm-k`` (default 6; a smaller ``k_max`` is another extension, compiled once first).
+The sympy EORC (exact Lie derivatives and gradients, the same pruning, ranks at one random
+rational point) runs in a subprocess stopped after ``--sympy-limit`` seconds. ``os.getloadavg()`` is recorded with
 every number: the machine is shared.
 """
 
