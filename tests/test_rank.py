@@ -128,6 +128,5 @@ def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     member = [m for m, _ in codist.contains(None, fast)]
     assert member == [m for m, _ in codist.contains(units)] == [False] * n
     # absorbing e_1..e_3 from the one test raises the rank by exactly 1 (span is 2 of 3)
-    first = type(fast)(fast.cands[:3], fast.finite, fast.rho[:3], fast.dirs[:3])
-    added = codist.absorb([Node(f"e{i}", None, "scalar") for i in range(3)], None, first)
+    added = codist.absorb([Node(f"e{i}", None, "scalar") for i in range(3)], None, fast.first(3))
     assert len(added) == 1 and codist.rank == 3

@@ -81,7 +81,6 @@ from ._errors import ModelError
 from ._generators import Node
 from ._lie import lie_derivative
 from ._program_cache import FAST_COMPILE, compile_program, vmapped
-from ._rank import Tested
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System, derived_system
 from ._taylor import lie_powers
@@ -336,7 +335,7 @@ class _Eorc:
             out.append(lbl)
         return out
 
-    def _block(self, phis, labels, batch=None):
+    def _block(self, phis, batch=None):
         """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``.
 
         For a generator ``phi`` and a field ``v`` (``F0`` then the known ``F_i``)::
@@ -358,25 +357,25 @@ class _Eorc:
         fn = self.cache["blocks"].get(key)
         if fn is not None:
             return fn
-        fields = (self.ext.drift,) + tuple(f for _, f in self.known)
-        if not self.known:
-            # every child is L_F0 phi = L_F0^(j+1) base (phi a power or an output)
+        if not self.known:  # every child is L_F0 phi = L_F0^(j+1) base (phi a power or an output)
             ups = [jax.grad(self._fn(self._children(p)[0])) for p in phis]
-            return self._cache_block(key, vmapped(lambda x: jnp.stack([g(x) for g in ups]), batch))
-        grads = [jax.grad(self._fn(p.label)) for p in phis]
 
-        def children(x):
-            V = jnp.stack([v(x) for v in fields])  # (1 + m_u, N)
-            rows = []
-            for grad in grads:
-                dphi, hv = jax.vmap(lambda t, grad=grad: jax.jvp(grad, (x,), (t,)))(V)
-                jtg = jnp.stack([jax.vjp(v, x)[1](dphi[0])[0] for v in fields])
-                rows.append(hv + jtg)
-            return jnp.concatenate(rows)
+            def children(x):
+                return jnp.stack([g(x) for g in ups])
+        else:
+            grads = [jax.grad(self._fn(p.label)) for p in phis]
+            fields = (self.ext.drift,) + tuple(f for _, f in self.known)
 
-        return self._cache_block(key, vmapped(children, batch))
+            def children(x):
+                V = jnp.stack([v(x) for v in fields])  # (1 + m_u, N)
+                rows = []
+                for grad in grads:
+                    dphi, hv = jax.vmap(lambda t, grad=grad: jax.jvp(grad, (x,), (t,)))(V)
+                    jtg = jnp.stack([jax.vjp(v, x)[1](dphi[0])[0] for v in fields])
+                    rows.append(hv + jtg)
+                return jnp.concatenate(rows)
 
-    def _cache_block(self, key, fn):
+        fn = vmapped(children, batch)
         self.cache["blocks"][key] = fn
         return fn
 
@@ -394,7 +393,7 @@ class _Eorc:
                 break
             try:
                 parts = ["eorc-block", self.cache["mode"], "\n".join(p.label for p in frontier)]
-                compiled, _ = compile_program(self.ext, parts, lambda batch: self._block(frontier, labels, batch),
+                compiled, _ = compile_program(self.ext, parts, lambda batch: self._block(frontier, batch),
                                               xs, lambda traced: (0, _BLOCK_OPTIONS))
                 self.cache["compiled"][key] = compiled
                 break
@@ -445,7 +444,7 @@ class _Eorc:
         if codist.rank == 0:
             return states, inputs, 0
         fork = _fork(codist)
-        first = Tested(tested.cands[:n], tested.finite, tested.rho[:n], tested.dirs[:n])
+        first = tested.first(n)
         added = fork.absorb([Node(f"e_{s}", None, "scalar") for s in self.system.states], None,
                             first)
         self.extra_decisions += [(False, d) for d in fork.acceptances]

@@ -199,6 +199,10 @@ class Tested:
     rho: np.ndarray
     dirs: np.ndarray
 
+    def first(self, count: int) -> "Tested":
+        """The first ``count`` covectors of the family (same samples)."""
+        return Tested(self.cands[:count], self.finite, self.rho[:count], self.dirs[:count])
+
 
 class Codistribution:
     """A growing set of kept generators, evaluated at fixed sample states.
