@@ -56,7 +56,7 @@ def bench_jax(system_fn, k_max, samples, repeats, warm_ks=()):
         xs = run.ctx.xs
         for st in run.steps:
             key = st["key"]
-            block = next(fn for k, fn in run.cache["blocks"].items() if k[:2] == (key[0], key[1]))
+            block = run.cache["blocks"][(key[0], key[1], key[3])]  # (labels, mode, batch)
             eqns = _eqns(jax.make_jaxpr(block)(xs).jaxpr)
             compiled = run.cache["compiled"][key]
             times = []

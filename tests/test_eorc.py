@@ -129,6 +129,31 @@ def test_fallback_without_jet_rule():
     assert rep.observable == {"x": True, "a": False}
 
 
+def test_streamed_blocks_give_the_same_report(monkeypatch):
+    """Blocks over the samples in batches (after a block measured STREAM_ELEMENTS) answer
+    as the blocks over all samples at once; here every block after order 1 is streamed."""
+    from uio_jax import _eorc
+
+    case = "unicycle_disturbance.py:gamma_known_range"
+    plain = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)
+    batches = []
+
+    def recording(fn, batch=None):
+        batches.append(batch)
+        return _eorc_vmapped(fn, batch)
+
+    _eorc_vmapped = _eorc.vmapped
+    monkeypatch.setattr(_eorc, "STREAM_ELEMENTS", 0.0)
+    monkeypatch.setattr(_eorc, "vmapped", recording)
+    streamed = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)
+    assert batches[0] is None and set(batches[1:]) == {_eorc.STREAM_BATCH}
+    assert len(batches) == len(streamed.dims) - 1
+    assert list(streamed.dims) == list(plain.dims)
+    assert streamed.observable == plain.observable
+    assert [s.extra["augmented_rank"] for s in streamed.history] == \
+        [s.extra["augmented_rank"] for s in plain.history]
+
+
 # ------------------------------------------------------------------ single_ui cross-check
 _SINGLE = [(f, name) for f in ("unicycle_polar", "unicycle_disturbance", "vehicle_wind")
            for name, pub in _module(f).PUBLISHED.items() if pub["method"] == "single_ui"]

@@ -69,6 +69,7 @@ generic rank is the same on every open set of the extended space.
 """
 
 import copy
+import math
 import time
 import weakref
 
@@ -265,6 +266,43 @@ _RUNS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 #: visual-inertial to k = 3 cold 105 -> 56 s; warm times equal.
 _BLOCK_OPTIONS = FAST_COMPILE
 
+#: Samples per step when a block runs over the samples in batches (``lax.map`` of
+#: ``vmap``); see :data:`STREAM_ELEMENTS`.
+STREAM_BATCH = 256
+
+#: Per-sample size of a block's intermediates (array elements per jaxpr equation, per
+#: sample) from which the run's *later* blocks go over the samples in batches of
+#: :data:`STREAM_BATCH`. A block is memory-bound when its intermediates are large: at 4096
+#: samples each one streams through memory, in batches of 256 it stays in the caches.
+#: Measured, 4096 samples, warm block seconds all at once -> in batches: vehicle in wind,
+#: powers j = 4, 5, 6 (40, 57, 76 elements per equation) 0.22 -> 0.15, 0.38 -> 0.29,
+#: 0.50 -> 0.37 s, compile equal; its k = 2, 3 blocks (11, 18) equal; the
+#: visual-inertial k = 3 block (12: 30 000 small equations, the per-batch loop costs more
+#: than the caches give) 0.42 -> 0.52 s and compile 34 -> 40 s. Sizes grow with the order,
+#: so the measurement of order k decides for orders > k (no block is traced twice).
+STREAM_ELEMENTS = 32
+
+
+def _block_options(traced, samples):
+    """``(eqns, XLA options, facts)`` of a traced block vmapped over ``samples``: facts
+    ``{"elements": mean array elements an equation outputs, per sample}``."""
+    eqns, elements = _walk_sizes(traced.jaxpr.jaxpr)
+    return eqns, _BLOCK_OPTIONS, {"elements": elements / (max(eqns, 1) * samples)}
+
+
+def _walk_sizes(jaxpr):
+    """``(equations, elements of their outputs)`` of a jaxpr, sub-jaxprs included."""
+    eqns = elements = 0
+    for eqn in jaxpr.eqns:
+        eqns += 1
+        elements += sum(int(np.prod(getattr(v.aval, "shape", ()))) for v in eqn.outvars)
+        for param in eqn.params.values():
+            sub = getattr(param, "jaxpr", None)
+            if sub is not None:
+                e, el = _walk_sizes(getattr(sub, "jaxpr", sub))
+                eqns, elements = eqns + e, elements + el
+    return eqns, elements
+
 
 class _Eorc:
     """State of one EORC run: the Context on ``Sigma^(K)`` and the per-order evidence.
@@ -286,7 +324,8 @@ class _Eorc:
         self.names = input_names(system, K)
         self.ctx = Context(self.ext, samples, seed, rtol)
         self.cache = _RUNS.setdefault(self.ext, {"struct": {}, "fns": {}, "blocks": {},
-                                                   "mode": _MODES[0], "compiled": {}})
+                                                   "mode": _MODES[0], "compiled": {},
+                                                   "stream_after": math.inf})
         self.struct = self.cache["struct"]
         for k, h in self.ext.outputs.items():
             self.struct.setdefault(k, ("out", h))
@@ -379,23 +418,36 @@ class _Eorc:
         self.cache["blocks"][key] = fn
         return fn
 
-    def absorb_children(self, frontier, k):
-        """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them."""
-        if not frontier:
-            return []
-        labels = [lbl for phi in frontier for lbl in self._children(phi)]
+    def dispatch(self, frontier, k):
+        """Start the gradient block of order ``k``: the children of ``frontier``.
+
+        Compiled if needed; all samples at once, or in batches of :data:`STREAM_BATCH`
+        after an order whose block measured :data:`STREAM_ELEMENTS` or more.
+
+        JAX runs the block asynchronously: the caller can do the rank work of the current
+        order while it computes, then hand the result to :meth:`absorb_children`.
+
+        Returns:
+            ``(frontier, key, compile_s, t_start, grads)`` with ``grads`` a JAX array
+            still being computed.
+        """
         xs = self.ctx.xs
         t0 = time.perf_counter()
         while True:
-            key = (tuple(p.label for p in frontier), self.cache["mode"], xs.shape)
+            batch = STREAM_BATCH if k > self.cache["stream_after"] and len(xs) > STREAM_BATCH else None
+            key = (tuple(p.label for p in frontier), self.cache["mode"], xs.shape, batch)
             compiled = self.cache["compiled"].get(key)
             if compiled is not None:
                 break
             try:
-                parts = ["eorc-block", self.cache["mode"], "\n".join(p.label for p in frontier)]
-                compiled, _ = compile_program(self.ext, parts, lambda batch: self._block(frontier, batch),
-                                              xs, lambda traced: (0, _BLOCK_OPTIONS))
+                parts = ["eorc-block", self.cache["mode"], f"batch {batch}",
+                         "\n".join(p.label for p in frontier)]
+                compiled, timing = compile_program(
+                    self.ext, parts, lambda b, batch=batch: self._block(frontier, b or batch), xs,
+                    lambda traced: _block_options(traced, len(xs)))
                 self.cache["compiled"][key] = compiled
+                if batch is None and timing.facts.get("elements", 0.0) >= STREAM_ELEMENTS:
+                    self.cache["stream_after"] = min(self.cache["stream_after"], k)
                 break
             except (NotImplementedError, KeyError, TypeError, ValueError):  # no rule
                 mode = self.cache["mode"]
@@ -406,15 +458,30 @@ class _Eorc:
                 self.cache["compiled"].clear()
         t1 = time.perf_counter()
         with jax.enable_x64(True):
-            grads = np.asarray(compiled(xs))
-        self.compile_s.append(t1 - t0)
+            grads = compiled(xs)
+        return list(frontier), key, t1 - t0, t1, grads
+
+    def absorb_children(self, frontier, k, started=None):
+        """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them.
+
+        ``started``: the :meth:`dispatch` of the same frontier, if it was started earlier
+        (its ``eval_s`` then includes the work done meanwhile).
+        """
+        if not frontier:
+            return []
+        if started is None:
+            started = self.dispatch(frontier, k)
+        frontier, key, compile_s, t1, pending = started
+        labels = [lbl for phi in frontier for lbl in self._children(phi)]
+        grads = np.asarray(pending)
+        self.compile_s.append(compile_s)
         self.steps.append({"k": k, "frontier": len(frontier), "candidates": len(labels),
-                           "compile_s": t1 - t0, "eval_s": time.perf_counter() - t1,
+                           "compile_s": compile_s, "eval_s": time.perf_counter() - t1,
                            "key": key})
         nodes = [self._node(lbl, k) for lbl in labels]
         return self.ctx.absorb(nodes, grads)
 
-    def coordinates(self, k):
+    def coordinates(self, k, meanwhile=None):
         """What ``Omega-bar_k`` says about the coordinates of ``Sigma^(k)``, certified.
 
         The unit covectors ``e_1..e_{n + k m_w}`` are tested against the span once
@@ -425,6 +492,10 @@ class _Eorc:
 
         for which ``e_1..e_n`` are absorbed one by one into a copy of the codistribution
         (each one that raises the generic rank removes one dimension).
+
+        ``meanwhile()`` is called once the memberships are known and some state is not
+        observable, before the dimension is computed (the run starts the next order's
+        block there, so that it computes during this host-side rank work).
 
         Returns:
             ``(states, inputs, dim)``: names of the states and of the input coordinates
@@ -441,6 +512,8 @@ class _Eorc:
         inputs = [s for s, (m, _) in zip(names[n:], results[n:]) if m]
         if len(states) == n:
             return states, inputs, n
+        if meanwhile is not None:
+            meanwhile()
         if codist.rank == 0:
             return states, inputs, 0
         fork = _fork(codist)
@@ -462,9 +535,14 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
     run = _Eorc(system, K, samples, seed, rtol)
     ctx = run.ctx
     history = []
+    started = []  # the next order's block, dispatched while this order's rank work runs
 
     def record(k, added):
-        states, inputs, dim = run.coordinates(k)
+        def start_next():  # the next order will run: frontier not empty, k < K, not full
+            if k < K and added:
+                started.append(run.dispatch(added, k + 1))
+
+        states, inputs, dim = run.coordinates(k, start_next)
         extra = {
             "augmented_rank": ctx.dim,
             "augmented_dim": run.n + k * run.mw,
@@ -485,7 +563,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
         if k >= K:
             return run, history, f"k_max={K} reached", k
         k += 1
-        frontier = run.absorb_children(frontier, k)
+        frontier = run.absorb_children(frontier, k, started.pop() if started else None)
         full = record(k, frontier)
         if not frontier and not full:
             return run, history, (

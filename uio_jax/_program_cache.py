@@ -38,7 +38,7 @@ import platform
 import tempfile
 import time
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import jax
@@ -199,12 +199,16 @@ def store(key: str, compiled, meta: dict) -> bool:
 
 @dataclass(frozen=True)
 class Timing:
-    """How one program was obtained: jaxpr size, seconds tracing / compiling, from disk."""
+    """How one program was obtained: jaxpr size, seconds tracing / compiling, from disk.
+
+    ``facts``: what ``options_for`` measured on the traced program (kept with it on disk).
+    """
 
     eqns: int
     trace_s: float
     compile_s: float
     from_disk: bool
+    facts: dict = field(default_factory=dict)
 
 
 def compile_program(system, parts, make_jitted, xs, options_for=None):
@@ -217,7 +221,9 @@ def compile_program(system, parts, make_jitted, xs, options_for=None):
             (``batch`` None: all samples at once; else that many at a time, see
             :func:`vmapped`).
         xs: the argument (float64 samples).
-        options_for: ``traced -> (eqns, xla_options or None)``, called after tracing.
+        options_for: ``traced -> (eqns, xla_options or None[, facts])``, called after
+            tracing; ``facts`` (a JSON-able dict) is stored with the program and returned
+            in :attr:`Timing.facts`, also when the program comes from disk.
 
     Returns:
         ``(compiled, Timing)``. Errors raised while tracing (a primitive without a rule)
@@ -230,7 +236,8 @@ def compile_program(system, parts, make_jitted, xs, options_for=None):
         compiled, meta = hit
         retrace = lambda: _trace_and_compile(key, make_jitted, xs, options_for)[0]  # noqa: E731
         return _Loaded(compiled, key, retrace), Timing(int(meta.get("eqns", 0)), 0.0,
-                                                       time.perf_counter() - t0, True)
+                                                       time.perf_counter() - t0, True,
+                                                       dict(meta.get("facts") or {}))
     return _trace_and_compile(key, make_jitted, xs, options_for)
 
 
@@ -257,26 +264,26 @@ def _trace_and_compile(key, make_jitted, xs, options_for):
     :data:`MEMORY_BUDGET`, trace and compile ``make_jitted(batch)`` instead (the samples in
     batches of a power of two that fits). The result is stored under ``key``."""
     t0 = time.perf_counter()
-    traced, eqns, options = _trace(make_jitted, None, xs, options_for)
+    traced, eqns, options, facts = _trace(make_jitted, None, xs, options_for)
     t1 = time.perf_counter()
     compiled, fresh = _compile(traced, options)
     temp = _temp_bytes(compiled)
     if temp > MEMORY_BUDGET and xs.shape[0] > 1:
         batch = max(1, 2 ** int(math.floor(math.log2(xs.shape[0] * MEMORY_BUDGET / temp))))
         t2 = time.perf_counter()
-        traced, eqns, options = _trace(make_jitted, batch, xs, options_for)
+        traced, eqns, options, facts = _trace(make_jitted, batch, xs, options_for)
         t1 += time.perf_counter() - t2
         compiled, fresh = _compile(traced, options)
     t2 = time.perf_counter()
     if key and fresh:
-        store(key, compiled, {"eqns": eqns, "options": options})
-    return compiled, Timing(eqns, t1 - t0, t2 - t1, False)
+        store(key, compiled, {"eqns": eqns, "options": options, "facts": facts})
+    return compiled, Timing(eqns, t1 - t0, t2 - t1, False, facts)
 
 
 def _trace(make_jitted, batch, xs, options_for):
     traced = make_jitted(batch).trace(xs)
-    eqns, options = options_for(traced) if options_for else (0, None)
-    return traced, eqns, options
+    eqns, options, *facts = options_for(traced) if options_for else (0, None)
+    return traced, eqns, options, (facts[0] if facts else {})
 
 
 def _compile(traced, options):
