@@ -252,13 +252,16 @@ class Codistribution:
         basis = self.basis[:, :rows]
         rhos, dirs = [], []
         with jax.enable_x64(True):
-            for start in range(0, C, chunk):
-                part = cands[start : start + chunk]
-                block = np.zeros((chunk, S, n))
+            start = 0
+            while start < C:  # full chunks, then the rest in the next power of two
+                size = min(chunk, 1 << (C - start - 1).bit_length())
+                part = cands[start : start + size]
+                block = np.zeros((size, S, n))
                 block[: len(part)] = part
                 rho, d = _residuals(basis, self.ref, block)
                 rhos.append(np.asarray(rho)[: len(part)])
                 dirs.append(np.asarray(d)[: len(part)])
+                start += size
         return np.concatenate(rhos), np.concatenate(dirs)
 
     def _keep(self, node, cand, rho, direction, decision):
