@@ -248,7 +248,7 @@ class Codistribution:
         chunk = min(_CHUNK, 1 << (limit.bit_length() - 1), 1 << (C - 1).bit_length())
         # only the kept rows of the basis (the others are zero), padded to a power of two
         # so that a run compiles a few shapes: at rank 3 of 25 the projections cost 1/6
-        rows = min(n, 1 << max(self.rank - 1, 0).bit_length()) if self.rank else 1
+        rows = min(n, 1 << (self.rank - 1).bit_length()) if self.rank else 1
         basis = self.basis[:, :rows]
         rhos, dirs = [], []
         with jax.enable_x64(True):
