@@ -11,9 +11,14 @@ Filter state (``N = n + p * order``)::
 discretised by Euler at ``dt``: ``xa+ = xa + dt * F(xa, u)``. Everything here acts on ONE
 trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
 
-* **Predict** ``P <- J P J^T + Q(xa, u)`` with ``J = d xa+ / d xa``, computed as two passes
-  of the JVP of the step (``jax.linearize``) over the columns of ``P`` and of ``(J P)^T``;
-  the dense Jacobian is never formed (4x faster than ``J @ P @ J.T`` batched on CPU).
+* **Predict** ``P <- J P J^T + Q(xa, u)`` with ``J = d xa+ / d xa`` by ``jax.jacfwd`` (one
+  forward pass with N tangents: the step's sines and cosines once) and the products as sums
+  of N broadcast rank-one terms, never ``@``: XLA's CPU dot on a batch of 5x5 matrices runs
+  matrix by matrix (4x slower than the JVP form), while the sums fuse into one element-wise
+  loop. Measured on the predict alone (2048 trials per device, CPU-ns per trial-step): 5
+  states 544 -> 246, 6 states 698 -> 363, against two passes of the step's JVP
+  (``jax.linearize``) over the columns of ``P`` and ``(J P)^T``, where XLA recomputed the
+  trigonometry in each fusion.
 * **Process noise**, state- and input-dependent::
 
       Q = dt^2 sum_i std_i(u)^2 f_i(x) f_i(x)^T      (known-input reading noise)
@@ -145,12 +150,27 @@ def predict(model: Model, xa, P, u_read):
         u_read: known-input readings of this step, shape ``(m,)``.
 
     Returns:
-        ``(xa+, P+)`` with ``P+ = J P J^T + Q(xa, u_read)`` (JVP form, see module doc).
+        ``(xa+, P+)`` with ``P+ = J P J^T + Q(xa, u_read)`` (see the module doc).
     """
-    xn, jvp = jax.linearize(lambda z: model.step(z, u_read), xa)
-    jp = jax.vmap(jvp, in_axes=1, out_axes=1)(P)            # J P
-    jpj = jax.vmap(jvp, in_axes=1, out_axes=1)(jp.T)       # J (J P)^T = J P J^T
-    return xn, jpj + model.process_noise(xa, u_read)
+    def step(z):
+        return model.step(z, u_read)
+
+    J = jax.jacfwd(step)(xa)
+    return step(xa), sandwich(J, P) + model.process_noise(xa, u_read)
+
+
+def small_matmul(A, B):
+    """``A @ B`` for small matrices ``(a, c) x (c, b)``, as ``c`` broadcast rank-one terms.
+
+    Under ``vmap`` over trials XLA fuses the terms into one element-wise loop, where its CPU
+    dot runs one small matrix of the batch at a time.
+    """
+    return sum(A[:, j, None] * B[None, j, :] for j in range(A.shape[1]))
+
+
+def sandwich(A, P):
+    """``A P A^T`` for small square matrices, by :func:`small_matmul`."""
+    return small_matmul(small_matmul(A, P), A.T)
 
 
 def update(model: Model, xa, P, y, mask=None):
@@ -174,15 +194,15 @@ def update(model: Model, xa, P, y, mask=None):
         nu = jnp.where(mask, nu, 0.0)
         H = jnp.where(mask[:, None], H, 0.0)
         r = jnp.where(mask, r, 1.0)
-    PHt = P @ H.T                                             # (N, n_out)
-    S = H @ PHt + jnp.diag(r)
+    PHt = small_matmul(P, H.T)                                # (N, n_out)
+    S = small_matmul(H, PHt) + jnp.diag(r)
     if hx.shape[0] == 1:
         K = PHt / S[0, 0]
     else:
         K = jnp.linalg.solve(S, PHt.T).T                      # S symmetric
-    xa = xa + K @ nu
-    ikh = jnp.eye(model.N, dtype=P.dtype) - K @ H
-    P = ikh @ P @ ikh.T + (K * r) @ K.T
+    xa = xa + small_matmul(K, nu[:, None])[:, 0]
+    ikh = jnp.eye(model.N, dtype=P.dtype) - small_matmul(K, H)
+    P = sandwich(ikh, P) + small_matmul(K * r, K.T)
     return xa, P
 
 
