@@ -12,13 +12,13 @@ discretised by Euler at ``dt``: ``xa+ = xa + dt * F(xa, u)``. Everything here ac
 trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
 
 * **Predict** ``P <- J P J^T + Q(xa, u)`` with ``J = d xa+ / d xa`` by ``jax.jacfwd`` (one
-  forward pass with N tangents: the step's sines and cosines once) and the products as sums
-  of N broadcast rank-one terms, never ``@``: XLA's CPU dot on a batch of 5x5 matrices runs
-  matrix by matrix (4x slower than the JVP form), while the sums fuse into one element-wise
-  loop. Measured on the predict alone (2048 trials per device, CPU-ns per trial-step): 5
-  states 544 -> 246, 6 states 698 -> 363, against two passes of the step's JVP
-  (``jax.linearize``) over the columns of ``P`` and ``(J P)^T``, where XLA recomputed the
-  trigonometry in each fusion.
+  forward pass with N tangents: the step's sines and cosines computed once) and the
+  products as sums of N broadcast rank-one terms, never ``@``: XLA's CPU dot on a batch of
+  5x5 matrices runs one matrix at a time, the sums fuse into element-wise loops over the
+  batch. Measured on the prediction alone (2048 trials per device, CPU-ns per
+  trial-step): 5 states 544 -> 246, 6 states 698 -> 363, against two passes of the step's
+  JVP (``jax.linearize``) over the columns of ``P`` and ``(J P)^T``, where XLA recomputed
+  the trigonometry in each of its fusions (``J @ P @ J.T`` was slower still).
 * **Process noise**, state- and input-dependent::
 
       Q = dt^2 sum_i std_i(u)^2 f_i(x) f_i(x)^T      (known-input reading noise)
@@ -156,10 +156,10 @@ def predict(model: Model, xa, P, u_read):
         return model.step(z, u_read)
 
     J = jax.jacfwd(step)(xa)
-    return step(xa), sandwich(J, P) + model.process_noise(xa, u_read)
+    return step(xa), _sandwich(J, P) + model.process_noise(xa, u_read)
 
 
-def small_matmul(A, B):
+def _small_matmul(A, B):
     """``A @ B`` for small matrices ``(a, c) x (c, b)``, as ``c`` broadcast rank-one terms.
 
     Under ``vmap`` over trials XLA fuses the terms into one element-wise loop, where its CPU
@@ -168,9 +168,9 @@ def small_matmul(A, B):
     return sum(A[:, j, None] * B[None, j, :] for j in range(A.shape[1]))
 
 
-def sandwich(A, P):
-    """``A P A^T`` for small square matrices, by :func:`small_matmul`."""
-    return small_matmul(small_matmul(A, P), A.T)
+def _sandwich(A, P):
+    """``A P A^T`` for small square matrices, by :func:`_small_matmul`."""
+    return _small_matmul(_small_matmul(A, P), A.T)
 
 
 def update(model: Model, xa, P, y, mask=None):
@@ -194,15 +194,15 @@ def update(model: Model, xa, P, y, mask=None):
         nu = jnp.where(mask, nu, 0.0)
         H = jnp.where(mask[:, None], H, 0.0)
         r = jnp.where(mask, r, 1.0)
-    PHt = small_matmul(P, H.T)                                # (N, n_out)
-    S = small_matmul(H, PHt) + jnp.diag(r)
+    PHt = _small_matmul(P, H.T)                                # (N, n_out)
+    S = _small_matmul(H, PHt) + jnp.diag(r)
     if hx.shape[0] == 1:
         K = PHt / S[0, 0]
     else:
         K = jnp.linalg.solve(S, PHt.T).T                      # S symmetric
-    xa = xa + small_matmul(K, nu[:, None])[:, 0]
-    ikh = jnp.eye(model.N, dtype=P.dtype) - small_matmul(K, H)
-    P = sandwich(ikh, P) + small_matmul(K * r, K.T)
+    xa = xa + _small_matmul(K, nu[:, None])[:, 0]
+    ikh = jnp.eye(model.N, dtype=P.dtype) - _small_matmul(K, H)
+    P = _sandwich(ikh, P) + _small_matmul(K * r, K.T)
     return xa, P
 
 
