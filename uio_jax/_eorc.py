@@ -79,7 +79,7 @@ import numpy as np
 
 from ._context import Context
 from ._errors import ModelError
-from ._generators import Node
+from ._generators import Node, jaxpr_sizes
 from ._lie import lie_derivative
 from ._program_cache import FAST_COMPILE, compile_program, vmapped
 from ._report import Report, Step
@@ -287,22 +287,8 @@ STREAM_ELEMENTS = 16
 def _block_options(traced, samples):
     """``(eqns, XLA options, facts)`` of a traced block vmapped over ``samples``: facts
     ``{"elements": mean array elements an equation outputs, per sample}``."""
-    eqns, elements = _walk_sizes(traced.jaxpr.jaxpr)
+    eqns, elements = jaxpr_sizes(traced.jaxpr.jaxpr)
     return eqns, _BLOCK_OPTIONS, {"elements": elements / (max(eqns, 1) * samples)}
-
-
-def _walk_sizes(jaxpr):
-    """``(equations, elements of their outputs)`` of a jaxpr, sub-jaxprs included."""
-    eqns = elements = 0
-    for eqn in jaxpr.eqns:
-        eqns += 1
-        elements += sum(int(np.prod(getattr(v.aval, "shape", ()))) for v in eqn.outvars)
-        for param in eqn.params.values():
-            sub = getattr(param, "jaxpr", None)
-            if sub is not None:
-                e, el = _walk_sizes(getattr(sub, "jaxpr", sub))
-                eqns, elements = eqns + e, elements + el
-    return eqns, elements
 
 
 class _Eorc:

@@ -9,6 +9,7 @@ cached the same way.
 """
 
 import hashlib
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -305,14 +306,22 @@ def _sig(op, *operands) -> str:
 
 
 def _count_eqns(jaxpr) -> int:
-    n = 0
+    """Equations of a jaxpr, sub-jaxprs included."""
+    return jaxpr_sizes(jaxpr)[0]
+
+
+def jaxpr_sizes(jaxpr) -> tuple[int, int]:
+    """``(equations, array elements their outputs hold)`` of a jaxpr, sub-jaxprs included."""
+    eqns = elements = 0
     for eqn in jaxpr.eqns:
-        n += 1
+        eqns += 1
+        elements += sum(math.prod(getattr(v.aval, "shape", ())) for v in eqn.outvars)
         for param in eqn.params.values():
             sub = getattr(param, "jaxpr", None)
             if sub is not None:
-                n += _count_eqns(getattr(sub, "jaxpr", sub))
-    return n
+                e, el = jaxpr_sizes(getattr(sub, "jaxpr", sub))
+                eqns, elements = eqns + e, elements + el
+    return eqns, elements
 
 
 def _key_label(key) -> str:
