@@ -8,7 +8,7 @@ Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
   ``(seed, i)``: not on the batch size, the chunking or the sharding.
 * nested scan: chunks (a Python loop, which drives the progress bar) -> records
   (statistics kept every ``record_every`` epochs) -> epochs (one output update) -> Euler
-  sub-steps (truth, readings, EKF predict; ``unroll=5``).
+  sub-steps (truth, readings, EKF predict; ``UNROLL`` below).
 * trials are split over all devices with ``shard_map`` (on a CPU, split the host into one
   device per core *before* JAX starts: ``jax.config.update("jax_num_cpu_devices", 2)``;
   the command line does it).

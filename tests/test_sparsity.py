@@ -1,0 +1,130 @@
+"""Structural Jacobian patterns (``_sparsity``) and the EKF prediction that skips their zeros.
+
+Oracles: the Jacobian by ``jax.jacfwd`` at random points (a pattern must cover every
+non-zero it finds, and is exact for element-wise model code), and the dense prediction
+``J P J^T + Q`` with ``J = jacfwd`` of the whole augmented Euler step.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import zoo
+
+import uio_jax as uj
+from uio_jax._ekf import make_model, predict
+from uio_jax._experiment import Experiment, Measurement
+from uio_jax._loading import load_module
+from uio_jax._sparsity import jacobian_pattern
+
+
+def _numeric_pattern(fn, q, points=6, seed=0):
+    rng = np.random.default_rng(seed)
+    found = np.zeros((0,), bool)
+    for _ in range(points):
+        J = np.asarray(jax.jacfwd(fn)(jnp.asarray(rng.normal(size=q))))
+        found = (J != 0) if found.size == 0 else found | (J != 0)
+    return found
+
+
+def test_pattern_of_element_wise_code_is_exact():
+    def fn(x):
+        v = jnp.stack([jnp.cos(x[2]) * x[3], jnp.sin(x[2]), 0.0 * x[1]])
+        pad = jnp.concatenate([v, jnp.zeros(2)])
+        return pad * x[4] + jnp.array([0.0, 0.0, 0.0, 1.0, 0.0]) * x[0]
+
+    pat = jacobian_pattern(fn, np.zeros(5))
+    expected = np.zeros((5, 5), bool)
+    expected[0, [2, 3, 4]] = True
+    expected[1, [2, 4]] = True
+    expected[3, 0] = True         # the constant's 1.0 entry times x[0]; its zeros vanish
+    np.testing.assert_array_equal(pat, expected)
+    np.testing.assert_array_equal(pat, _numeric_pattern(fn, 5))
+
+
+def test_pattern_falls_back_to_dense_for_matrix_products():
+    A = np.arange(9.0).reshape(3, 3)
+
+    def fn(x):
+        return jnp.concatenate([A @ x[:3], x[3:] ** 2])
+
+    pat = jacobian_pattern(fn, np.zeros(5))
+    assert pat[:3, :3].all()                      # dot_general: every operand element
+    np.testing.assert_array_equal(pat[3:], np.eye(5, dtype=bool)[3:])
+    assert np.all(pat >= _numeric_pattern(fn, 5))
+
+
+def test_pattern_through_nested_jit_and_where():
+    @jax.jit
+    def inner(x):
+        return jnp.where(x[0] > 0, x[1], -x[1])
+
+    def fn(x):
+        return jnp.stack([inner(x), x[2] * 0.0, jnp.tanh(x[0])])
+
+    pat = jacobian_pattern(fn, np.zeros(3))
+    assert pat[0, 1] and not pat[0, 2]
+    assert not pat[1].any()
+    np.testing.assert_array_equal(pat[2], [True, False, False])
+    assert np.all(pat >= _numeric_pattern(fn, 3))
+
+
+@pytest.mark.parametrize("path, name", [
+    ("unicycle_disturbance.py", "range_gamma_known_experiment"),
+    ("unicycle_disturbance.py", "range_gamma_unknown_experiment"),
+    ("vehicle_wind.py", "with_wind_experiment"),
+    ("vehicle_wind.py", "no_wind_experiment"),
+])
+def test_zoo_patterns_cover_the_jacobian(path, name):
+    exp = getattr(load_module(zoo(path)), name)()
+    model = make_model(exp)
+    n, p, m = model.n, model.p, len(exp.system.known)
+    flow = lambda z: model.dynamics(z[:n], z[n + p:], z[n:n + p])  # noqa: E731
+    numeric = _numeric_pattern(flow, n + p + m)[:, :n + p]
+    np.testing.assert_array_equal(model.pattern, numeric)   # exact on these models
+    assert not model.pattern.all()                           # and the zeros are there
+
+
+def _toy_experiment(order):
+    """Two unknown inputs, a drift, a known field: every block of the prediction used."""
+    sys_ = uj.System(
+        ("a", "b", "c"), {"y": lambda x: x[0] * x[1]},
+        drift=lambda x: jnp.stack([x[1], jnp.sin(x[0]), 0.0 * x[2]]),
+        known={"u": lambda x: jnp.stack([0.0 * x[0], x[2], 1.0 + 0.0 * x[0]])},
+        unknown={"w1": lambda x: jnp.stack([jnp.cos(x[2]), 0.0 * x[0], 0.0 * x[0]]),
+                 "w2": lambda x: jnp.stack([0.0 * x[0], 0.0 * x[0], x[0]])})
+    meas = (Measurement("y", lambda x: x[0] * x[1], 0.1, 1),)
+    N = 3 + 2 * order
+    return Experiment("toy", sys_, 0.05, 10, (1.0, 2.0, 0.5),
+                      lambda s, z: (s, z[:1], z[1:3]), (), 3, lambda u: 0.01 * u + 0.02,
+                      meas, w0=(0.1, -0.2), w_white_std=(0.3, 0.4), order=order,
+                      q_aug=(1e-3,) * (2 * order), prior_std=(1.0,) * N)
+
+
+def _dense_predict(model, xa, P, u):
+    n, p = model.n, model.p
+
+    def step(z):
+        dx = model.dynamics(z[:n], u, z[n:n + p])
+        aug = jnp.concatenate([z[n + p:], jnp.zeros(p)]) if p else jnp.zeros(0)
+        return z + model.dt * jnp.concatenate([dx, aug])
+
+    J = jax.jacfwd(step)(xa)
+    return step(xa), J @ P @ J.T + model.process_noise(xa, u)
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_predict_equals_the_dense_formula(order):
+    model = make_model(_toy_experiment(order))
+    rng = np.random.default_rng(order)
+    N = model.N
+    xa = jnp.asarray(rng.normal(size=N))
+    L = rng.normal(size=(N, N))
+    P = jnp.asarray(L @ L.T + np.eye(N))
+    u = jnp.asarray([0.7])
+    x1, P1 = jax.jit(lambda a, b, c: predict(model, a, b, c))(xa, P, u)
+    x2, P2 = _dense_predict(model, xa, P, u)
+    np.testing.assert_allclose(np.asarray(x1), np.asarray(x2), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(P1), np.asarray(P2), rtol=1e-13,
+                               atol=1e-13 * float(np.abs(P2).max()))
+    assert not model.pattern.all()
