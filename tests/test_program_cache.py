@@ -10,6 +10,7 @@ from helpers import zoo_system
 import uio_jax as uj
 from uio_jax import _program_cache
 from uio_jax._compile_cache import compile_cache
+from uio_jax._generators import jaxpr_sizes
 
 
 def _programs(cache_dir):
@@ -135,6 +136,34 @@ def test_programs_over_the_memory_budget_run_in_batches(monkeypatch):
     batched = uj.analyze(zoo_system("unicycle_polar", "range_v_unknown"), samples=64)
     assert any(b is not None and b < 64 for b in batches)
     _same_report(normal, batched)
+
+
+def test_facts_of_a_program_rebuilt_in_batches_describe_the_whole_program(monkeypatch):
+    """The facts ``options_for`` measures on the trace (per-sample sizes) come from the
+    trace over all samples, not from the batched rebuild (whose arrays are a batch long)."""
+    xs = jnp.linspace(0.0, 1.0, 64)[:, None] * jnp.ones((1, 8))
+
+    def fn(x):  # has XLA temporaries (an outer product), so the budget can be exceeded
+        return jnp.sin(jnp.outer(x, x)).sum(axis=0)
+
+    make = lambda batch: _program_cache.vmapped(fn, batch)  # noqa: E731
+
+    def sizes(traced):
+        eqns, elements = jaxpr_sizes(traced.jaxpr.jaxpr)
+        return eqns, None, {"elements": elements / eqns}
+
+    _, whole = _program_cache.compile_program(None, [""], make, xs, sizes)
+    monkeypatch.setattr(_program_cache, "MEMORY_BUDGET", 1)  # every program is over it
+    batches = []
+    real = _program_cache._trace
+    monkeypatch.setattr(_program_cache, "_trace", lambda make, batch, xs, of: batches.append(batch)
+                        or real(make, batch, xs, of))
+    compiled, rebuilt = _program_cache.compile_program(None, [""], make, xs, sizes)
+    assert batches[0] is None and batches[-1] is not None and batches[-1] < 64
+    assert rebuilt.facts == whole.facts
+    x = np.asarray(xs)
+    expected = np.sin(x[:, :, None] * x[:, None, :]).sum(axis=1)
+    np.testing.assert_allclose(np.asarray(compiled(xs)), expected, rtol=1e-12)
 
 
 def test_xla_options_the_backend_does_not_know_fall_back_to_its_defaults():

@@ -262,7 +262,8 @@ class _Loaded:
 def _trace_and_compile(key, make_jitted, xs, options_for):
     """Trace and compile ``make_jitted(None)``; if its temporaries exceed
     :data:`MEMORY_BUDGET`, trace and compile ``make_jitted(batch)`` instead (the samples in
-    batches of a power of two that fits). The result is stored under ``key``."""
+    batches of a power of two that fits), keeping the facts of the first trace. The result
+    is stored under ``key``."""
     t0 = time.perf_counter()
     traced, eqns, options, facts = _trace(make_jitted, None, xs, options_for)
     t1 = time.perf_counter()
@@ -271,7 +272,9 @@ def _trace_and_compile(key, make_jitted, xs, options_for):
     if temp > MEMORY_BUDGET and xs.shape[0] > 1:
         batch = max(1, 2 ** int(math.floor(math.log2(xs.shape[0] * MEMORY_BUDGET / temp))))
         t2 = time.perf_counter()
-        traced, eqns, options, facts = _trace(make_jitted, batch, xs, options_for)
+        # facts stay those of the whole trace: measured on the batched one they would
+        # describe the batch, not the program (e.g. the EORC's per-sample sizes)
+        traced, eqns, options, _ = _trace(make_jitted, batch, xs, options_for)
         t1 += time.perf_counter() - t2
         compiled, fresh = _compile(traced, options)
     t2 = time.perf_counter()
