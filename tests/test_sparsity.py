@@ -1,8 +1,7 @@
-"""Structural Jacobian patterns (``_sparsity``) and the EKF prediction that skips their zeros.
+"""Structural Jacobian patterns (``_sparsity``).
 
-Oracles: the Jacobian by ``jax.jacfwd`` at random points (a pattern must cover every
-non-zero it finds, and is exact for element-wise model code), and the dense prediction
-``J P J^T + Q`` with ``J = jacfwd`` of the whole augmented Euler step.
+Oracle: the Jacobian by ``jax.jacfwd`` at random points (a pattern must cover every
+non-zero it finds, and is exact for element-wise model code).
 """
 
 import jax
@@ -11,9 +10,7 @@ import numpy as np
 import pytest
 from conftest import zoo
 
-import uio_jax as uj
-from uio_jax._ekf import make_model, predict
-from uio_jax._experiment import Experiment, Measurement
+from uio_jax._ekf import make_model
 from uio_jax._loading import load_module
 from uio_jax._sparsity import jacobian_pattern
 
@@ -83,48 +80,3 @@ def test_zoo_patterns_cover_the_jacobian(path, name):
     numeric = _numeric_pattern(flow, n + p + m)[:, :n + p]
     np.testing.assert_array_equal(model.pattern, numeric)   # exact on these models
     assert not model.pattern.all()                           # and the zeros are there
-
-
-def _toy_experiment(order):
-    """Two unknown inputs, a drift, a known field: every block of the prediction used."""
-    sys_ = uj.System(
-        ("a", "b", "c"), {"y": lambda x: x[0] * x[1]},
-        drift=lambda x: jnp.stack([x[1], jnp.sin(x[0]), 0.0 * x[2]]),
-        known={"u": lambda x: jnp.stack([0.0 * x[0], x[2], 1.0 + 0.0 * x[0]])},
-        unknown={"w1": lambda x: jnp.stack([jnp.cos(x[2]), 0.0 * x[0], 0.0 * x[0]]),
-                 "w2": lambda x: jnp.stack([0.0 * x[0], 0.0 * x[0], x[0]])})
-    meas = (Measurement("y", lambda x: x[0] * x[1], 0.1, 1),)
-    N = 3 + 2 * order
-    return Experiment("toy", sys_, 0.05, 10, (1.0, 2.0, 0.5),
-                      lambda s, z: (s, z[:1], z[1:3]), (), 3, lambda u: 0.01 * u + 0.02,
-                      meas, w0=(0.1, -0.2), w_white_std=(0.3, 0.4), order=order,
-                      q_aug=(1e-3,) * (2 * order), prior_std=(1.0,) * N)
-
-
-def _dense_predict(model, xa, P, u):
-    n, p = model.n, model.p
-
-    def step(z):
-        dx = model.dynamics(z[:n], u, z[n:n + p])
-        aug = jnp.concatenate([z[n + p:], jnp.zeros(p)]) if p else jnp.zeros(0)
-        return z + model.dt * jnp.concatenate([dx, aug])
-
-    J = jax.jacfwd(step)(xa)
-    return step(xa), J @ P @ J.T + model.process_noise(xa, u)
-
-
-@pytest.mark.parametrize("order", [1, 2, 3])
-def test_predict_equals_the_dense_formula(order):
-    model = make_model(_toy_experiment(order))
-    rng = np.random.default_rng(order)
-    N = model.N
-    xa = jnp.asarray(rng.normal(size=N))
-    L = rng.normal(size=(N, N))
-    P = jnp.asarray(L @ L.T + np.eye(N))
-    u = jnp.asarray([0.7])
-    x1, P1 = jax.jit(lambda a, b, c: predict(model, a, b, c))(xa, P, u)
-    x2, P2 = _dense_predict(model, xa, P, u)
-    np.testing.assert_allclose(np.asarray(x1), np.asarray(x2), rtol=0, atol=1e-14)
-    np.testing.assert_allclose(np.asarray(P1), np.asarray(P2), rtol=1e-13,
-                               atol=1e-13 * float(np.abs(P2).max()))
-    assert not model.pattern.all()

