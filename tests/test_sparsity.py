@@ -51,6 +51,26 @@ def test_pattern_falls_back_to_dense_for_matrix_products():
     assert np.all(pat >= _numeric_pattern(fn, 5))
 
 
+def test_pattern_through_broadcasts_of_size_one_axes():
+    def fn(x):
+        b = jnp.broadcast_to(x[1:2], (3,))           # (1,) -> (3,)
+        return b * jnp.stack([x[0], 1.0 + 0.0 * x[0], x[2]])
+
+    pat = jacobian_pattern(fn, np.zeros(3))
+    np.testing.assert_array_equal(pat, [[1, 1, 0], [0, 1, 0], [0, 1, 1]])
+    np.testing.assert_array_equal(pat, _numeric_pattern(fn, 3))
+
+
+def test_an_unreadable_jaxpr_gives_the_dense_pattern(monkeypatch):
+    from uio_jax import _sparsity
+
+    def broken(*args):
+        raise ValueError("a rule that fails")
+
+    monkeypatch.setattr(_sparsity, "_rule", broken)
+    assert jacobian_pattern(lambda x: x * 2.0, np.zeros(3)).all()
+
+
 def test_pattern_through_nested_jit_and_where():
     @jax.jit
     def inner(x):

@@ -51,6 +51,9 @@ _CALLS = ("jaxpr", "call_jaxpr", "fun_jaxpr")
 def jacobian_pattern(fn, x) -> np.ndarray:
     """Boolean ``(n, q)``: ``True`` where ``d fn(x)_i / d x_j`` may be non-zero.
 
+    Should the propagation meet a jaxpr it cannot read (a rule failing on an unusual
+    primitive's parameters), the answer is the dense pattern: never a missed dependence.
+
     Args:
         fn: ``(q,) -> (n,)`` (any array-in, array-out JAX function).
         x: an example argument (its shape and dtype only are used).
@@ -58,9 +61,13 @@ def jacobian_pattern(fn, x) -> np.ndarray:
     x = jax.numpy.asarray(x)
     closed = jax.make_jaxpr(fn)(x)
     q = x.size
+    n = sum(int(np.prod(v.aval.shape)) for v in closed.jaxpr.outvars)
     state_in = np.zeros(x.shape + (q + 1,), bool)
     state_in[..., :q] = np.eye(q, dtype=bool).reshape(x.shape + (q,))
-    (out,) = _propagate(closed.jaxpr, closed.consts, [state_in], q)
+    try:
+        (out,) = _propagate(closed.jaxpr, closed.consts, [state_in], q)
+    except Exception:  # a jaxpr form the rules do not know: no zeros claimed
+        return np.ones((n, q), bool)
     return out[..., :q].reshape(-1, q)
 
 
@@ -130,10 +137,11 @@ def _rule(eqn, ins, q):
     if name in ("squeeze", "reshape", "expand_dims") and len(ins) >= 1:
         return [ins[0].reshape(outs[0] + (q + 1,))]
     if name == "broadcast_in_dim":
-        shape = outs[0]
-        kept = tuple(shape[i] if i in p["broadcast_dimensions"] else 1
-                     for i in range(len(shape)))
-        return [np.broadcast_to(ins[0].reshape(kept + (q + 1,)), shape + (q + 1,)).copy()]
+        shape, src = outs[0], ins[0]
+        kept = [1] * len(shape)
+        for axis, d in enumerate(p["broadcast_dimensions"]):
+            kept[d] = src.shape[axis]              # 1 where a size-1 axis is broadcast
+        return [np.broadcast_to(src.reshape(tuple(kept) + (q + 1,)), shape + (q + 1,)).copy()]
     if name == "slice":
         idx = tuple(slice(s, e, st) for s, e, st in zip(
             p["start_indices"], p["limit_indices"], p["strides"] or (1,) * len(outs[0])))
