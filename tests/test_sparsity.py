@@ -61,6 +61,21 @@ def test_pattern_through_broadcasts_of_size_one_axes():
     np.testing.assert_array_equal(pat, _numeric_pattern(fn, 3))
 
 
+def test_loops_are_not_read_as_calls():
+    """A carry mixes the elements over the iterations: one pass through the body would miss
+    dependences, so a loop depends on everything its operands depend on."""
+    def fn(x):
+        def body(c, _):
+            return jnp.stack([c[1], c[2], c[0]]), None
+
+        out, _ = jax.lax.scan(body, x, None, length=2)
+        return out
+
+    pat = jacobian_pattern(fn, np.zeros(3))
+    assert np.all(pat >= _numeric_pattern(fn, 3))
+    assert pat.all()
+
+
 def test_an_unreadable_jaxpr_gives_the_dense_pattern(monkeypatch):
     from uio_jax import _sparsity
 

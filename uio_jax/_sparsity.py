@@ -11,8 +11,8 @@ on input ``j`` when ``dep[e, j]``), propagated equation by equation:
   ``concatenate``, ``stack``, ``split``, ``transpose``, ``rev``): the deps moved with the
   elements;
 * calls (``pjit``, ``closed_call``, ``custom_jvp_call``, ...): their sub-jaxpr, recursively;
-* anything else (``dot_general``, reductions, gathers, loops, ...): every output element
-  depends on everything any operand depends on.
+* anything else (``dot_general``, reductions, gathers, loops such as ``scan`` and
+  ``while``, ...): every output element depends on everything any operand depends on.
 
 Each element also carries a flag "exactly zero whatever the input" (literals and constants
 equal to 0, ``jnp.zeros``, products with such an element, sums of two, ``sin`` of one, ...):
@@ -44,7 +44,10 @@ abs asin asinh atan atanh cbrt convert_element_type copy copy_p erf expm1 imag l
 real reduce_precision sign sin sinh sqrt square stop_gradient tan tanh
 """.split())
 
-#: Call-like primitives: their parameter ``jaxpr`` / ``call_jaxpr`` maps operands to outputs.
+#: Call-like primitives (the sub-jaxpr maps operands to outputs once; loops such as
+#: ``scan``, which also carry a ``jaxpr``, are not calls) and their sub-jaxpr parameters.
+_CALL_PRIMITIVES = frozenset({"pjit", "jit", "closed_call", "core_call", "remat", "checkpoint",
+                              "custom_jvp_call", "custom_vjp_call", "custom_vjp_call_jaxpr"})
 _CALLS = ("jaxpr", "call_jaxpr", "fun_jaxpr")
 
 
@@ -158,12 +161,14 @@ def _rule(eqn, ins, q):
         return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
     if name == "transpose":
         return [np.transpose(ins[0], tuple(p["permutation"]) + (len(outs[0]),))]
-    for key in _CALLS:
+    for key in _CALLS if name in _CALL_PRIMITIVES else ():
         sub = p.get(key)
         if sub is not None:
             inner = getattr(sub, "jaxpr", sub)
             if len(inner.invars) == len(ins):
-                return _propagate(inner, getattr(sub, "consts", ()), ins, q)
+                res = _propagate(inner, getattr(sub, "consts", ()), ins, q)
+                if [st.shape[:-1] for st in res] == outs:
+                    return res
     # safe default: every output element depends on everything any operand depends on
     union = np.zeros(q + 1, bool)
     for st in ins:
