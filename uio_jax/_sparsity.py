@@ -137,7 +137,7 @@ def _rule(eqn, ins, q):
         if name == "integer_pow" and p.get("y", 1) <= 0:
             name = "pow"                                   # x**-k: 0 is not kept
         return [_elementwise(name, ins, outs[0], q)]
-    if name in ("squeeze", "reshape", "expand_dims") and len(ins) >= 1:
+    if name == "squeeze" or (name == "reshape" and p.get("dimensions") is None):
         return [ins[0].reshape(outs[0] + (q + 1,))]
     if name == "broadcast_in_dim":
         shape, src = outs[0], ins[0]
