@@ -29,6 +29,8 @@ import jax
 import numpy as np
 from jax.extend.core import Literal
 
+from ._taylor import CALLS
+
 #: Primitives whose output element ``e`` depends on operand elements ``e`` only.
 _ELEMENTWISE = frozenset("""
 abs acos acosh add and asin asinh atan atan2 atanh cbrt ceil clamp conj convert_element_type
@@ -44,11 +46,10 @@ abs asin asinh atan atanh cbrt convert_element_type copy copy_p erf expm1 imag l
 real reduce_precision sign sin sinh sqrt square stop_gradient tan tanh
 """.split())
 
-#: Call-like primitives (the sub-jaxpr maps operands to outputs once; loops such as
-#: ``scan``, which also carry a ``jaxpr``, are not calls) and their sub-jaxpr parameters.
-_CALL_PRIMITIVES = frozenset({"pjit", "jit", "closed_call", "core_call", "remat", "checkpoint",
-                              "custom_jvp_call", "custom_vjp_call", "custom_vjp_call_jaxpr"})
-_CALLS = ("jaxpr", "call_jaxpr", "fun_jaxpr")
+#: Parameters holding the sub-jaxpr of a call-like primitive (``_taylor.CALLS``: the
+#: sub-jaxpr maps operands to outputs once; loops such as ``scan``, which also carry a
+#: ``jaxpr``, are not calls).
+_SUB_JAXPRS = ("jaxpr", "call_jaxpr", "fun_jaxpr")
 
 
 def jacobian_pattern(fn, x) -> np.ndarray:
@@ -161,7 +162,7 @@ def _rule(eqn, ins, q):
         return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
     if name == "transpose":
         return [np.transpose(ins[0], tuple(p["permutation"]) + (len(outs[0]),))]
-    for key in _CALLS if name in _CALL_PRIMITIVES else ():
+    for key in _SUB_JAXPRS if name in CALLS else ():
         sub = p.get(key)
         if sub is not None:
             inner = getattr(sub, "jaxpr", sub)
