@@ -121,6 +121,35 @@ def test_taylor_rules_match_nested_jvp():
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * float(jnp.max(jnp.abs(b))))
 
 
+def test_gradient_block_equals_dense_jacobian_of_the_children():
+    """``_Eorc._block`` (Hessian-vector products, the fields pulled back once for every
+    generator) against ``jacfwd`` of the children built by nested jvp, row for row: several
+    generators (a power, a mixed word, an output), the drift and two known fields."""
+    from uio_jax._eorc import _Eorc
+    from uio_jax._lie import lie_derivative
+
+    sys_ = uj.System(
+        ("a", "b", "c"), {"y": lambda s: s[0] * s[1], "z": lambda s: jnp.sin(s[2])},
+        known={"u1": lambda s: jnp.array([1.0, s[2], 0.0]),
+               "u2": lambda s: jnp.array([0.0, jnp.cos(s[0]), s[1] ** 2])},
+        unknown={"w": lambda s: jnp.array([0.0, 0.0, s[0]])},
+        drift=lambda s: jnp.array([s[1], -s[0] * s[2], 0.5 * s[1]]))
+    run = _Eorc(sys_, 2, 16, 0, uj.default_rtol())
+    frontier = [run._node(lbl, 0) for lbl in ("y", "z")]
+    for phi in list(frontier):  # L_F0 y (a power) and L_u1 y (a mixed word)
+        run._children(phi)
+    frontier = [run._node(lbl, 1) for lbl in ("L_F0 y", "L_u1 y", "z")]
+    block = run._block(frontier)
+    fields = [run.ext.drift] + [f for _, f in run.known]
+    children = [lie_derivative(run._fn(p.label), v) for p in frontier for v in fields]
+    with jax.enable_x64(True):
+        xs = run.ctx.xs
+        got = np.asarray(block(xs))
+        want = np.asarray(jax.vmap(jax.jacfwd(lambda x: jnp.stack([c(x) for c in children])))(xs))
+    assert got.shape == (16, 3 * 3, run.ext.n)
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
+
+
 def test_fallback_without_jet_rule():
     """A primitive without a Taylor rule (atan2) falls back (jet, then nested jvp)."""
     sys_ = uj.System(("x", "a"), {"y": lambda s: jnp.arctan2(0.3 * s[0], 2.0)},
