@@ -138,6 +138,13 @@ def test_cli_montecarlo_bad_input(argv, needle, capsys):
     assert len(err.strip().splitlines()) == 1
 
 
+def test_unknown_experiment_lists_the_names_to_type(capsys):
+    assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:nope"), "--trials", "4"]) == 2
+    listed = capsys.readouterr().err.split("it defines: ")[1].rstrip(")\n").split(", ")
+    assert "range_gamma_known" in listed and "phi_gamma_unknown" in listed
+    assert not any(name.startswith("_") or name.endswith("_experiment") for name in listed)
+
+
 @pytest.mark.slow
 def test_sharded_equals_single_device(tmp_path):
     """Two host devices (fresh process) give the same trials as one device (this one)."""

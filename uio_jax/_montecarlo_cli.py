@@ -53,7 +53,9 @@ def load_experiment(spec: str):
     if obj is None:
         obj = getattr(module, f"{name}_experiment", None)
     if obj is None:
-        found = sorted(k for k in vars(module) if k.endswith("_experiment"))
+        found = sorted(k.removesuffix("_experiment") for k, v in vars(module).items()
+                       if k.endswith("_experiment") and not k.startswith("_")
+                       and (callable(v) or isinstance(v, Experiment)))
         raise LoadError(f"{path} has no experiment {name!r} (it defines: "
                         f"{', '.join(found) or 'no *_experiment function'})")
     if callable(obj) and not isinstance(obj, Experiment):
