@@ -372,7 +372,7 @@ class _Eorc:
         ``jax.grad(phi)`` along ``v(x)``), vmapped over the fields; ``(dv)^T dphi`` comes
         from one ``jax.vjp`` of each field (which also gives ``v(x)``), its pullback vmapped
         over the block's generators (tracing the fields once per block instead of once per
-        generator: vehicle in wind, k = 1, 2 blocks compile 0.6-0.8 s faster each). One
+        generator: vehicle in wind, k = 1, 2 blocks compile 0.7-1.0 s faster each). One
         reverse pass of ``phi`` (a Taylor pass for powers) serves all ``1 + m_u`` children,
         instead of ``N`` forward tangents of each child (``jax.jacfwd``): measured 5-7x
         faster on the vehicle in wind at every order.
