@@ -93,6 +93,41 @@ def test_analyze_prints_a_report_and_writes_json(tmp_path, capsys):
     assert data["certificate"]["samples"] == 256
 
 
+@pytest.mark.parametrize("spec, method", [
+    (GOOD, "orc"), (GOOD, "series"),
+    (f"{zoo_path('unicycle_polar')}:range_omega_unknown", "single_ui"),
+    (f"{zoo_path('gps')}:inputs_unknown", "eorc"),
+])
+def test_each_decided_step_is_announced_once(spec, method):
+    """The steps printed while an analysis runs are exactly its history, in order."""
+    import io
+
+    import uio_jax as uj
+    from uio_jax._loading import load_system
+    from uio_jax._progress import StepPrinter, step_listener
+
+    seen, buf = [], io.StringIO()
+    printer = StepPrinter(enabled=True, stream=buf)
+    with step_listener(lambda step: (seen.append(step), printer(step))):
+        rep = uj.analyze(load_system(spec), method=method, samples=64)
+    assert rep.method == method
+    assert [(s.m, s.dim, s.added) for s in seen] == [(s.m, s.dim, s.added) for s in rep.history]
+    lines = buf.getvalue().splitlines()
+    name = "k" if method == "eorc" else "m"
+    assert [ln.split()[1] for ln in lines] == [f"{name}={s.m}" for s in rep.history]
+    assert all(f"dim {s.dim} " in ln for s, ln in zip(rep.history, lines))
+
+
+def test_analyze_progress_only_on_a_terminal(capsys, monkeypatch):
+    assert cli.main(["analyze", GOOD, "--samples", "64"]) == 0
+    assert "uio-jax: m=" not in capsys.readouterr().err  # stderr is not a terminal here
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert cli.main(["analyze", GOOD, "--samples", "64"]) == 0
+    assert "uio-jax: m=0  dim 1" in capsys.readouterr().err
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--no-progress"]) == 0
+    assert "uio-jax: m=" not in capsys.readouterr().err
+
+
 def test_unwritable_json_is_one_line(tmp_path, capsys):
     assert cli.main(["analyze", GOOD, "--samples", "64", "--json", str(tmp_path / "no" / "r.json")]) == 2
     _one_line_error(capsys)

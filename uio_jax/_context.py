@@ -11,6 +11,7 @@ import numpy as np
 
 from ._errors import ModelError
 from ._generators import Node, builder_for
+from ._progress import announce_step
 from ._rank import Codistribution
 from ._report import Certificate, Report, Step
 from ._sampling import sample_states
@@ -116,8 +117,8 @@ class Context:
 
     def step(self, m, added, **extra) -> Step:
         """A history entry for the current state of the codistribution."""
-        return Step(m, self.dim, tuple(nd.label for nd in added),
-                    self.codist.decision().fraction, extra)
+        return announce_step(Step(m, self.dim, tuple(nd.label for nd in added),
+                                  self.codist.decision().fraction, extra))
 
     # -------------------------------------------------------------- results
     def certificate(self) -> Certificate:

@@ -82,6 +82,7 @@ from ._errors import ModelError
 from ._generators import Node, jaxpr_sizes
 from ._lie import lie_derivative
 from ._program_cache import FAST_COMPILE, compile_program, vmapped
+from ._progress import announce_step
 from ._report import Report, Step
 from ._system import DEFAULT_BOX, System, derived_system
 from ._taylor import lie_powers
@@ -544,7 +545,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
         }
         decided = ctx.codist.acceptances[-len(added):] if added else []
         fraction = min((d.fraction for d in decided), default=1.0)
-        history.append(Step(k, dim, tuple(nd.label for nd in added), fraction, extra))
+        history.append(announce_step(Step(k, dim, tuple(nd.label for nd in added), fraction, extra)))
         return len(states) == run.n
 
     frontier = ctx.absorb([run._node(k, 0) for k in run.ext.outputs])

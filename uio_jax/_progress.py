@@ -1,7 +1,54 @@
-"""A small progress bar on stderr (no dependency), driven from Python between chunks."""
+"""Progress on stderr (no dependency): a bar driven from Python between chunks, and the
+steps of an analysis as they are decided."""
 
+import contextlib
+import contextvars
 import sys
 import time
+
+_STEP_LISTENER = contextvars.ContextVar("uio_jax_step_listener", default=None)
+
+
+@contextlib.contextmanager
+def step_listener(fn):
+    """Call ``fn(step)`` with every :class:`~uio_jax.Step` an analysis decides in the block
+    (ORC, single_ui and series steps m, EORC orders k), as soon as it is decided."""
+    token = _STEP_LISTENER.set(fn)
+    try:
+        yield
+    finally:
+        _STEP_LISTENER.reset(token)
+
+
+def announce_step(step):
+    """Hand a freshly decided Step to the listener of :func:`step_listener`, if any."""
+    fn = _STEP_LISTENER.get()
+    if fn is not None:
+        fn(step)
+    return step
+
+
+class StepPrinter:
+    """One line per decided step on ``stream``: ``uio-jax: k=3  dim 6 (+2 generators)  41.2 s``
+    (``k`` for EORC orders, ``m`` for the steps of the other analyses; seconds since the
+    printer was made). ``enabled=None`` prints only when the stream is a terminal."""
+
+    def __init__(self, *, enabled=None, stream=None):
+        self.stream = stream if stream is not None else sys.stderr
+        if enabled is None:
+            enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.enabled = bool(enabled)
+        self.t0 = time.perf_counter()
+
+    def __call__(self, step):
+        if not self.enabled:
+            return
+        name = "k" if "augmented_rank" in step.extra else "m"
+        added = len(step.added)
+        self.stream.write(f"uio-jax: {name}={step.m}  dim {step.dim} "
+                          f"(+{added} generator{'' if added == 1 else 's'})  "
+                          f"{time.perf_counter() - self.t0:.1f} s\n")
+        self.stream.flush()
 
 
 class Progress:

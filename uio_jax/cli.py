@@ -42,6 +42,8 @@ def _build_parser():
     a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     a.add_argument("--plot", metavar="FILE", help="also draw dims per step and the rank evidence "
                                                   "(png, pdf, svg by suffix)")
+    a.add_argument("--no-progress", action="store_true",
+                   help="do not print each step as it is decided (printed on a terminal only)")
     _cache_options(a)
     b = sub.add_parser("batch", help="certify many models into one table")
     b.add_argument("paths", nargs="*", metavar="PATH",
@@ -129,9 +131,13 @@ def _analyze(args) -> int:
 
         check_figure_path(args.plot)
     _check_writable(args.json, args.plot)
+    from ._progress import StepPrinter, step_listener
+
     system = load_system(args.model)
-    rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                  rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+    printer = StepPrinter(enabled=False if args.no_progress else None)
+    with step_listener(printer):
+        rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
+                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
     print(rep)
     if rep.dim < rep.n:
         x = _state_for_directions(rep, system)
