@@ -125,14 +125,13 @@ def _state_for_directions(report, system):
 def _analyze(args) -> int:
     from ._analyze import analyze
     from ._loading import load_system
+    from ._progress import StepPrinter, step_listener
 
     if args.plot:
         from ._analysis_plots import check_figure_path
 
         check_figure_path(args.plot)
     _check_writable(args.json, args.plot)
-    from ._progress import StepPrinter, step_listener
-
     system = load_system(args.model)
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with step_listener(printer):
