@@ -50,6 +50,7 @@ import time
 from dataclasses import dataclass, field
 
 from ._errors import LoadError, OptionError, UioJaxError
+from ._progress import is_terminal
 from ._system import System
 
 #: Suffixes of model files collected from directories and globs.
@@ -718,7 +719,7 @@ class _BatchProgress:
     def __init__(self, total, *, enabled=None, delay=2.0, stream=None):
         self.stream = stream if stream is not None else sys.stderr
         if enabled is None:
-            enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+            enabled = is_terminal(self.stream)
         self.enabled = bool(enabled) and total > 0
         self.total, self.delay, self.done = total, delay, 0
         self.t0 = time.perf_counter()

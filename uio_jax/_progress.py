@@ -20,6 +20,11 @@ def step_listener(fn):
         _STEP_LISTENER.reset(token)
 
 
+def is_terminal(stream) -> bool:
+    """Whether ``stream`` is a terminal (progress displays default to on only there)."""
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
 def announce_step(step):
     """Hand a freshly decided Step to the listener of :func:`step_listener`, if any."""
     fn = _STEP_LISTENER.get()
@@ -36,7 +41,7 @@ class StepPrinter:
     def __init__(self, *, enabled=None, stream=None):
         self.stream = stream if stream is not None else sys.stderr
         if enabled is None:
-            enabled = bool(getattr(self.stream, "isatty", lambda: False)())
+            enabled = is_terminal(self.stream)
         self.enabled = bool(enabled)
         self.t0 = time.perf_counter()
 

@@ -29,7 +29,7 @@ import jax
 import numpy as np
 from jax.extend.core import Literal
 
-from ._taylor import CALLS
+from ._taylor import CALLS, call_body
 
 #: Primitives whose output element ``e`` depends on operand elements ``e`` only.
 _ELEMENTWISE = frozenset("""
@@ -46,10 +46,6 @@ abs asin asinh atan atanh cbrt convert_element_type copy copy_p erf expm1 imag l
 real reduce_precision sign sin sinh sqrt square stop_gradient tan tanh
 """.split())
 
-#: Parameters holding the sub-jaxpr of a call-like primitive (``_taylor.CALLS``: the
-#: sub-jaxpr maps operands to outputs once; loops such as ``scan``, which also carry a
-#: ``jaxpr``, are not calls).
-_SUB_JAXPRS = ("jaxpr", "call_jaxpr", "fun_jaxpr")
 
 
 def jacobian_pattern(fn, x) -> np.ndarray:
@@ -162,14 +158,11 @@ def _rule(eqn, ins, q):
         return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
     if name == "transpose":
         return [np.transpose(ins[0], tuple(p["permutation"]) + (len(outs[0]),))]
-    for key in _SUB_JAXPRS if name in CALLS else ():
-        sub = p.get(key)
-        if sub is not None:
-            inner = getattr(sub, "jaxpr", sub)
-            if len(inner.invars) == len(ins):
-                res = _propagate(inner, getattr(sub, "consts", ()), ins, q)
-                if [st.shape[:-1] for st in res] == outs:
-                    return res
+    body = call_body(p) if name in CALLS else None
+    if body is not None and len(body[0].invars) == len(ins):
+        res = _propagate(*body, ins, q)
+        if [st.shape[:-1] for st in res] == outs:
+            return res
     # safe default: every output element depends on everything any operand depends on
     union = np.zeros(q + 1, bool)
     for st in ins:

@@ -43,6 +43,17 @@ _BILINEAR = {"mul", "dot_general"}
 #: call-like primitives: their sub-jaxpr is evaluated inline
 CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
          "custom_vjp_call", "custom_vjp_call_jaxpr")
+
+
+def call_body(params):
+    """``(jaxpr, consts)`` of the sub-jaxpr of a call-like primitive (:data:`CALLS`), or
+    None when its parameters hold none."""
+    sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
+    if sub is None:
+        return None
+    return (sub.jaxpr, sub.consts) if hasattr(sub, "consts") else (sub, ())
+
+
 _CONSTANT = {  # outputs treated as constant along t (evaluated on order 0)
     "lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not", "sign", "floor", "ceil",
     "round", "is_finite", "stop_gradient", "iota", "argmax", "argmin",
@@ -190,11 +201,10 @@ def _ipow(a, p, K):
 def _apply(prim, params, ins, K):
     name = prim.name
     if name in CALLS:
-        sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
-        if sub is None:
+        body = call_body(params)
+        if body is None:
             raise NotImplementedError(f"no Taylor rule for {name}")
-        closed = sub if hasattr(sub, "consts") else jcore.ClosedJaxpr(sub, ())
-        return _eval(closed.jaxpr, closed.consts, ins, K)
+        return _eval(*body, ins, K)
     if not any(isinstance(v, _S) for v in ins) or name in _CONSTANT:
         vals = [v.c[0] if isinstance(v, _S) else v for v in ins]
         out = prim.bind(*vals, **params)

@@ -32,9 +32,8 @@ raises ``NotImplementedError``.
 import jax
 import jax.numpy as jnp
 from jax import lax
-from jax.extend import core as jcore
 
-from ._taylor import _BILINEAR, _S, CALLS, interpret
+from ._taylor import _BILINEAR, _S, CALLS, call_body, interpret
 from ._taylor import _apply as _stacked_apply
 
 #: operations with a rule of their own here (their order-k coefficient needs lower orders)
@@ -153,11 +152,10 @@ def _apply(ps, key, eqn, ins):
     out_aval = eqn.outvars[0].aval
     shape, dtype = out_aval.shape, out_aval.dtype
     if name in CALLS:
-        sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
-        if sub is None:
+        body = call_body(params)
+        if body is None:
             raise NotImplementedError(f"no Taylor rule for {name}")
-        closed = sub if hasattr(sub, "consts") else jcore.ClosedJaxpr(sub, ())
-        return _eval(ps, key, closed.jaxpr, closed.consts, ins)
+        return _eval(ps, key, *body, ins)
     series = [isinstance(v, _S) for v in ins]
     moving = name in _BILINEAR and all(series) or (name == "div" and series[1])
     if not any(series) or (not moving and name not in _NONLINEAR):
