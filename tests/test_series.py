@@ -112,3 +112,59 @@ def test_seed_reproducible_and_orders_capped():
     assert a.dims == b.dims and a.certificate == b.certificate
     capped = uj.analyze(_oscillator(), method="series", samples=64, max_order=1)
     assert capped.dims == (1, 2) and "max_order=1" in capped.stop_reason
+
+
+def _late_chain():
+    """y1 = x1, y2 = x2 with x1' = x3 + u x2, x3' = x4, x4' = -x1, x2' = 0: rank 2, 3, 4 at
+    orders 0, 1, 2, more than the ceil(n / p) = 2 orders that could reach rank 4."""
+    return uj.System(
+        states=("x1", "x2", "x3", "x4"),
+        outputs={"y1": lambda x: x[0], "y2": lambda x: x[1]},
+        drift=lambda x: jnp.stack([x[2], 0.0 * x[0], x[3], -x[0]]),
+        known={"u": lambda x: jnp.stack([x[1], 0.0 * x[0], 0.0 * x[0], 0.0 * x[0]])},
+    )
+
+
+def test_exploring_on_a_subset_changes_nothing_but_the_evaluations(monkeypatch):
+    """With many samples the orders needed are found on the first EXPLORE_SAMPLES samples,
+    then one program reaching them runs on all samples: the report is the one of the plain
+    order-by-order run (same steps, generators, certificate), with one evaluation on all
+    samples instead of two."""
+    from uio_jax import _generators, _series
+
+    system = _late_chain()
+    calls = []
+    plain_batches = _generators._in_batches
+
+    def counting(compiled, xs, batch):
+        calls.append(xs.shape[0])
+        return plain_batches(compiled, xs, batch)
+
+    monkeypatch.setattr(_generators, "_in_batches", counting)
+    explored = uj.analyze(system, method="series", samples=1024)
+    explored_calls, calls[:] = list(calls), []
+    monkeypatch.setattr(_series, "EXPLORE_FROM", 10**9)
+    plain = uj.analyze(system, method="series", samples=1024)
+    assert plain.dims == explored.dims == (2, 3, 4)
+    assert plain.history == explored.history
+    assert plain.certificate == explored.certificate and plain.generators == explored.generators
+    assert calls == [1024, 1024]  # orders 0..1, then 2..3 (rank 4 reached at 2)
+    assert explored_calls.count(1024) == 1 and explored_calls.count(_series.EXPLORE_SAMPLES) == 2
+
+
+def test_streamed_programs_pad_the_last_batch():
+    """200 samples = one batch of 128 and one padded batch: rows equal a direct jacfwd."""
+    import jax
+    import numpy as np
+
+    from uio_jax import _series
+    from uio_jax._context import Context
+
+    ctx = Context(_late_chain(), 200, 0, 1e-8)
+    series = _series._Series(ctx, 0, 3)
+    _, grads = series.gradients(ctx, 1, 3)
+    coefficients = _series.output_series(ctx.system, series.a, 3)
+    with jax.enable_x64(True):
+        direct = jax.vmap(jax.jacfwd(lambda x: coefficients(x)[1:].reshape(-1)))(ctx.xs)
+    assert grads.shape == (200, 6, 4)
+    np.testing.assert_allclose(grads, np.asarray(direct), rtol=0, atol=1e-12)

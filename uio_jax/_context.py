@@ -35,8 +35,21 @@ class Context:
             self.xs = sample_states(system, samples, seed)
         lo, hi = system.box()
         self.codist = Codistribution(system.n, samples, hi - lo, rtol)
+        self.rtol = rtol
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._grads = {}  # Node -> (S, n) gradient at the samples
+
+    def subset(self, samples: int) -> "Context":
+        """A fresh Context (empty codistribution, same builder) on the first ``samples``
+        of these samples: a cheap preview of an analysis, e.g. to plan its evaluations."""
+        sub = Context.__new__(Context)
+        sub.system, sub.builder, sub.rtol = self.system, self.builder, self.rtol
+        sub.samples = min(int(samples), self.samples)
+        sub.xs = self.xs[:sub.samples]
+        lo, hi = self.system.box()
+        sub.codist = Codistribution(self.system.n, sub.samples, hi - lo, self.rtol)
+        sub.memberships, sub._grads = [], {}
+        return sub
 
     # -------------------------------------------------------------- nodes
     def output_nodes(self) -> list[Node]:

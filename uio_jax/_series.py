@@ -40,6 +40,7 @@ import numpy as np
 from ._context import Context
 from ._errors import OptionError
 from ._generators import Node
+from ._progress import step_listener
 from ._taylor import taylor
 from ._taylor_flow import flow_coefficients
 
@@ -102,15 +103,29 @@ def output_series(system, a, K):
     return coefficients
 
 
+#: Above this many samples (4 batches of the streamed programs), the orders a series test
+#: needs are first found on the first :data:`EXPLORE_SAMPLES` samples (see :func:`run_series`).
+EXPLORE_FROM = 512
+
+#: Samples of the exploring run: one batch of the streamed programs, so it reuses them.
+EXPLORE_SAMPLES = 128
+
+
 class _Series:
-    """Nodes ``y_k[h]`` of one System and generic input, and the programs that evaluate them."""
+    """Nodes ``y_k[h]`` of one System and generic input, and the programs that evaluate them.
+
+    A program of order K gives the gradients of every ``y_k``, ``k <= K`` (the Taylor pass
+    and its tangents cost the same whatever rows are kept): a request for orders up to
+    ``k_hi`` runs the smallest program made so far that reaches ``k_hi``, else a new one.
+    """
 
     def __init__(self, ctx: Context, seed: int, cap: int):
-        self.ctx = ctx
         self.system = ctx.system
+        self.builder = ctx.builder
         self.a = input_coefficients(self.system, cap + 1, seed)
         tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
         self.outs = ctx.output_nodes()
+        self.orders_made = []  # K of every program made
         self.nodes = {}
         for k in range(cap + 1):
             for i, h in enumerate(self.outs):
@@ -123,18 +138,23 @@ class _Series:
                     lambda k=k, i=i, h=h, sig=sig: Node(f"y_{k}[{h.label}]", _coefficient(self.system, self.a, k, i),
                                                       "scalar", k, sig))
 
-    def gradients(self, k_lo, k_hi):
-        """Gradients of every ``y_k`` for ``k_lo <= k <= k_hi``: ``(S, (k_hi - k_lo + 1) p, n)``."""
+    def gradients(self, ctx: Context, k_lo, k_hi):
+        """Gradients of every ``y_k`` for ``k_lo <= k <= k_hi`` at ``ctx``'s samples:
+        ``(S, (k_hi - k_lo + 1) p, n)``."""
         p = len(self.outs)
-        nodes = tuple(self.nodes[k, i] for k in range(k_lo, k_hi + 1) for i in range(p))
-        coefficients = output_series(self.system, self.a, k_hi)
+        K = min((K for K in self.orders_made if K >= k_hi), default=k_hi)
+        if K not in self.orders_made:
+            self.orders_made.append(K)
+        nodes = tuple(self.nodes[k, i] for k in range(K + 1) for i in range(p))
+        coefficients = output_series(self.system, self.a, K)
 
         def make():
-            return jax.jacfwd(lambda x: coefficients(x)[k_lo:].reshape(-1))
+            return jax.jacfwd(lambda x: coefficients(x).reshape(-1))
 
-        grads = self.ctx.builder.program("series", nodes, make, self.ctx.xs, streamed=True)
-        self.ctx.remember_gradients(nodes, grads)
-        return nodes, grads
+        grads = self.builder.program("series", nodes, make, ctx.xs, streamed=True)
+        rows = slice(k_lo * p, (k_hi + 1) * p)
+        ctx.remember_gradients(nodes[rows], grads[:, rows])
+        return nodes[rows], grads[:, rows]
 
 
 def _coefficient(system, a, k, i):
@@ -144,13 +164,33 @@ def _coefficient(system, a, k, i):
 
 
 def run_series(ctx: Context, *, seed: int, max_order=None):
-    """Absorb ``dy_k`` order by order; returns ``(history, stop_reason, k_reached)``."""
-    n, p = ctx.system.n, len(ctx.system.outputs)
+    """Absorb ``dy_k`` order by order; returns ``(history, stop_reason, k_reached)``.
+
+    Orders are evaluated in blocks (one Taylor pass from order 0 each). How many orders a
+    model needs is known only at the end; with many samples, a first run on the first
+    :data:`EXPLORE_SAMPLES` samples finds it, so the run on all samples evaluates one
+    program reaching that order (the largest one the exploring run made) instead of a
+    first guess and its continuation. Every rank decision of the result is still taken on
+    all samples, in the same order, so the result is the same as without the exploration.
+    """
+    n = ctx.system.n
     cap = n if max_order is None else int(max_order)
     series = _Series(ctx, seed, cap)
+    first = None
+    if ctx.samples >= EXPLORE_FROM:
+        with step_listener(None):  # the exploring run's steps are not the report's
+            _, _, first = _absorb_orders(ctx.subset(EXPLORE_SAMPLES), series, cap, None)
+    return _absorb_orders(ctx, series, cap, first)
+
+
+def _absorb_orders(ctx, series, cap, first):
+    """The order-by-order loop of :func:`run_series`; ``first``: the highest order of the
+    first block (None: the fewest orders that could reach rank n)."""
+    n, p = ctx.system.n, len(ctx.system.outputs)
     history = []
     k, computed, grads_by_k = 0, -1, {}
-    chunk = max(1, math.ceil(n / max(p, 1)))  # fewest orders that could reach rank n
+    # the fewest orders that could reach rank n
+    chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
     added = None
     while True:
         if k > computed:
@@ -160,7 +200,7 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
                 # every block re-runs the Taylor pass from order 0
                 chunk = max(2, math.ceil((n - ctx.dim) / len(added)))
             hi = min(cap, max(k + chunk - 1, k))
-            nodes, grads = series.gradients(k, hi)
+            nodes, grads = series.gradients(ctx, k, hi)
             for j in range(k, hi + 1):
                 sl = slice((j - k) * p, (j - k + 1) * p)
                 grads_by_k[j] = (nodes[sl], grads[:, sl])
