@@ -1,12 +1,15 @@
 """The generic-input series test (``method="series"``): the ORC's verdict from output Taylor
 coefficients, and where its per-order dims differ from the ORC's steps."""
 
+import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 from helpers import zoo_path, zoo_report
 
 import uio_jax as uj
-from uio_jax import cli
+from uio_jax import _generators, _series, cli
+from uio_jax._context import Context
 
 SAMPLES = 512
 
@@ -130,8 +133,6 @@ def test_exploring_on_a_subset_changes_nothing_but_the_evaluations(monkeypatch):
     then one program reaching them runs on all samples: the report is the one of the plain
     order-by-order run (same steps, generators, certificate), with one evaluation on all
     samples instead of two."""
-    from uio_jax import _generators, _series
-
     system = _late_chain()
     calls = []
     plain_batches = _generators._in_batches
@@ -153,13 +154,9 @@ def test_exploring_on_a_subset_changes_nothing_but_the_evaluations(monkeypatch):
 
 
 def test_streamed_programs_pad_the_last_batch():
-    """200 samples = one batch of 128 and one padded batch: rows equal a direct jacfwd."""
-    import jax
-    import numpy as np
-
-    from uio_jax import _series
-    from uio_jax._context import Context
-
+    """200 samples, not a multiple of the batch: the padded last batch is dropped again and
+    the rows equal a direct jacfwd."""
+    assert 200 % _generators.STREAM_BATCH
     ctx = Context(_late_chain(), 200, 0, 1e-8)
     series = _series._Series(ctx, 0, 3)
     _, grads = series.gradients(ctx, 1, 3)

@@ -274,7 +274,13 @@ class CompileStat:
 
 
 #: Samples per call of a streamed program (compiled for this many, run batch after batch).
-STREAM_BATCH = 128
+#: Series Jacobians, 4096 samples, per sample, batches of 128 -> 32 (2 cores, interleaved
+#: runs): Arabidopsis (n = 35, K = 21) 11.9-12.2 -> 9.2-10.1 ms, JAKSTAT (n = 32, K = 5)
+#: 0.59-0.61 -> 0.42-0.45 ms, SIWR (n = 11, K = 8) 0.052-0.054 -> 0.033-0.035 ms, p53
+#: 0.22-0.24 -> 0.19-0.21 ms; 64 lies between. The smaller batch keeps more of each
+#: intermediate ``(batch, n tangents, K + 1, ...)`` in the caches; 128 calls per 4096
+#: samples cost nothing measurable.
+STREAM_BATCH = 32
 
 #: XLA options of a streamed program (compile about 25 % faster here, same run time).
 STREAM_OPTIONS = _program_cache.FAST_COMPILE

@@ -103,11 +103,11 @@ def output_series(system, a, K):
     return coefficients
 
 
-#: Above this many samples (4 batches of the streamed programs), the orders a series test
-#: needs are first found on the first :data:`EXPLORE_SAMPLES` samples (see :func:`run_series`).
+#: From this many samples on, the orders a series test needs are first found on the first
+#: :data:`EXPLORE_SAMPLES` samples (see :func:`run_series`).
 EXPLORE_FROM = 512
 
-#: Samples of the exploring run: one batch of the streamed programs, so it reuses them.
+#: Samples of the exploring run (a few batches of the streamed programs, which it reuses).
 EXPLORE_SAMPLES = 128
 
 
