@@ -179,13 +179,14 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     first = None
     if ctx.samples >= EXPLORE_FROM:
         with step_listener(None):  # the exploring run's steps are not the report's
-            _, _, first = _absorb_orders(ctx.subset(EXPLORE_SAMPLES), series, cap, None)
+            _, _, first = _absorb_orders(ctx.subset(EXPLORE_SAMPLES), series, cap, None, record=False)
     return _absorb_orders(ctx, series, cap, first)
 
 
-def _absorb_orders(ctx, series, cap, first):
+def _absorb_orders(ctx, series, cap, first, record=True):
     """The order-by-order loop of :func:`run_series`; ``first``: the highest order of the
-    first block (None: the fewest orders that could reach rank n)."""
+    first block (None: the fewest orders that could reach rank n); ``record=False``: no
+    history (no rank decision of the whole span per order)."""
     n, p = ctx.system.n, len(ctx.system.outputs)
     history = []
     k, computed, grads_by_k = 0, -1, {}
@@ -207,7 +208,8 @@ def _absorb_orders(ctx, series, cap, first):
             computed = hi
         nodes, grads = grads_by_k.pop(k)
         added = ctx.absorb(list(nodes), grads)
-        history.append(ctx.step(k, added))
+        if record:
+            history.append(ctx.step(k, added))
         if ctx.dim >= n:
             return history, f"full rank {n} at order {k}", k
         if not added:
