@@ -190,7 +190,7 @@ def _absorb_orders(ctx, series, cap, first, record=True):
     n, p = ctx.system.n, len(ctx.system.outputs)
     history = []
     k, computed, grads_by_k = 0, -1, {}
-    # the fewest orders that could reach rank n
+    # first block: the fewest orders that could reach rank n, or those the exploring run needed
     chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
     added = None
     while True:
