@@ -1,6 +1,8 @@
 """The generic-input series test (``method="series"``): the ORC's verdict from output Taylor
 coefficients, and where its per-order dims differ from the ORC's steps."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -117,9 +119,11 @@ def test_seed_reproducible_and_orders_capped():
     assert capped.dims == (1, 2) and "max_order=1" in capped.stop_reason
 
 
+@functools.cache
 def _late_chain():
     """y1 = x1, y2 = x2 with x1' = x3 + u x2, x3' = x4, x4' = -x1, x2' = 0: rank 2, 3, 4 at
-    orders 0, 1, 2, more than the ceil(n / p) = 2 orders that could reach rank 4."""
+    orders 0, 1, 2, more than the ceil(n / p) = 2 orders that could reach rank 4. One System
+    object, so the tests below share its compiled programs."""
     return uj.System(
         states=("x1", "x2", "x3", "x4"),
         outputs={"y1": lambda x: x[0], "y2": lambda x: x[1]},
@@ -158,10 +162,10 @@ def test_streamed_programs_pad_the_last_batch():
     the rows equal a direct jacfwd."""
     assert 200 % _generators.STREAM_BATCH
     ctx = Context(_late_chain(), 200, 0, 1e-8)
-    series = _series._Series(ctx, 0, 3)
+    series = _series._Series(ctx, 0, 4)  # cap n, as analyze: the programs of the test above
     _, grads = series.gradients(ctx, 1, 3)
     coefficients = _series.output_series(ctx.system, series.a, 3)
     with jax.enable_x64(True):
-        direct = jax.vmap(jax.jacfwd(lambda x: coefficients(x)[1:].reshape(-1)))(ctx.xs)
+        direct = jax.jit(jax.vmap(jax.jacfwd(lambda x: coefficients(x)[1:].reshape(-1))))(ctx.xs)
     assert grads.shape == (200, 6, 4)
     np.testing.assert_allclose(grads, np.asarray(direct), rtol=0, atol=1e-12)
