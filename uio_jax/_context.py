@@ -32,10 +32,13 @@ class Context:
         self.builder = builder_for(system)
         self.samples = samples
         with jax.enable_x64(True):
-            self.xs = sample_states(system, samples, seed)
-        lo, hi = system.box()
-        self.codist = Codistribution(system.n, samples, hi - lo, rtol)
-        self.rtol = rtol
+            self._start(sample_states(system, samples, seed), rtol)
+
+    def _start(self, xs, rtol):
+        """Samples ``xs`` ``(S, n)`` and an empty codistribution on them."""
+        self.xs = xs
+        lo, hi = self.system.box()
+        self.codist = Codistribution(self.system.n, self.samples, hi - lo, rtol)
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._grads = {}  # Node -> (S, n) gradient at the samples
 
@@ -43,12 +46,9 @@ class Context:
         """A fresh Context (empty codistribution, same builder) on the first ``samples``
         of these samples: a cheap preview of an analysis, e.g. to plan its evaluations."""
         sub = Context.__new__(Context)
-        sub.system, sub.builder, sub.rtol = self.system, self.builder, self.rtol
+        sub.system, sub.builder = self.system, self.builder
         sub.samples = min(int(samples), self.samples)
-        sub.xs = self.xs[:sub.samples]
-        lo, hi = self.system.box()
-        sub.codist = Codistribution(self.system.n, sub.samples, hi - lo, self.rtol)
-        sub.memberships, sub._grads = [], {}
+        sub._start(self.xs[:sub.samples], self.codist.rtol)
         return sub
 
     # -------------------------------------------------------------- nodes
