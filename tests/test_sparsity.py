@@ -12,7 +12,7 @@ from conftest import zoo
 
 from uio_jax._ekf import make_model
 from uio_jax._loading import load_module
-from uio_jax._sparsity import jacobian_pattern
+from uio_jax._sparsity import jacobian_pattern, structural_zeros
 
 
 def _numeric_pattern(fn, q, points=6, seed=0):
@@ -34,6 +34,9 @@ def test_pattern_of_element_wise_code_is_exact():
     expected[3, 0] = True         # the constant's 1.0 entry times x[0]; its zeros vanish
     np.testing.assert_array_equal(pat, expected)
     np.testing.assert_array_equal(pat, _numeric_pattern(fn, 5))
+    # elements 2 (0 * x[1]) and 4 (a zero pad times x[4], plus a zero entry times x[0])
+    # are zero whatever x; element 3 is not (the 1.0 entry), nor are 0 and 1
+    np.testing.assert_array_equal(structural_zeros(fn, np.zeros(5)), [0, 0, 1, 0, 1])
 
 
 def test_pattern_falls_back_to_dense_for_matrix_products():

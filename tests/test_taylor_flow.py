@@ -79,3 +79,45 @@ def test_known_series_enters_as_given_coefficients():
 def test_operation_without_a_rule_is_named():
     with pytest.raises(NotImplementedError, match="atan2"):
         flow_coefficients(lambda x: jnp.arctan2(x, 2.0 + x), jnp.array([0.3, 0.4]), 3)
+
+
+def _field_with_parameters(z):
+    """States z[0:3] move, z[3:6] are parameters (derivative padded with zeros, as
+    System.joint does); parameters enter through slices, a gather, a concatenation, a
+    real power (constant exponent, and constant base too), products and a quotient."""
+    x, p = z[:3], z[3:]
+    v = jnp.concatenate([x, p])  # the model-file parser rebuilds one vector like this
+    gathered = p[jnp.array([2, 0])]
+    dx = jnp.stack([
+        p[0] * x[1] - v[4] * x[0] / (p[1] + x[0]),
+        v[3] * x[0] ** p[2] / (p[2] ** p[0] + x[2] ** p[2]) - gathered[0] * x[1] * x[2],
+        jnp.sin(p[1] * x[0]) + gathered[1] * x[2] ** 2 - p[2] * p[0],
+    ])
+    return jnp.concatenate([dx, jnp.zeros(3)])
+
+
+def test_parameters_are_constants_of_the_recurrence():
+    """States with a structurally zero derivative are found, and treating them as constants
+    (fewer carried stacks: products with them are linear) gives the same values and
+    Jacobians as the recurrence without that knowledge and as the stacked passes."""
+    from uio_jax._taylor_flow import constant_states
+
+    z = jnp.array([0.7, 1.1, 0.9, 1.3, 0.6, 1.7])
+    np.testing.assert_array_equal(constant_states(_field_with_parameters, z), [0, 0, 0, 1, 1, 1])
+    K = 4
+
+    def run(constants):
+        fn = lambda y: flow_coefficients(_field_with_parameters, y, K, constants=constants)  # noqa: E731
+        return jax.jit(lambda y: (fn(y), jax.jacfwd(fn)(y)))(z), jax.make_jaxpr(fn)(z)
+
+    (a, ja), full = run(False)
+    (b, jb), lean = run(True)
+    c = jax.jit(lambda y: flow_series(_field_with_parameters, y, K))(z)
+    np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-14)
+    np.testing.assert_allclose(jb, ja, rtol=1e-12, atol=1e-13 * float(jnp.max(jnp.abs(ja))))
+    np.testing.assert_allclose(b, c, rtol=1e-12, atol=1e-13)
+    assert np.all(np.asarray(b)[:, 3:] == 0)
+    # the loop carries one stack per nonlinear result of a moving quantity only
+    carried = [e.params["num_carry"] for j in (full, lean)
+               for e in j.jaxpr.eqns if e.primitive.name == "scan"]  # fori_loop, static bounds
+    assert carried[1] < carried[0], carried

@@ -58,17 +58,43 @@ def jacobian_pattern(fn, x) -> np.ndarray:
         fn: ``(q,) -> (n,)`` (any array-in, array-out JAX function).
         x: an example argument (its shape and dtype only are used).
     """
+    out, q = _output_states(fn, x)
+    if out is None:  # a jaxpr form the rules do not know: no zeros claimed
+        return np.ones((_out_size(fn, x), q), bool)
+    return out[..., :q].reshape(-1, q)
+
+
+def structural_zeros(fn, x) -> np.ndarray:
+    """Boolean ``(n,)``: ``True`` where ``fn(x)_i`` is exactly zero for every input.
+
+    Same propagation as :func:`jacobian_pattern` (literal and constant zeros, ``jnp.zeros``
+    padding, products with such an element, ...); a jaxpr the rules cannot read claims no
+    zero.
+    """
+    out, q = _output_states(fn, x)
+    if out is None:
+        return np.zeros(_out_size(fn, x), bool)
+    return out[..., q].reshape(-1)
+
+
+def _out_size(fn, x) -> int:
+    """Number of output elements of ``fn(x)``."""
+    return sum(int(np.prod(o.shape)) for o in jax.tree.leaves(jax.eval_shape(fn, jax.numpy.asarray(x))))
+
+
+def _output_states(fn, x):
+    """The propagated state ``(*out shape, q + 1)`` of ``fn``'s single output and ``q``;
+    ``(None, q)`` when a rule fails."""
     x = jax.numpy.asarray(x)
     closed = jax.make_jaxpr(fn)(x)
     q = x.size
-    n = sum(int(np.prod(v.aval.shape)) for v in closed.jaxpr.outvars)
     state_in = np.zeros(x.shape + (q + 1,), bool)
     state_in[..., :q] = np.eye(q, dtype=bool).reshape(x.shape + (q,))
     try:
         (out,) = _propagate(closed.jaxpr, closed.consts, [state_in], q)
-    except Exception:  # a jaxpr form the rules do not know: no zeros claimed
-        return np.ones((n, q), bool)
-    return out[..., :q].reshape(-1, q)
+    except Exception:
+        return None, q
+    return out, q
 
 
 # A variable's state: bool array (*shape, q + 1); [..., :q] the inputs an element may

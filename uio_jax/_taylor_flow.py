@@ -27,17 +27,83 @@ its arguments only) keeps every rule exact.
 Comparisons and other non-smooth operations act on the order-0 coefficients (constant
 along t at a generic state), as in :mod:`uio_jax._taylor`; an operation without a rule
 raises ``NotImplementedError``.
+
+Constant states. A state whose derivative is a structural zero of F (a parameter joined
+as a state with ``p' = 0``, see :meth:`uio_jax.System.joint`) keeps its order-0 value along
+the flow. The state stack carries a mask of those elements through F's indexing
+(``slice``, ``squeeze``, ``concatenate``, ...): an element, or a whole array, picked out of
+constant elements only is an ordinary value again, not a series. A product of a parameter
+and a series is then the linear rule (one multiplication per coefficient) instead of a
+Cauchy product, and parameter-only subexpressions (``g**a``) are evaluated once.
 """
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 
+from ._sparsity import structural_zeros
 from ._taylor import _BILINEAR, _S, CALLS, call_body, interpret
 from ._taylor import _apply as _stacked_apply
 
+#: indexing and reshaping primitives that move elements without combining them: a mask of
+#: constant elements moves with them (operands other than the data, e.g. gather indices,
+#: must be concrete)
+_MOVING = {"slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "transpose", "rev",
+           "copy", "copy_p", "expand_dims", "dynamic_slice", "gather", "convert_element_type"}
+
 #: operations with a rule of their own here (their order-k coefficient needs lower orders)
 _NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
+
+
+class _PartConst(_S):
+    """A series some of whose elements are constant along t: ``const`` (bool, the element
+    shape) marks them; their coefficients above order 0 are zero."""
+
+    __slots__ = ("const",)
+
+    def __init__(self, c, const):
+        super().__init__(c)
+        self.const = const
+
+
+def _moved(prim, params, ins):
+    """The outputs of an element-moving primitive on a partly constant series: plain values
+    where every element is constant, series (partly constant) otherwise; None when the
+    operands are not of that form (the ordinary rules apply)."""
+    data = (0,) if prim.name in ("dynamic_slice", "gather") else range(len(ins))
+    series = [isinstance(ins[i], _S) for i in data]
+    if not any(isinstance(ins[i], _PartConst) for i in data) and (all(series) or not any(series)):
+        return None  # no constant element among series ones (e.g. concatenate with a constant)
+    masks = []
+    for i, v in enumerate(ins):
+        if i not in data:
+            if isinstance(v, (_S, jax.core.Tracer)):
+                return None  # indices not known while tracing: no mask
+            masks.append(v)
+        elif isinstance(v, _PartConst):
+            masks.append(v.const)
+        elif isinstance(v, _S):
+            masks.append(np.zeros(v.c.shape[1:], bool))
+        else:
+            masks.append(np.ones(np.shape(v), bool))
+    with jax.ensure_compile_time_eval():
+        if prim.name == "convert_element_type":
+            out = [masks[0]]
+        else:
+            out = prim.bind(*masks, **params)
+            out = list(out) if prim.multiple_results else [out]
+    out = [np.asarray(m, bool) for m in out]
+    if all(m.all() for m in out):  # constant: computed on the order-0 values
+        vals = [v.c[0] if isinstance(v, _S) else v for v in ins]
+        res = prim.bind(*vals, **params)
+        return list(res) if prim.multiple_results else [res]
+    res = _stacked_apply(prim, params, ins, _order(ins))
+    return [_PartConst(r.c, m) if m.any() else r for r, m in zip(res, out)]
+
+
+def _order(ins):
+    return next(v.c.shape[0] - 1 for v in ins if isinstance(v, _S))
 
 
 class _Pass:
@@ -156,6 +222,10 @@ def _apply(ps, key, eqn, ins):
         if body is None:
             raise NotImplementedError(f"no Taylor rule for {name}")
         return _eval(ps, key, *body, ins)
+    if name in _MOVING:
+        out = _moved(prim, params, ins)
+        if out is not None:
+            return out
     series = [isinstance(v, _S) for v in ins]
     moving = name in _BILINEAR and all(series) or (name == "div" and series[1])
     if not any(series) or (not moving and name not in _NONLINEAR):
@@ -198,7 +268,10 @@ def _apply(ps, key, eqn, ins):
         return [_S(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
     # pow: a ** b = exp(b log a), base and exponent either constant or moving
     lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
-    arg = ps.mul(key + ("m",), lg, ps.lift(ins[1]), shape, dtype)
+    if isinstance(ins[1], _S):
+        arg = ps.mul(key + ("m",), lg, ins[1].c, shape, dtype)
+    else:  # constant exponent: linear in the series of log a
+        arg = lg * jnp.asarray(ins[1], lg.dtype)
     return [_S(ps.exp(key, arg, shape, dtype))]
 
 
@@ -206,7 +279,7 @@ def _eval(ps, prefix, jaxpr, consts, args):
     return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(ps, prefix + (i,), eqn, ins))
 
 
-def flow_coefficients(F, x, K, known=()):
+def flow_coefficients(F, x, K, known=(), constants=True):
     """Normalized coefficients ``(K, N)`` of orders 1..K of the solution of ``x' = F(x, *s)``.
 
     Args:
@@ -215,6 +288,8 @@ def flow_coefficients(F, x, K, known=()):
         K: highest order (>= 1).
         known: stacks ``(K + 1, *shape)`` of known series entering F (e.g. an input
             ``u(t) = sum_k a_k t^k`` given as ``a``), in full.
+        constants: treat states with a structurally zero derivative as constants
+            (:func:`constant_states`; same coefficients, less work).
 
     Returns:
         ``(K, N)``: ``x[k] = x^(k)(0) / k!`` for ``k = 1..K`` (equal to
@@ -223,10 +298,12 @@ def flow_coefficients(F, x, K, known=()):
     known = tuple(jnp.asarray(s) for s in known)
     closed = jax.make_jaxpr(F)(x, *[s[0] for s in known])
     N = x.shape[0]
+    const = constant_states(F, x, known) if constants else np.zeros(N, bool)
 
     def run(k, xs, state):
         ps = _Pass(k, K, state)
-        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [_S(xs)] + [_S(s) for s in known])
+        root = _PartConst(xs, const) if const.any() else _S(xs)
+        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_S(s) for s in known])
         fk = ps.at_k(out.c) if isinstance(out, _S) else jnp.where(k == 0, out, 0.0)
         fk = jnp.broadcast_to(jnp.asarray(fk, xs.dtype), (N,))
         nxt = fk / jnp.asarray(k + 1, xs.dtype)
@@ -243,4 +320,23 @@ def flow_coefficients(F, x, K, known=()):
     return xs[1:]
 
 
-__all__ = ["flow_coefficients"]
+def constant_states(F, x, known=()):
+    """Bool ``(N,)``: the states whose derivative ``F(x, *known)_i`` is a structural zero
+    (zero for every state and every value of the known series), hence constant along the
+    flow."""
+    N = x.shape[0]
+    sizes = [int(np.prod(s.shape[1:])) for s in known]
+
+    def flat(z):  # the state and one value of every known series in one vector
+        vals, at = [], N
+        for s, size in zip(known, sizes):
+            vals.append(z[at:at + size].reshape(s.shape[1:]))
+            at += size
+        return jnp.ravel(F(z[:N], *vals))
+
+    z = jnp.concatenate([jnp.ravel(x)] + [jnp.ravel(s[0]) for s in known])
+    zeros = structural_zeros(flat, z)
+    return zeros if zeros.shape == (N,) else np.zeros(N, bool)
+
+
+__all__ = ["flow_coefficients", "constant_states"]
