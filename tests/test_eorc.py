@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from conftest import ROOT, zoo
+from helpers import zoo_report
 
 import uio_jax as uj
 from uio_jax._eorc import _nested_power, extended_system, lie_power
@@ -206,10 +207,8 @@ def test_eorc_agrees_with_single_ui(case):
     if "dims" in pub and name not in _OFFSET:
         want = list(pub["dims"]) + [pub["dims"][-1]] * 8
         assert list(rep.dims) == want[: len(rep.dims)]
-    try:
-        single = uj.analyze(sys_, method="single_ui", samples=SAMPLES)
-    except uj.OptionError:
-        return  # single_ui not available in this version
+    single = zoo_report(fname, name)  # the report test_single_ui checks (cached, 1024 samples)
+    assert single.method == "single_ui"
     assert _observable(rep) == _observable(single)
     assert rep.dim == single.dim
     if name not in _OFFSET:

@@ -8,7 +8,8 @@ integrators" of celestial mechanics) instead keeps the coefficient stack of ever
 intermediate quantity of F and, at order k, computes only its order-k coefficient from the
 lower ones:
 
-* linear operations: ``c[k] = op(a[k], b[k])`` (re-applied to the whole stack: ``O(K)``);
+* linear operations: ``c[k] = op(a[k], b[k])`` (``O(1)``: on the order-k coefficients
+  only, constants of additive positions entering at order 0);
 * product ``c = a b``: ``c[k] = sum_{i <= k} a[i] b[k - i]`` (``O(K)``);
 * quotient ``c = a / b``: ``c[k] = (a[k] - sum_{i < k} b[k - i] c[i]) / b[0]``;
 * ``e = exp(a)``: ``e[k] = (1/k) sum_{i < k} (k - i) a[k - i] e[i]``;
@@ -18,8 +19,11 @@ lower ones:
   powers as ``exp(b log a)``, all with intermediate stacks of their own.
 
 The stacks of the nonlinear results are the ``fori_loop`` carry (one array
-``(K + 1, *shape)`` each, orders above k still zero); F's graph is traced once, and the
-whole flow costs ``O(K^2)`` per operation instead of ``O(K^3)``. Known series can enter F
+``(K + 1, *shape)`` each, orders above k still zero), and so are the stacks of the linear
+results that a nonlinear rule (or an order-0 decision) reads: a linear result is its
+order-k coefficient only, its stack made on demand. F's graph is traced once, and the
+whole flow costs ``O(K^2)`` per nonlinear operation and ``O(K)`` per linear one, instead
+of ``O(K^3)``. Known series can enter F
 as extra arguments (e.g. the coefficients of a known input ``u(t)``): their stacks are
 given in full from the start, and causality (order k of a result reads orders ``<= k`` of
 its arguments only) keeps every rule exact.
@@ -43,8 +47,7 @@ import numpy as np
 from jax import lax
 
 from ._sparsity import structural_zeros
-from ._taylor import _BILINEAR, _S, CALLS, call_body, interpret
-from ._taylor import _apply as _stacked_apply
+from ._taylor import _BILINEAR, _CONSTANT, _LINEAR, CALLS, call_body, interpret
 
 #: indexing and reshaping primitives that move elements without combining them: a mask of
 #: constant elements moves with them (operands other than the data, e.g. gather indices,
@@ -56,37 +59,46 @@ _MOVING = {"slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "tr
 _NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
 
 
-class _PartConst(_S):
-    """A series some of whose elements are constant along t: ``const`` (bool, the element
-    shape) marks them; their coefficients above order 0 are zero."""
+class _T:
+    """A series during pass k of the recurrence.
 
-    __slots__ = ("const",)
+    ``ck``: its order-k coefficient (element shape). ``stack``: its coefficients
+    ``(K + 1, *shape)`` (orders above k still zero) when carried (nonlinear results, the
+    state, known series), else None: a result of linear operations, whose stack is made
+    (carried under ``key``) only if a nonlinear rule or an order-0 decision reads it.
+    ``const``: bool mask (element shape) of elements constant along t, or None.
+    ``c0``: order-0 value, kept through element-moving operations of the state (so that
+    constant elements picked out of it need no stack).
+    """
 
-    def __init__(self, c, const):
-        super().__init__(c)
-        self.const = const
+    __slots__ = ("ck", "stack", "key", "const", "c0")
+
+    def __init__(self, ck, stack=None, key=None, const=None, c0=None):
+        self.ck, self.stack, self.key, self.const, self.c0 = ck, stack, key, const, c0
 
 
-def _moved(prim, params, ins):
-    """The outputs of an element-moving primitive on a partly constant series: plain values
-    where every element is constant, series (partly constant) otherwise; None when the
-    operands are not of that form (the ordinary rules apply)."""
+def _moved(ps, key, prim, params, ins):
+    """An element-moving primitive where constant elements are tracked: outputs whose
+    elements are all constant are plain values, others series with their mask; None when
+    no operand carries that information (the ordinary rules apply)."""
     data = (0,) if prim.name in ("dynamic_slice", "gather") else range(len(ins))
-    series = [isinstance(ins[i], _S) for i in data]
-    if not any(isinstance(ins[i], _PartConst) for i in data) and (all(series) or not any(series)):
-        return None  # no constant element among series ones (e.g. concatenate with a constant)
-    masks = []
+    series = [isinstance(ins[i], _T) for i in data]
+    tracked = [isinstance(ins[i], _T) and ins[i].c0 is not None for i in data]
+    if not any(tracked) and (all(series) or not any(series)):
+        return None  # no order-0 values to move (e.g. a product of two moving quantities)
+    masks, c0s = [], []
     for i, v in enumerate(ins):
         if i not in data:
-            if isinstance(v, (_S, jax.core.Tracer)):
+            if isinstance(v, (_T, jax.core.Tracer)):
                 return None  # indices not known while tracing: no mask
             masks.append(v)
-        elif isinstance(v, _PartConst):
-            masks.append(v.const)
-        elif isinstance(v, _S):
-            masks.append(np.zeros(v.c.shape[1:], bool))
+            c0s.append(v)
+        elif isinstance(v, _T):
+            masks.append(np.zeros(v.ck.shape, bool) if v.const is None else v.const)
+            c0s.append(ps.order0(v))
         else:
             masks.append(np.ones(np.shape(v), bool))
+            c0s.append(v)
     with jax.ensure_compile_time_eval():
         if prim.name == "convert_element_type":
             out = [masks[0]]
@@ -94,16 +106,37 @@ def _moved(prim, params, ins):
             out = prim.bind(*masks, **params)
             out = list(out) if prim.multiple_results else [out]
     out = [np.asarray(m, bool) for m in out]
-    if all(m.all() for m in out):  # constant: computed on the order-0 values
-        vals = [v.c[0] if isinstance(v, _S) else v for v in ins]
-        res = prim.bind(*vals, **params)
-        return list(res) if prim.multiple_results else [res]
-    res = _stacked_apply(prim, params, ins, _order(ins))
-    return [_PartConst(r.c, m) if m.any() else r for r, m in zip(res, out)]
+    c0 = prim.bind(*c0s, **params)
+    c0 = list(c0) if prim.multiple_results else [c0]
+    if all(m.all() for m in out):  # constant: the order-0 values
+        return c0
+    res = _linear(ps, key, prim, params, ins)
+    return [_T(r.ck, key=r.key, const=m if m.any() else None, c0=v0) for r, m, v0 in zip(res, out, c0)]
 
 
-def _order(ins):
-    return next(v.c.shape[0] - 1 for v in ins if isinstance(v, _S))
+#: operands that are indices or positions (not lifted, must be constant along t)
+_DATA = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
+         "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
+
+
+def _linear(ps, key, prim, params, ins):
+    """A primitive linear in its series operands, at order k: ``c[k] = op(a[k], b[k])``
+    with constants of additive positions lifted (their value at order 0, zero above) and
+    constant factors, indices and predicates used as they are."""
+    name = prim.name
+    if name == "select_n":  # predicate constant along t
+        args = [ps.order0(ins[0])] + [ps.at(v) for v in ins[1:]]
+    elif name in _DATA:
+        if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in _DATA[name]):
+            raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
+        args = [ps.at(v) if i in _DATA[name] else v for i, v in enumerate(ins)]
+    elif name in _BILINEAR or name == "div":  # one series operand, the other a constant factor
+        args = [v.ck if isinstance(v, _T) else v for v in ins]
+    else:
+        args = [ps.at(v) for v in ins]
+    out = prim.bind(*args, **params)
+    outs = out if prim.multiple_results else [out]
+    return [_T(o, key=key + (j,)) for j, o in enumerate(outs)]
 
 
 class _Pass:
@@ -116,14 +149,39 @@ class _Pass:
 
     # -- helpers on stacks -------------------------------------------------------------
     def lift(self, v):
-        """A constant as a series: value at order 0, zeros above."""
-        if isinstance(v, _S):
-            return v.c
+        """A series' stack, or a constant as a series: value at order 0, zeros above."""
+        if isinstance(v, _T):
+            return self.stack(v)
         v = jnp.asarray(v)
         return jnp.concatenate([v[None], jnp.zeros((self.K,) + v.shape, v.dtype)])
 
     def at_k(self, c):
         return lax.dynamic_index_in_dim(c, self.k, keepdims=False)
+
+    def stack(self, v):
+        """The coefficient stack of a series value (made and carried if not yet)."""
+        if v.stack is None:
+            v.stack = self.slot(v.key + ("lin",), lambda own: v.ck, v.ck.shape, v.ck.dtype)
+        return v.stack
+
+    def order0(self, v):
+        """Order-0 value of a series or constant."""
+        if not isinstance(v, _T):
+            return v
+        return v.c0 if v.c0 is not None else self.stack(v)[0]
+
+    def at(self, v):
+        """Order-k coefficient of a series, or of a constant (its value at order 0, else 0)."""
+        if isinstance(v, _T):
+            return v.ck
+        v = jnp.asarray(v)
+        if isinstance(self.k, int):
+            return v if self.k == 0 else jnp.zeros_like(v)
+        return jnp.where(self.k == 0, v, jnp.zeros_like(v))
+
+    def series(self, stack):
+        """A nonlinear result: its stack, with order k read from it."""
+        return _T(self.at_k(stack), stack=stack)
 
     def conv(self, a, b):
         """``sum_{i <= k} a[i] b[k - i]`` for stacks ``a``, ``b`` (broadcasting elements)."""
@@ -222,57 +280,66 @@ def _apply(ps, key, eqn, ins):
         if body is None:
             raise NotImplementedError(f"no Taylor rule for {name}")
         return _eval(ps, key, *body, ins)
+    series = [isinstance(v, _T) for v in ins]
     if name in _MOVING:
-        out = _moved(prim, params, ins)
+        out = _moved(ps, key, prim, params, ins)
         if out is not None:
             return out
-    series = [isinstance(v, _S) for v in ins]
+    if not any(series) or name in _CONSTANT:  # constant along t: on the order-0 values
+        out = prim.bind(*[ps.order0(v) for v in ins], **params)
+        return list(out) if prim.multiple_results else [out]
     moving = name in _BILINEAR and all(series) or (name == "div" and series[1])
-    if not any(series) or (not moving and name not in _NONLINEAR):
-        # constants, linear operations, products and quotients linear in their series:
-        # the stacked rules of uio_jax._taylor act order by order, hence on our stacks
-        return _stacked_apply(prim, params, ins, ps.K)
+    if name in _LINEAR or (name in _BILINEAR or name == "div") and not moving:
+        return _linear(ps, key, prim, params, ins)
+    if name == "abs":
+        return [_T(jnp.sign(ps.order0(ins[0])) * ins[0].ck, key=key + (0,))]
+    if name in ("max", "min"):
+        a0, b0 = ps.order0(ins[0]), ps.order0(ins[1])
+        pick = (a0 >= b0) if name == "max" else (a0 <= b0)
+        return [_T(jnp.where(pick, ps.at(ins[0]), ps.at(ins[1])), key=key + (0,))]
+    if name not in _NONLINEAR and name not in _BILINEAR and name != "div":
+        raise NotImplementedError(f"no Taylor rule for {name}")
     if name == "mul":
-        return [_S(ps.mul(key, ins[0].c, ins[1].c, shape, dtype))]
+        return [ps.series(ps.mul(key, ps.stack(ins[0]), ps.stack(ins[1]), shape, dtype))]
     if name == "dot_general":
-        a, b = ins
+        a, b = ps.stack(ins[0]), ps.stack(ins[1])
 
         def coef(own):  # sum_i dot(a[i], b[k - i])
-            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a.c, ps.window(b.c)), axis=0)
+            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a, ps.window(b)), axis=0)
 
-        return [_S(ps.slot(key, coef, shape, dtype))]
+        return [ps.series(ps.slot(key, coef, shape, dtype))]
     if name == "div":
-        return [_S(ps.div(key, ps.lift(ins[0]), ins[1].c, shape, dtype))]
-    a = ins[0].c
+        return [ps.series(ps.div(key, ps.lift(ins[0]), ps.stack(ins[1]), shape, dtype))]
+    if name == "pow":  # a ** b = exp(b log a), base and exponent either constant or moving
+        lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
+        if isinstance(ins[1], _T):
+            arg = ps.mul(key + ("m",), lg, ps.stack(ins[1]), shape, dtype)
+        else:  # constant exponent: linear in the series of log a
+            arg = lg * jnp.asarray(ins[1], lg.dtype)
+        return [ps.series(ps.exp(key, arg, shape, dtype))]
+    a = ps.stack(ins[0])
     if name == "integer_pow":
-        return [_S(ps.ipow(key, a, params["y"], shape, dtype))]
+        return [ps.series(ps.ipow(key, a, params["y"], shape, dtype))]
     if name == "square":
-        return [_S(ps.mul(key, a, a, shape, dtype))]
+        return [ps.series(ps.mul(key, a, a, shape, dtype))]
     if name in ("sin", "cos", "tan"):
         cdt = jnp.result_type(dtype, jnp.complex64)
         z = ps.exp(key + ("z",), 1j * a.astype(cdt), shape, cdt)
         s, c = jnp.imag(z), jnp.real(z)
         if name == "sin":
-            return [_S(s)]
+            return [ps.series(s)]
         if name == "cos":
-            return [_S(c)]
-        return [_S(ps.div(key, s, c, shape, dtype))]
+            return [ps.series(c)]
+        return [ps.series(ps.div(key, s, c, shape, dtype))]
     if name == "exp":
-        return [_S(ps.exp(key, a, shape, dtype))]
+        return [ps.series(ps.exp(key, a, shape, dtype))]
     if name == "log":
-        return [_S(ps.log(key, a, shape, dtype))]
+        return [ps.series(ps.log(key, a, shape, dtype))]
     if name == "sqrt":
-        return [_S(ps.sqrt(key, a, shape, dtype))]
-    if name == "rsqrt":
-        r = ps.sqrt(key + ("r",), a, shape, dtype)
-        return [_S(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
-    # pow: a ** b = exp(b log a), base and exponent either constant or moving
-    lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
-    if isinstance(ins[1], _S):
-        arg = ps.mul(key + ("m",), lg, ins[1].c, shape, dtype)
-    else:  # constant exponent: linear in the series of log a
-        arg = lg * jnp.asarray(ins[1], lg.dtype)
-    return [_S(ps.exp(key, arg, shape, dtype))]
+        return [ps.series(ps.sqrt(key, a, shape, dtype))]
+    # rsqrt
+    r = ps.sqrt(key + ("r",), a, shape, dtype)
+    return [ps.series(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
 
 
 def _eval(ps, prefix, jaxpr, consts, args):
@@ -302,9 +369,9 @@ def flow_coefficients(F, x, K, known=(), constants=True):
 
     def run(k, xs, state):
         ps = _Pass(k, K, state)
-        root = _PartConst(xs, const) if const.any() else _S(xs)
-        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_S(s) for s in known])
-        fk = ps.at_k(out.c) if isinstance(out, _S) else jnp.where(k == 0, out, 0.0)
+        root = _T(ps.at_k(xs), stack=xs, const=const if const.any() else None, c0=xs[0])
+        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_T(ps.at_k(s), stack=s) for s in known])
+        fk = ps.at(out)
         fk = jnp.broadcast_to(jnp.asarray(fk, xs.dtype), (N,))
         nxt = fk / jnp.asarray(k + 1, xs.dtype)
         if isinstance(k, int):
