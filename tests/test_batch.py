@@ -310,3 +310,39 @@ def test_timeout_stops_a_slow_model_and_goes_on(tmp_path, capsys):
 def test_timeout_must_be_positive(timeout):
     with pytest.raises(uj.OptionError, match="timeout must be a positive number"):
         uj.batch_analyze(["systems"], timeout=timeout)
+
+
+def test_recorded_times_order_the_workers_longest_first(tmp_path, zoo_file, monkeypatch):
+    """A batch records each model's time in the cache directory; the next parallel batch
+    hands the models to its workers longest first (unknown ones first, in the given order),
+    and its rows keep the given order."""
+    from uio_jax import _batch
+
+    specs = [f"{zoo_file}:two_states", f"{zoo_file}:blind"]
+    with compile_cache(tmp_path / "cc") as path:
+        res = uj.batch_analyze(specs, samples=64)
+        with open(os.path.join(path, _batch._SECONDS_FILE)) as f:
+            recorded = json.load(f)
+        assert len(recorded) == 2 and all(v > 0 for v in recorded.values())
+        keys = [k for k in recorded if k.split("|")[1] == specs[1]]
+        assert len(keys) == 1 and "samples=64" in keys[0]
+        # pretend the first model was short and the second long; add a model never timed
+        recorded = {k: (1.0 if k.split("|")[1] == specs[0] else 50.0) for k in recorded}
+        with open(os.path.join(path, _batch._SECONDS_FILE), "w") as f:
+            json.dump(recorded, f)
+        sent = []
+
+        def fake_workers(entries, todo, jobs, timeout, kw, bar, rows):
+            sent.extend(entries[i].spec for i in todo)
+            for i in todo:
+                rows[i] = _batch.BatchRow(entries[i].label, seconds=0.5)
+
+        monkeypatch.setattr(_batch, "_run_in_workers", fake_workers)
+        res = uj.batch_analyze(specs + [f"{zoo_file}:CONSTANT"], jobs=2, samples=64)
+        assert sent == [f"{zoo_file}:CONSTANT", specs[1], specs[0]]
+        assert [r.model for r in res] == specs + [f"{zoo_file}:CONSTANT"]
+        with open(os.path.join(path, _batch._SECONDS_FILE), "w") as f:
+            f.write("{broken")  # a broken file only loses the ordering
+        sent.clear()
+        uj.batch_analyze(specs, jobs=2, samples=64)
+        assert sent == specs

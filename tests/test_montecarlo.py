@@ -19,9 +19,8 @@ VEH = load_module(zoo("vehicle_wind.py"))
 
 
 def test_batch_size_independent():
-    # the zoo returns one object per experiment, so these runs share compiled code with
-    # the other tests (B = 64)
-    exp = UNI.range_gamma_known_experiment()
+    # 2 s of the 10 s experiment (4000 steps, 80 output epochs): the property is per step
+    exp = UNI.range_gamma_known_experiment().with_(n_steps=4000)
     a = run_montecarlo(exp, 64, seed=3, keep=0)
     b = run_montecarlo(exp, 256, seed=3, keep=0)
     np.testing.assert_array_equal(a.stats, b.stats[:64])

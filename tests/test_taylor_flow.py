@@ -104,7 +104,7 @@ def test_parameters_are_constants_of_the_recurrence():
 
     z = jnp.array([0.7, 1.1, 0.9, 1.3, 0.6, 1.7])
     np.testing.assert_array_equal(constant_states(_field_with_parameters, z), [0, 0, 0, 1, 1, 1])
-    K = 4
+    K = 3
 
     def run(constants):
         fn = lambda y: flow_coefficients(_field_with_parameters, y, K, constants=constants)  # noqa: E731

@@ -36,6 +36,12 @@ processes (spawned, each with its own JAX; they use the persistent cache directo
 caller), one model at a time each. With ``timeout``, a model that runs too long has its
 worker killed (its row says so) and a fresh worker goes on with the others. Only models
 given by path can go to a worker; ``System`` objects run in the calling process.
+
+**Longest first.** With a cache directory, every batch records each model's time in
+``batch_seconds.json`` there (keyed by the model's spec and the analysis options); the
+workers of a later batch take the models in decreasing order of their recorded time
+(models without one first, in the order given): one long model started last would leave
+the other workers idle at the end. The rows keep the order the models were given.
 """
 
 import csv
@@ -269,11 +275,12 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
                                 or not timeout > 0):
         raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
     entries, skipped = discover(models)
+    keys = [_time_key(e, analyze_kwargs) for e in entries]
     bar = _BatchProgress(len(entries), enabled=progress)
     try:
         remote = sum(e.spec is not None and e.error is None for e in entries)
         if (jobs > 1 and remote > 1) or (timeout is not None and remote):
-            rows = _run_parallel(entries, jobs, timeout, analyze_kwargs, bar)
+            rows = _run_parallel(entries, jobs, timeout, analyze_kwargs, bar, _recorded_seconds(keys))
         else:
             rows = []
             for i, e in enumerate(entries):
@@ -283,6 +290,7 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
                 bar.finish()
     finally:
         bar.close()
+    _record_seconds(keys, rows)
     options = {k: v for k, v in analyze_kwargs.items() if v is not None}
     return BatchResult(tuple(rows), tuple(skipped), time.perf_counter() - t0, options)
 
@@ -529,8 +537,9 @@ def _row(label, rep, seconds, report=None) -> BatchRow:
     )
 
 
-def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar):
-    """Entries with a spec go to worker processes; in-memory Systems and known errors run here."""
+def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar, recorded=()):
+    """Entries with a spec go to worker processes (longest recorded time first, see
+    :func:`_longest_first`); in-memory Systems and known errors run here."""
     rows = [None] * len(entries)
     remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
     local = set(range(len(entries))) - set(remote)
@@ -539,8 +548,79 @@ def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar):
             bar.start(e.label)
             rows[i] = _run_entry(e, analyze_kwargs, keep_report=False)
             bar.finish()
-    _run_in_workers(entries, remote, jobs, timeout, analyze_kwargs, bar, rows)
+    _run_in_workers(entries, _longest_first(remote, recorded), jobs, timeout, analyze_kwargs, bar, rows)
     return rows
+
+
+#: File in the cache directory with each model's last batch time in seconds.
+_SECONDS_FILE = "batch_seconds.json"
+
+
+def _time_key(entry, analyze_kwargs):
+    """Key of a model's recorded time: its spec and the analysis options (None: in-memory)."""
+    if entry.spec is None or entry.error is not None:
+        return None
+    opts = ",".join(f"{k}={v!r}" for k, v in sorted(analyze_kwargs.items()) if v is not None)
+    return f"{entry.kind}|{entry.spec}|{opts}"
+
+
+def _seconds_path():
+    from ._compile_cache import cache_dir_in_use
+
+    d = cache_dir_in_use()
+    return None if d is None else os.path.join(d, _SECONDS_FILE)
+
+
+def _recorded_seconds(keys):
+    """Recorded time of each key (None: unknown); nothing without a readable file."""
+    path = _seconds_path()
+    try:
+        with open(path, encoding="utf-8") as f:
+            known = json.load(f)
+    except (TypeError, OSError, ValueError):  # no cache directory, no file, a broken file
+        return [None] * len(keys)
+    if not isinstance(known, dict):
+        return [None] * len(keys)
+    out = []
+    for k in keys:
+        v = known.get(k) if k is not None else None
+        out.append(float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None)
+    return out
+
+
+def _record_seconds(keys, rows):
+    """Add this batch's times to the file in the cache directory (atomic replace; a cache
+    directory that cannot be written only loses the ordering of the next batch)."""
+    path = _seconds_path()
+    if path is None:
+        return
+    try:
+        with open(path, encoding="utf-8") as f:
+            known = json.load(f)
+        known = known if isinstance(known, dict) else {}
+    except (OSError, ValueError):
+        known = {}
+    for k, row in zip(keys, rows):
+        if k is not None and row is not None:
+            known[k] = round(float(row.seconds), 3)
+    tmp = f"{path}.{os.getpid()}.tmp"
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(known, f, indent=0, sort_keys=True)
+        os.replace(tmp, path)
+    except OSError:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+
+
+def _longest_first(todo, recorded):
+    """``todo`` (entry indices) reordered: unknown times first in the given order, then
+    decreasing recorded time (a stable sort)."""
+    if not recorded:
+        return list(todo)
+    return sorted(todo, key=lambda i: -math.inf if recorded[i] is None else -recorded[i])
 
 
 def _run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, bar, rows):
