@@ -278,9 +278,12 @@ class CompileStat:
 #: runs): Arabidopsis (n = 35, K = 21) 11.9-12.2 -> 9.2-10.1 ms, JAKSTAT (n = 32, K = 5)
 #: 0.59-0.61 -> 0.42-0.45 ms, SIWR (n = 11, K = 8) 0.052-0.054 -> 0.033-0.035 ms, p53
 #: 0.22-0.24 -> 0.19-0.21 ms; 64 lies between. The smaller batch keeps more of each
-#: intermediate ``(batch, n tangents, K + 1, ...)`` in the caches; 128 calls per 4096
-#: samples cost nothing measurable.
-STREAM_BATCH = 32
+#: intermediate ``(batch, n tangents, K + 1, ...)`` in the caches. With the recurrence's
+#: linear operations on order k only (2026-11-27), batches of 32 -> 8, four rounds of 256
+#: samples in one process: Arabidopsis (K = 21) 5.0-5.7 -> 3.1-4.7 ms, JAKSTAT (K = 12)
+#: 0.94-1.28 -> 0.65-0.92 ms, p53 (K = 10) 0.26-0.40 -> 0.14-0.18 ms; SIWR (K = 8)
+#: 0.02 -> 0.03-0.05 ms (512 calls per 4096 samples: about 0.1 s of dispatch).
+STREAM_BATCH = 8
 
 #: XLA options of a streamed program (compile about 25 % faster here, same run time).
 STREAM_OPTIONS = _program_cache.FAST_COMPILE
