@@ -187,6 +187,7 @@ def test_strikepy_model_converts_to_toml(tmp_path, name):
     assert back.states == system.states and back.notes == system.notes
 
 
+@pytest.mark.slow  # 9-12 s; CR and C2M are also in the default sympy-oracle tests
 @needs_strikepy
 def test_cr_scaling_symmetry_and_c2m_identifiability():
     """CR: x' = -2 k x^2 gives y = s1 x/(1 + s2 x) = s1 x0 / (1 + s2 x0 + 2 k x0 t): only the

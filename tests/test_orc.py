@@ -97,6 +97,7 @@ def test_published_symmetries_are_annihilated_by_omega(module, name):
             assert np.linalg.norm(v - N @ (N.T @ v)) < 1e-6 * np.linalg.norm(v)  # SVD null space: ~eps/s_min
 
 
+@pytest.mark.slow  # 14 s: an ORC of the 7-state vehicle with two more fields
 def test_with_wind_as_known_input_keeps_only_the_yaw_symmetry():
     """A known wind along z makes roll and pitch observable, but a rotation about the
     global z axis through the feature maps the wind to itself: yaw stays hidden (dim 6),

@@ -39,12 +39,12 @@ SAMPLES = 1024
 _DPS = 50
 _RTOL = mpmath.mpf(10) ** -30
 
-# name -> marks; the slow ones (> 20 s on a shared 2-core machine) run with -m slow.
+# name -> marks; the slow ones (> 15 s on a shared 2-core machine) run with -m slow.
 MODELS = {
     "1A_integral": (),
     "1B_prop_integral": (),
     "1C_nonlinear": (),
-    "Bolie": (),
+    "Bolie": (pytest.mark.slow,),  # 17-18 s
     "C2M": (),
     "C2M_2outputs": (),
     "CR": (),
