@@ -571,16 +571,19 @@ def _seconds_path():
     return None if d is None else os.path.join(d, _SECONDS_FILE)
 
 
-def _recorded_seconds(keys):
-    """Recorded time of each key (None: unknown); nothing without a readable file."""
-    path = _seconds_path()
+def _read_seconds(path):
+    """The recorded times (a dict); empty without a cache directory, a file, or a valid one."""
     try:
         with open(path, encoding="utf-8") as f:
             known = json.load(f)
-    except (TypeError, OSError, ValueError):  # no cache directory, no file, a broken file
-        return [None] * len(keys)
-    if not isinstance(known, dict):
-        return [None] * len(keys)
+    except (TypeError, OSError, ValueError):
+        return {}
+    return known if isinstance(known, dict) else {}
+
+
+def _recorded_seconds(keys):
+    """Recorded time of each key (None: unknown)."""
+    known = _read_seconds(_seconds_path())
     out = []
     for k in keys:
         v = known.get(k) if k is not None else None
@@ -594,12 +597,7 @@ def _record_seconds(keys, rows):
     path = _seconds_path()
     if path is None:
         return
-    try:
-        with open(path, encoding="utf-8") as f:
-            known = json.load(f)
-        known = known if isinstance(known, dict) else {}
-    except (OSError, ValueError):
-        known = {}
+    known = _read_seconds(path)
     for k, row in zip(keys, rows):
         if k is not None and row is not None:
             known[k] = round(float(row.seconds), 3)

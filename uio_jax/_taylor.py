@@ -40,6 +40,9 @@ _LINEAR = {
     "scatter", "scatter-add", "scatter_add", "tile", "repeat", "reduce_and_broadcast",
 }
 _BILINEAR = {"mul", "dot_general"}
+#: indexing primitives: their data operands (the others are indices, constant along t)
+DATA_OPERANDS = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
+                 "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
 #: call-like primitives: their sub-jaxpr is evaluated inline
 CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
          "custom_vjp_call", "custom_vjp_call_jaxpr")
@@ -215,8 +218,7 @@ def _apply(prim, params, ins, K):
             cases = [_series(v, K).c for v in ins[1:]]
             return [_S(jax.vmap(lambda *cs: prim.bind(pred, *cs, **params))(*cases))]
         # indexing: indices constant along t, linear in the data operands
-        data = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
-                "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}.get(name)
+        data = DATA_OPERANDS.get(name)
         if data is not None:
             if any(isinstance(v, _S) for i, v in enumerate(ins) if i not in data):
                 raise NotImplementedError(f"no Taylor rule for {name} with moving indices")

@@ -47,7 +47,7 @@ import numpy as np
 from jax import lax
 
 from ._sparsity import structural_zeros
-from ._taylor import _BILINEAR, _CONSTANT, _LINEAR, CALLS, call_body, interpret
+from ._taylor import _BILINEAR, _CONSTANT, _LINEAR, CALLS, DATA_OPERANDS, call_body, interpret
 
 #: indexing and reshaping primitives that move elements without combining them: a mask of
 #: constant elements moves with them (operands other than the data, e.g. gather indices,
@@ -81,7 +81,7 @@ def _moved(ps, key, prim, params, ins):
     """An element-moving primitive where constant elements are tracked: outputs whose
     elements are all constant are plain values, others series with their mask; None when
     no operand carries that information (the ordinary rules apply)."""
-    data = (0,) if prim.name in ("dynamic_slice", "gather") else range(len(ins))
+    data = DATA_OPERANDS.get(prim.name, range(len(ins)))
     series = [isinstance(ins[i], _T) for i in data]
     tracked = [isinstance(ins[i], _T) and ins[i].c0 is not None for i in data]
     if not any(tracked) and (all(series) or not any(series)):
@@ -114,11 +114,6 @@ def _moved(ps, key, prim, params, ins):
     return [_T(r.ck, key=r.key, const=m if m.any() else None, c0=v0) for r, m, v0 in zip(res, out, c0)]
 
 
-#: operands that are indices or positions (not lifted, must be constant along t)
-_DATA = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
-         "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
-
-
 def _linear(ps, key, prim, params, ins):
     """A primitive linear in its series operands, at order k: ``c[k] = op(a[k], b[k])``
     with constants of additive positions lifted (their value at order 0, zero above) and
@@ -126,10 +121,11 @@ def _linear(ps, key, prim, params, ins):
     name = prim.name
     if name == "select_n":  # predicate constant along t
         args = [ps.order0(ins[0])] + [ps.at(v) for v in ins[1:]]
-    elif name in _DATA:
-        if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in _DATA[name]):
+    elif name in DATA_OPERANDS:  # indices constant along t, not lifted
+        data = DATA_OPERANDS[name]
+        if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in data):
             raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
-        args = [ps.at(v) if i in _DATA[name] else v for i, v in enumerate(ins)]
+        args = [ps.at(v) if i in data else v for i, v in enumerate(ins)]
     elif name in _BILINEAR or name == "div":  # one series operand, the other a constant factor
         args = [v.ck if isinstance(v, _T) else v for v in ins]
     else:
