@@ -26,7 +26,7 @@ def _verdict(rep):
     ("unicycle_polar", "phi_known"),
     ("gps", "inputs_known"),
     ("unicycle_disturbance", "no_disturbance_bearing"),
-    ("vehicle_wind", "no_wind"),
+    pytest.param("vehicle_wind", "no_wind", marks=pytest.mark.slow),  # 24 s: compile of a 7-state series
 ])
 def test_series_gives_the_orc_verdict_on_the_zoo(module, name):
     orc = zoo_report(module, name)

@@ -24,7 +24,7 @@ def _field(x):
     ])
 
 
-@pytest.mark.parametrize("K", [1, 3])
+@pytest.mark.parametrize("K", [1, 2, pytest.param(3, marks=pytest.mark.slow)])
 def test_recurrence_equals_stacked_passes(K):
     """Values and Jacobians equal flow_series (K full stacked passes) to round-off."""
     x = jnp.array([0.7, 1.1, 0.9])
