@@ -26,8 +26,9 @@ class Step:
         m: step index (the order k for the EORC).
         dim: dimension of the codistribution after the step.
         added: labels of the generators kept at this step.
-        fraction: fraction of samples at the generic rank after the step (for the EORC:
-            the smallest agreeing fraction among the rank decisions of that order).
+        fraction: the smallest fraction of samples agreeing with a rank decision of the
+            step (kept and rejected candidates; for the EORC: the decisions that kept the
+            order's generators); 1.0 for a step that decided nothing.
         extra: method-specific facts of the step (e.g. ``tau_in_omega``).
     """
 
