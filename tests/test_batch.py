@@ -274,6 +274,20 @@ def test_jobs_run_models_in_worker_processes(zoo_file):
     assert "raised RuntimeError: boom" in res[3].error
 
 
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="no CPU affinity on this platform")
+def test_a_worker_is_bound_to_the_cpu_of_its_slot():
+    """Worker k runs on the k-th allowed CPU (cyclically); a lone worker (None) keeps all."""
+    allowed = sorted(os.sched_getaffinity(0))
+    code = ("import os, sys; from uio_jax._batch import _pin_to_one_cpu; "
+            "_pin_to_one_cpu(None if sys.argv[1] == 'None' else int(sys.argv[1])); "
+            "print(sorted(os.sched_getaffinity(0)))")
+    for slot, want in [(0, [allowed[0]]), (len(allowed) + 1, [allowed[1 % len(allowed)]]), (None, allowed)]:
+        out = subprocess.run([sys.executable, "-c", code, str(slot)], capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stderr
+        assert json.loads(out.stdout) == want
+
+
 SLOW_ZOO = """
     import multiprocessing
     import time
