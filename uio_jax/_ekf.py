@@ -44,6 +44,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._fast_trig import with_vectorized_trig
 from ._sparsity import jacobian_pattern
 
 TWO_PI = 2.0 * math.pi
@@ -91,20 +92,15 @@ def make_model(exp) -> Model:
     n, p, order = sys_.n, len(sys_.unknown), exp.order
     N = n + p * order
     dt = float(exp.dt)
-    known = tuple(sys_.known.values())
-    unknown = tuple(sys_.unknown.values())
-    drift = sys_.drift
+    # float64 sin / cos by vectorizable arithmetic (XLA's CPU runs them one element at a
+    # time): the 5-state 003 filter 6.7-7.3 -> 8.2-9.3 M trial-steps/s (see _fast_trig)
+    known = tuple(with_vectorized_trig(f) for f in sys_.known.values())
+    unknown = tuple(with_vectorized_trig(g) for g in sys_.unknown.values())
+    drift = with_vectorized_trig(sys_.drift) if sys_.drift is not None else None
     w_white = np.asarray(exp.w_white_std, np.float64)
     q_aug = np.asarray(exp.q_aug, np.float64) * dt
     known_std = exp.known_std
-
-    def dynamics(x, u, w):
-        dx = drift(x) if drift is not None else jnp.zeros(n, x.dtype)
-        for i, f in enumerate(known):
-            dx = dx + f(x) * u[i]
-        for j, g in enumerate(unknown):
-            dx = dx + g(x) * w[j]
-        return dx
+    dynamics = _vector_field(n, drift, known, unknown)
 
     def process_noise(xa, u_read):
         # sum of outer products of a few columns, written elementwise (batched small
@@ -123,7 +119,7 @@ def make_model(exp) -> Model:
         return Q
 
     meas = exp.measurements
-    fns = tuple(m.fn for m in meas)
+    fns = tuple(with_vectorized_trig(m.fn) for m in meas)
 
     def h_true(x):
         return jnp.stack([fn(x) for fn in fns])
@@ -135,10 +131,25 @@ def make_model(exp) -> Model:
     angle_out = np.array([m.angle for m in meas], bool)
     period = np.array([m.every // exp.epoch_steps for m in meas], np.int64)
     m = len(known)
-    pattern = jacobian_pattern(lambda z: dynamics(z[:n], z[n + p:], z[n:n + p]),
+    plain = _vector_field(n, sys_.drift, tuple(sys_.known.values()), tuple(sys_.unknown.values()))
+    pattern = jacobian_pattern(lambda z: plain(z[:n], z[n + p:], z[n:n + p]),
                                np.zeros(n + p + m))[:, :n + p]
     return Model(n, p, order, N, dt, dynamics, process_noise, h, h_true,
                  sigma, angle_out, period, pattern)
+
+
+def _vector_field(n, drift, known, unknown):
+    """``(x, u, w) -> f0(x) + sum_i f_i(x) u_i + sum_j g_j(x) w_j``, shape ``(n,)``."""
+
+    def dynamics(x, u, w):
+        dx = drift(x) if drift is not None else jnp.zeros(n, x.dtype)
+        for i, f in enumerate(known):
+            dx = dx + f(x) * u[i]
+        for j, g in enumerate(unknown):
+            dx = dx + g(x) * w[j]
+        return dx
+
+    return dynamics
 
 
 def predict(model: Model, xa, P, u_read):

@@ -1,0 +1,127 @@
+"""Vectorizable float64 sine and cosine for the Monte Carlo filter.
+
+XLA's CPU backend evaluates float64 ``sin`` and ``cos`` one element at a time (10-15 ns
+each on this machine, against about 1 ns for a multiply-add in a vectorized loop), and the
+unicycle's filter needs four of them per trial-step (the truth's and the estimate's
+heading). Here they are written with ordinary arithmetic, which XLA vectorizes:
+
+* **Reduction** (Cody-Waite, as fdlibm's ``__ieee754_rem_pio2`` for medium arguments):
+  ``k = round(x 2/pi)``, ``r = (((x - k P1) - k P2) - k P3) - k P4`` with ``pi/2`` split
+  into four parts (the first three of 33 bits, so that their products with ``|k| < 2^20``
+  are exact, and the cancellation near multiples of ``pi/2`` keeps its digits); quadrant
+  ``q = k mod 4``.
+* **Kernels** on ``|r| <= pi/4``: fdlibm's ``__kernel_sin`` / ``__kernel_cos`` minimax
+  polynomials (degree 13 and 14), error below 1 ulp.
+
+Accuracy (against mpmath at 40 digits, ``tests/test_fast_trig.py``): within 1 ulp for
+``|x| <= 1e3`` rad, as XLA's and numpy's own, and within 2 ulp up to ``2^19 pi`` (about
+1.6e6 rad; 0.06-0.09 % of random arguments there are 2 ulp off): the range of every
+physical angle of a simulation. Beyond it the reduction loses digits; ``r`` is clipped to
+``[-0.79, 0.79]`` so that the result stays bounded (a filter whose angle estimate reaches a
+million radians has diverged long before). The derivatives are the functions' own
+(``d sin = cos dx`` by the same kernels), not those of the polynomials.
+
+:func:`with_vectorized_trig` applies them to a model function: it traces the function to a
+jaxpr and evaluates it with ``sin`` / ``cos`` of float64 operands replaced. In the 003
+Monte Carlo run (4096 trials, 2 CPU devices) this took the 5-state filter from 6.7-7.3 to
+8.2-9.3 M trial-steps/s (interleaved runs).
+"""
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._taylor import CALLS, call_body, interpret
+
+# fdlibm's __kernel_sin and __kernel_cos coefficients (|r| <= pi/4)
+_S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
+      2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)
+_C = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
+      -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)
+# pi/2 = _P1 + _P2 + _P3 + _P4 (fdlibm's pio2_1, pio2_2, pio2_3 of 33 bits each, pio2_3t)
+_P1, _P2, _P3 = 1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624871116645580e-21
+_P4 = 8.47842766036889956997e-32
+#: arguments below this magnitude are reduced exactly enough for 1 ulp (2^19 pi)
+ACCURATE_BELOW = 2.0**19 * np.pi
+
+
+def _reduce(x):
+    """``(r, q)``: ``x = r + (pi/2) k``, ``|r| <= pi/4`` (clipped), quadrant ``q = k mod 4``."""
+    k = jnp.round(x * (2.0 / np.pi))
+    r = (((x - k * _P1) - k * _P2) - k * _P3) - k * _P4
+    return jnp.clip(r, -0.79, 0.79), k - 4.0 * jnp.floor(0.25 * k)
+
+
+def _kernel_sin(r):
+    z = r * r
+    return r + z * r * (_S[0] + z * (_S[1] + z * (_S[2] + z * (_S[3] + z * (_S[4] + z * _S[5])))))
+
+
+def _kernel_cos(r):
+    z = r * r
+    tail = z * z * (_C[0] + z * (_C[1] + z * (_C[2] + z * (_C[3] + z * (_C[4] + z * _C[5])))))
+    half = 0.5 * z
+    w = 1.0 - half
+    return w + (((1.0 - w) - half) + tail)
+
+
+def _quadrant(q, a, b):
+    """``a, b, -a, -b`` for ``q = 0, 1, 2, 3``."""
+    return jnp.where(q == 0, a, jnp.where(q == 1, b, jnp.where(q == 2, -a, -b)))
+
+
+@jax.custom_jvp
+def sin(x):
+    """``sin(x)`` for float64 ``x`` of any shape, by vectorizable arithmetic (see module doc)."""
+    r, q = _reduce(x)
+    return _quadrant(q, _kernel_sin(r), _kernel_cos(r))
+
+
+@jax.custom_jvp
+def cos(x):
+    """``cos(x)`` for float64 ``x`` of any shape, by vectorizable arithmetic (see module doc)."""
+    r, q = _reduce(x)
+    return _quadrant(q, _kernel_cos(r), -_kernel_sin(r))
+
+
+sin.defjvp(lambda primals, tangents: (sin(primals[0]), cos(primals[0]) * tangents[0]))
+cos.defjvp(lambda primals, tangents: (cos(primals[0]), -sin(primals[0]) * tangents[0]))
+
+_REPLACED = {"sin": sin, "cos": cos}
+
+
+def _apply(i, eqn, ins):
+    prim, params = eqn.primitive, eqn.params
+    fast = _REPLACED.get(prim.name)
+    if fast is not None and jnp.result_type(ins[0]) == jnp.float64:
+        return [fast(ins[0])]
+    if prim.name in CALLS:  # sub-functions inline (as the Taylor interpreters do)
+        body = call_body(params)
+        if body is not None:
+            return interpret(*body, ins, _apply)
+    out = prim.bind(*ins, **params)
+    return out if prim.multiple_results else [out]
+
+
+def with_vectorized_trig(fn):
+    """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sin` / :func:`cos`.
+
+    ``fn`` takes and returns arrays (or pytrees of them); it is traced once per call (at
+    the caller's trace time under ``jit``, so at no run-time cost). Sub-functions (``jit``,
+    custom derivative rules) are evaluated inline, their ``sin`` / ``cos`` replaced too;
+    every other operation runs unchanged.
+    """
+
+    @functools.wraps(fn)
+    def wrapped(*args):
+        closed, out_shape = jax.make_jaxpr(fn, return_shape=True)(*args)
+        flat = jax.tree.leaves(args)
+        out = interpret(closed.jaxpr, closed.consts, flat, _apply)
+        return jax.tree.unflatten(jax.tree.structure(out_shape), out)
+
+    return wrapped
+
+
+__all__ = ["sin", "cos", "with_vectorized_trig", "ACCURATE_BELOW"]
