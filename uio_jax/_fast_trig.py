@@ -73,40 +73,54 @@ def _quadrant(q, a, b):
 
 
 @jax.custom_jvp
+def sincos(x):
+    """``(sin(x), cos(x))`` for float64 ``x`` of any shape, from one reduction (module doc)."""
+    r, q = _reduce(x)
+    s, c = _kernel_sin(r), _kernel_cos(r)
+    return _quadrant(q, s, c), _quadrant(q, c, -s)
+
+
+@sincos.defjvp
+def _sincos_jvp(primals, tangents):
+    s, c = sincos(primals[0])
+    return (s, c), (c * tangents[0], -s * tangents[0])
+
+
 def sin(x):
-    """``sin(x)`` for float64 ``x`` of any shape, by vectorizable arithmetic (see module doc)."""
-    r, q = _reduce(x)
-    return _quadrant(q, _kernel_sin(r), _kernel_cos(r))
+    """``sin(x)`` for float64 ``x``, by vectorizable arithmetic (see :func:`sincos`)."""
+    return sincos(x)[0]
 
 
-@jax.custom_jvp
 def cos(x):
-    """``cos(x)`` for float64 ``x`` of any shape, by vectorizable arithmetic (see module doc)."""
-    r, q = _reduce(x)
-    return _quadrant(q, _kernel_cos(r), -_kernel_sin(r))
+    """``cos(x)`` for float64 ``x``, by vectorizable arithmetic (see :func:`sincos`)."""
+    return sincos(x)[1]
 
 
-sin.defjvp(lambda primals, tangents: (sin(primals[0]), cos(primals[0]) * tangents[0]))
-cos.defjvp(lambda primals, tangents: (cos(primals[0]), -sin(primals[0]) * tangents[0]))
+def _interpreter():
+    """An equation rule for :func:`~uio_jax._taylor.interpret` that replaces float64 ``sin``
+    and ``cos`` by :func:`sincos`, one evaluation per operand (``sin x`` and ``cos x`` share
+    it)."""
+    done = {}  # id(operand) -> (operand, (sin, cos))
 
-_REPLACED = {"sin": sin, "cos": cos}
+    def apply(i, eqn, ins):
+        prim, params = eqn.primitive, eqn.params
+        if prim.name in ("sin", "cos") and jnp.result_type(ins[0]) == jnp.float64:
+            x = ins[0]
+            if id(x) not in done:
+                done[id(x)] = (x, sincos(x))  # the operand kept: its id stays its own
+            return [done[id(x)][1][0 if prim.name == "sin" else 1]]
+        if prim.name in CALLS:  # sub-functions inline (as the Taylor interpreters do)
+            body = call_body(params)
+            if body is not None:
+                return interpret(*body, ins, apply)
+        out = prim.bind(*ins, **params)
+        return out if prim.multiple_results else [out]
 
-
-def _apply(i, eqn, ins):
-    prim, params = eqn.primitive, eqn.params
-    fast = _REPLACED.get(prim.name)
-    if fast is not None and jnp.result_type(ins[0]) == jnp.float64:
-        return [fast(ins[0])]
-    if prim.name in CALLS:  # sub-functions inline (as the Taylor interpreters do)
-        body = call_body(params)
-        if body is not None:
-            return interpret(*body, ins, _apply)
-    out = prim.bind(*ins, **params)
-    return out if prim.multiple_results else [out]
+    return apply
 
 
 def with_vectorized_trig(fn):
-    """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sin` / :func:`cos`.
+    """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sincos`.
 
     ``fn`` takes and returns arrays (or pytrees of them); it is traced once per call (at
     the caller's trace time under ``jit``, so at no run-time cost). Sub-functions (``jit``,
@@ -118,10 +132,10 @@ def with_vectorized_trig(fn):
     def wrapped(*args):
         closed, out_shape = jax.make_jaxpr(fn, return_shape=True)(*args)
         flat = jax.tree.leaves(args)
-        out = interpret(closed.jaxpr, closed.consts, flat, _apply)
+        out = interpret(closed.jaxpr, closed.consts, flat, _interpreter())
         return jax.tree.unflatten(jax.tree.structure(out_shape), out)
 
     return wrapped
 
 
-__all__ = ["sin", "cos", "with_vectorized_trig", "ACCURATE_BELOW"]
+__all__ = ["sin", "cos", "sincos", "with_vectorized_trig", "ACCURATE_BELOW"]
