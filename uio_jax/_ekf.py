@@ -93,7 +93,7 @@ def make_model(exp) -> Model:
     N = n + p * order
     dt = float(exp.dt)
     # float64 sin / cos by vectorizable arithmetic (XLA's CPU runs them one element at a
-    # time): the 5-state 003 filter 6.7-7.3 -> 8.2-9.3 M trial-steps/s (see _fast_trig)
+    # time): the 5-state 003 filter 7.1 -> 8.6 M trial-steps/s (see _fast_trig)
     known = tuple(with_vectorized_trig(f) for f in sys_.known.values())
     unknown = tuple(with_vectorized_trig(g) for g in sys_.unknown.values())
     drift = with_vectorized_trig(sys_.drift) if sys_.drift is not None else None
