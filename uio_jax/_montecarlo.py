@@ -225,14 +225,17 @@ def _chunk_records(exp, n_trials):
 
 def _check_model(exp):
     """Fail early, with one line, when the model is NaN at the experiment's start."""
-    model = make_model(exp)
+    cache = _CACHE.setdefault(exp, {})
+    if "check" not in cache:  # one small program per experiment, not op-by-op dispatch
+        model = make_model(exp)
+        cache["check"] = jax.jit(lambda x0, u, w: (model.dynamics(x0, u, w), model.h_true(x0),
+                                                   exp.known_std(u)))
     x0 = jnp.asarray(exp.x0)
     _, u, w = exp.inputs(jnp.asarray(exp.istate0), jnp.zeros(exp.n_input_normals))
     u = jnp.asarray(u, jnp.float64).reshape(len(exp.system.known))
     w = jnp.asarray(w, jnp.float64).reshape(len(exp.system.unknown))
-    # one small program, not op-by-op dispatch of the vectorized sin / cos (~1 s eager)
-    values = jax.jit(lambda x0, u, w: (model.dynamics(x0, u, w), model.h_true(x0), exp.known_std(u)))
-    vals = dict(zip(("the dynamics", "the measurements", "the known-input noise std"), values(x0, u, w)))
+    # (eager, the vectorized sin / cos would cost ~1 s of dispatch)
+    vals = dict(zip(("the dynamics", "the measurements", "the known-input noise std"), cache["check"](x0, u, w)))
     for what, v in vals.items():
         if not np.all(np.isfinite(np.asarray(v))):
             raise ModelError(f"experiment {exp.name!r}: {what} return NaN/inf at the true "
