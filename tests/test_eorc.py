@@ -151,6 +151,92 @@ def test_gradient_block_equals_dense_jacobian_of_the_children():
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
 
 
+def _integrator_chain(known=True):
+    """x1' = x2, x2' = x3, x3' = w (+ a known field u), y = x1 * x2 + x3: the EORC keeps
+    one drift child alone at every order, the pattern the chain program assumes."""
+    return uj.System(
+        ("x1", "x2", "x3"), {"y": lambda s: s[0] * s[1] + jnp.sin(s[2])},
+        known={"u": lambda s: jnp.array([s[2], 0.0, s[0] ** 2])} if known else {},
+        unknown={"w": lambda s: jnp.array([0.0, 0.0, 1.0 + s[0] ** 2])},
+        drift=lambda s: jnp.array([s[1], s[2], 0.0]))
+
+
+@pytest.mark.parametrize("known", [True, False], ids=["known field", "drift only"])
+def test_chain_block_equals_the_blocks_of_its_orders(known):
+    """``_Eorc._chain_block`` (one Taylor pass, the Jacobian of m powers, their Hessian-vector
+    products) row for row against ``_Eorc._block`` of each power alone."""
+    from uio_jax._eorc import _Eorc
+
+    run = _Eorc(_integrator_chain(known), 5, 16, 0, uj.default_rtol())
+    labels = ["y"]
+    for _ in range(3):
+        labels.append(run._child_labels(labels[-1])[0])
+    with jax.enable_x64(True):
+        xs = run.ctx.xs
+        got = np.asarray(run._chain_block(labels[1], 3)(xs))
+        want = np.stack([np.asarray(run._block([run._node(lbl, 1)])(xs)) for lbl in labels[1:]], 1)
+    assert got.shape == (16, 3, 2 if known else 1, run.ext.n)
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
+
+
+def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes():
+    """The frontier of order 2 is the drift child of order 1's one generator: one chain
+    program covers orders 2..K. Order 3 with its assumed frontier takes row 1; another
+    frontier at order 3 drops the chain and gets a block of its own (same gradients as
+    ``_block``)."""
+    from uio_jax._eorc import _Eorc
+
+    run = _Eorc(_integrator_chain(), 4, 16, 0, uj.default_rtol())
+    y = run._node("y", 0)
+    up = run._node(run._children(y)[0], 1)
+    assert run.dispatch([y], 1)[5] is None and run.chain is None  # nothing repeated yet
+    first = run.dispatch([up], 2)
+    assert first[5] == 0 and run.chain["m"] == 3
+    up2, mixed = (run._node(lbl, 2) for lbl in run._children(up))
+    served = run.dispatch([up2], 3)
+    assert served[5] == 1 and served[2] == 0.0  # no compile
+    with jax.enable_x64(True):
+        xs = run.ctx.xs
+        np.testing.assert_allclose(np.asarray(served[4]), np.asarray(run._block([up2])(xs)),
+                                   rtol=1e-10, atol=1e-12)
+        own = run.dispatch([mixed], 3)
+        assert own[5] is None and run.chain is None
+        np.testing.assert_allclose(np.asarray(own[4]), np.asarray(run._block([mixed])(xs)),
+                                   rtol=1e-12, atol=0)
+
+
+def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
+    """x1' = x2, x2' = x3, x3' = w (1 + x1^2), y = x1 + sin x2, a known field moving only the
+    hidden x4: from order 1 on, the EORC keeps the drift child alone (every ``L_u phi`` is
+    0), so a chain program serves orders 2..5. Same dims, ranks, observable states and
+    inputs as with a block per order."""
+    from uio_jax import _eorc
+
+    def hidden_chain():
+        return uj.System(
+            ("x1", "x2", "x3", "x4"), {"y": lambda s: s[0] + jnp.sin(s[1])},
+            known={"u": lambda s: jnp.array([0.0, 0.0, 0.0, s[3]])},
+            unknown={"w": lambda s: jnp.array([0.0, 0.0, 1.0 + s[0] ** 2, 0.0])},
+            drift=lambda s: jnp.array([s[1], s[2], 0.0, 0.0]))
+
+    chains = []
+    real = _eorc._Eorc._chain_block
+    monkeypatch.setattr(_eorc._Eorc, "_chain_block",
+                        lambda self, label, m, batch=None: chains.append((label, m))
+                        or real(self, label, m, batch))
+    with_chain = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=5)
+    assert chains == [("L_F0 y", 4)]
+    monkeypatch.setattr(_eorc._Eorc, "_chain_length", lambda self, labels, k: 0)
+    per_order = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=5)
+    # By hand: every x1(t) is reachable (x1''' = (1 + x1^2) w), and y = x1 + sin(x1')
+    # leaves x1(0) free (x1' = arcsin(y - x1) from any start), so only y and
+    # L_F0 y = x2 + x3 cos x2 are observable functions: dim 2 from k = 1 on, no state alone.
+    assert list(with_chain.dims) == list(per_order.dims) == [1, 2, 2, 2, 2, 2]
+    assert with_chain.observable == per_order.observable == {s: False for s in ("x1", "x2", "x3", "x4")}
+    for a, b in zip(with_chain.history, per_order.history):
+        assert a.added == b.added and a.extra == b.extra
+
+
 def test_fallback_without_jet_rule():
     """A primitive without a Taylor rule (atan2) falls back (jet, then nested jvp)."""
     sys_ = uj.System(("x", "a"), {"y": lambda s: jnp.arctan2(0.3 * s[0], 2.0)},

@@ -321,6 +321,8 @@ class _Eorc:
         self.extra_decisions = []  # (member, RankDecision) of the dim-on-x tests
         self.compile_s = []  # seconds spent tracing + compiling, per order
         self.steps = []  # per order: frontier size, candidates, compile and eval seconds
+        self.frontiers = {}  # order k -> labels of the frontier whose children it formed
+        self.chain = None  # the chain program in use (see dispatch)
 
     # ------------------------------------------------------------------ generators
     def _fn(self, label):
@@ -351,16 +353,24 @@ class _Eorc:
 
     def _children(self, phi):
         """Labels of ``L_F0 phi`` then ``L_{F_i} phi`` (registering their structures)."""
-        kind = self.struct[phi.label]
-        base, j = (kind[1], kind[2]) if kind[0] == "pow" else (phi.label, 0)
+        return self._child_labels(phi.label)
+
+    def _child_labels(self, label):
+        """:meth:`_children` of the generator named ``label``."""
+        base, j = self._power_of(label)
         up = f"L_{DRIFT_LABEL}{'' if j == 0 else '^' + str(j + 1)} {base}"
         self.struct.setdefault(up, ("pow", base, j + 1))
         out = [up]
         for name, _ in self.known:
-            lbl = f"L_{name} {phi.label}"
-            self.struct.setdefault(lbl, ("lie", name, phi.label))
+            lbl = f"L_{name} {label}"
+            self.struct.setdefault(lbl, ("lie", name, label))
             out.append(lbl)
         return out
+
+    def _power_of(self, label):
+        """``(base, j)`` with the generator ``label`` = ``L_F0^j base`` (``j = 0``: itself)."""
+        kind = self.struct[label]
+        return (kind[1], kind[2]) if kind[0] == "pow" else (label, 0)
 
     def _block(self, phis, batch=None):
         """Jitted ``xs (S, N) -> (S, c, N)``: gradients of every child of ``phis``.
@@ -412,33 +422,99 @@ class _Eorc:
         self.cache["blocks"][key] = fn
         return fn
 
+    def _chain_block(self, label, m, batch=None):
+        """Jitted ``xs (S, N) -> (S, m, 1 + m_u, N)``: the blocks of ``m`` orders in one
+        program, for the frontiers ``{L_F0^i phi}``, ``i = 0..m-1`` (``phi`` = ``label`` =
+        ``L_F0^j base``): row ``i`` holds the gradients of the children of
+        ``phi_i = L_F0^(j+i) base``, as :meth:`_block` of ``[phi_i]`` would give them.
+
+        One Taylor pass of ``base`` to order ``j + m - 1`` gives every ``phi_i``; their
+        gradients are one reverse pass each (``jax.jacrev``, vmapped over the ``m`` rows),
+        and the Hessian-vector products along the fields are one ``jax.jvp`` of that
+        Jacobian per field. Without known fields the rows are the gradients of
+        ``L_F0^(j+1+i) base`` (a pass to order ``j + m``, no second derivative).
+
+        The trace is about as large as the block of the highest order alone, so the ``m``
+        orders compile once instead of ``m`` times (vehicle in wind, orders 4-8: 38 s of
+        compiling per order against 13 s); each row costs about as much to run as the
+        highest order's block (the reverse passes of the lower powers run through the whole
+        pass), so the chain is used only where the frontier pattern repeats (see
+        :meth:`_chain_fits`).
+        """
+        key = (("chain", label, m), self.cache["mode"], batch)
+        fn = self.cache["blocks"].get(key)
+        if fn is not None:
+            return fn
+        base, j = self._power_of(label)
+        psi = self._fn(base)
+        if not self.known:
+            powers = lie_powers(psi, self.ext.drift, j + m)
+            jac = jax.jacrev(lambda x: powers(x)[j + 1:])
+
+            def children(x):
+                return jac(x)[:, None, :]
+        else:
+            powers = lie_powers(psi, self.ext.drift, j + m - 1)
+            jac = jax.jacrev(lambda x: powers(x)[j:])
+            fields = (self.ext.drift,) + tuple(f for _, f in self.known)
+
+            def children(x):
+                values, pulls = zip(*(jax.vjp(v, x) for v in fields))
+                V = jnp.stack(values)  # (1 + m_u, N)
+                dP, hv = jax.vmap(lambda t: jax.jvp(jac, (x,), (t,)))(V)  # (1 + m_u, m, N)
+                D = dP[0]  # (m, N): the gradients of phi_0..phi_(m-1)
+                jtg = jnp.stack([jax.vmap(lambda d, p=pull: p(d)[0])(D) for pull in pulls], 1)
+                return jnp.swapaxes(hv, 0, 1) + jtg  # (m, 1 + m_u, N)
+
+        fn = vmapped(children, batch)
+        self.cache["blocks"][key] = fn
+        return fn
+
     def dispatch(self, frontier, k):
         """Start the gradient block of order ``k``: the children of ``frontier``.
 
         Compiled if needed; all samples at once, or in batches of :data:`STREAM_BATCH`
-        after an order whose block measured :data:`STREAM_ELEMENTS` or more.
+        after an order whose block measured :data:`STREAM_ELEMENTS` or more. Where the
+        frontier pattern repeats (:meth:`_chain_length`), one program computes the blocks
+        of every order up to ``K`` (:meth:`_chain_block`) and the later orders take their
+        rows from it as long as their frontier is the one it assumed.
 
         JAX runs the block asynchronously: the caller can do the rank work of the current
         order while it computes, then hand the result to :meth:`absorb_children`.
 
         Returns:
-            ``(frontier, key, compile_s, t_start, grads)`` with ``grads`` a JAX array
-            still being computed.
+            ``(frontier, key, compile_s, t_start, grads, row)`` with ``grads`` a JAX array
+            ``(S, c, N)`` still being computed and ``row`` the order's row in a chain
+            program (None: a block of its own).
         """
+        labels = tuple(p.label for p in frontier)
+        self.frontiers[k] = labels
+        chain = self.chain
+        if chain is not None:
+            row = k - chain["k0"]
+            if 0 < row < chain["m"] and labels == (chain["labels"][row],):
+                return (list(frontier), chain["key"], 0.0, time.perf_counter(),
+                        chain["grads"][:, row], row)
+            self.chain = None  # the frontier left the assumed pattern
         xs = self.ctx.xs
         t0 = time.perf_counter()
         while True:
+            m = self._chain_length(labels, k)
             batch = STREAM_BATCH if k > self.cache["stream_after"] and len(xs) > STREAM_BATCH else None
-            key = (tuple(p.label for p in frontier), self.cache["mode"], xs.shape, batch)
+            program = ("chain", labels[0], m) if m else labels
+            key = (program, self.cache["mode"], xs.shape, batch)
             compiled = self.cache["compiled"].get(key)
             if compiled is not None:
                 break
+            if m:
+                parts = ["eorc-chain", self.cache["mode"], f"batch {batch}", f"orders {m}", labels[0]]
+                make = lambda b, batch=batch, m=m: self._chain_block(labels[0], m, b or batch)  # noqa: E731
+            else:
+                parts = ["eorc-block", self.cache["mode"], f"batch {batch}", "\n".join(labels)]
+                make = lambda b, batch=batch: self._block(frontier, b or batch)  # noqa: E731
             try:
-                parts = ["eorc-block", self.cache["mode"], f"batch {batch}",
-                         "\n".join(p.label for p in frontier)]
                 compiled, timing = compile_program(
-                    self.ext, parts, lambda b, batch=batch: self._block(frontier, b or batch), xs,
-                    lambda traced: _block_options(traced, len(xs)))
+                    self.ext, parts, make, xs, lambda traced: _block_options(traced, len(xs)))
                 self.cache["compiled"][key] = compiled
                 if batch is None and timing.facts.get("elements", 0.0) >= STREAM_ELEMENTS:
                     self.cache["stream_after"] = min(self.cache["stream_after"], k)
@@ -453,7 +529,33 @@ class _Eorc:
         t1 = time.perf_counter()
         with jax.enable_x64(True):
             grads = compiled(xs)
-        return list(frontier), key, t1 - t0, t1, grads
+        if not m:
+            return list(frontier), key, t1 - t0, t1, grads, None
+        chain_labels = [labels[0]]
+        for _ in range(m - 1):
+            chain_labels.append(self._child_labels(chain_labels[-1])[0])
+        self.chain = {"k0": k, "m": m, "labels": chain_labels, "key": key, "grads": grads}
+        return list(frontier), key, t1 - t0, t1, grads[:, 0], 0
+
+    def _chain_length(self, labels, k):
+        """Orders ``k..K`` in one chain program (:meth:`_chain_block`), or 0 (a block of
+        this order alone).
+
+        A chain is a guess that every later frontier is the drift child of the one before
+        (``L_F0 phi`` kept alone, its ``L_{F_i} phi`` rejected), as in the higher orders
+        of the vehicle in wind. It is made when that already happened once: the frontier
+        of order ``k - 1`` was one generator and order ``k``'s is its drift child. If a
+        later frontier differs, the chain is dropped and that order gets its own block.
+        Only in Taylor mode (the fallbacks evaluate single powers), and for two orders or
+        more.
+        """
+        previous = self.frontiers.get(k - 1)
+        if (self.cache["mode"] != "taylor" or k >= self.K or len(labels) != 1
+                or previous is None or len(previous) != 1):
+            return 0
+        if self._child_labels(previous[0])[0] != labels[0]:
+            return 0
+        return self.K - k + 1
 
     def absorb_children(self, frontier, k, started=None):
         """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them.
@@ -465,13 +567,13 @@ class _Eorc:
             return []
         if started is None:
             started = self.dispatch(frontier, k)
-        frontier, key, compile_s, t1, pending = started
+        frontier, key, compile_s, t1, pending, row = started
         labels = [lbl for phi in frontier for lbl in self._children(phi)]
         grads = np.asarray(pending)
         self.compile_s.append(compile_s)
         self.steps.append({"k": k, "frontier": len(frontier), "candidates": len(labels),
                            "compile_s": compile_s, "eval_s": time.perf_counter() - t1,
-                           "key": key})
+                           "key": key, "chain_row": row})
         nodes = [self._node(lbl, k) for lbl in labels]
         return self.ctx.absorb(nodes, grads)
 
