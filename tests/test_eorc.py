@@ -181,17 +181,18 @@ def test_chain_block_equals_the_blocks_of_its_orders(known):
 
 def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes():
     """The frontier of order 2 is the drift child of order 1's one generator: one chain
-    program covers orders 2..K. Order 3 with its assumed frontier takes row 1; another
-    frontier at order 3 drops the chain and gets a block of its own (same gradients as
-    ``_block``)."""
-    from uio_jax._eorc import _Eorc
+    program covers orders 2..5 (K = 6, at most CHAIN_ORDERS = 4 orders). Order 3 with its
+    assumed frontier takes row 1; another frontier at order 3 drops the chain and gets a
+    block of its own (same gradients as ``_block``)."""
+    from uio_jax._eorc import CHAIN_ORDERS, _Eorc
 
-    run = _Eorc(_integrator_chain(), 4, 16, 0, uj.default_rtol())
+    assert CHAIN_ORDERS == 4
+    run = _Eorc(_integrator_chain(), 6, 16, 0, uj.default_rtol())
     y = run._node("y", 0)
     up = run._node(run._children(y)[0], 1)
     assert run.dispatch([y], 1)[5] is None and run.chain is None  # nothing repeated yet
     first = run.dispatch([up], 2)
-    assert first[5] == 0 and run.chain["m"] == 3
+    assert first[5] == 0 and run.chain["m"] == 4
     up2, mixed = (run._node(lbl, 2) for lbl in run._children(up))
     served = run.dispatch([up2], 3)
     assert served[5] == 1 and served[2] == 0.0  # no compile
@@ -208,7 +209,7 @@ def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes():
 def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
     """x1' = x2, x2' = x3, x3' = w (1 + x1^2), y = x1 + sin x2, a known field moving only the
     hidden x4: from order 1 on, the EORC keeps the drift child alone (every ``L_u phi`` is
-    0), so a chain program serves orders 2..5. Same dims, ranks, observable states and
+    0), so one chain program serves orders 2..4. Same dims, ranks, observable states and
     inputs as with a block per order."""
     from uio_jax import _eorc
 
@@ -224,14 +225,14 @@ def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
     monkeypatch.setattr(_eorc._Eorc, "_chain_block",
                         lambda self, label, m, batch=None: chains.append((label, m))
                         or real(self, label, m, batch))
-    with_chain = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=5)
-    assert chains == [("L_F0 y", 4)]
+    with_chain = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=4)
+    assert chains == [("L_F0 y", 3)]
     monkeypatch.setattr(_eorc._Eorc, "_chain_length", lambda self, labels, k: 0)
-    per_order = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=5)
+    per_order = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=4)
     # By hand: every x1(t) is reachable (x1''' = (1 + x1^2) w), and y = x1 + sin(x1')
     # leaves x1(0) free (x1' = arcsin(y - x1) from any start), so only y and
     # L_F0 y = x2 + x3 cos x2 are observable functions: dim 2 from k = 1 on, no state alone.
-    assert list(with_chain.dims) == list(per_order.dims) == [1, 2, 2, 2, 2, 2]
+    assert list(with_chain.dims) == list(per_order.dims) == [1] + [2] * 4
     assert with_chain.observable == per_order.observable == {s: False for s in ("x1", "x2", "x3", "x4")}
     for a, b in zip(with_chain.history, per_order.history):
         assert a.added == b.added and a.extra == b.extra
