@@ -152,11 +152,11 @@ def test_gradient_block_equals_dense_jacobian_of_the_children():
 
 
 def _integrator_chain(known=True):
-    """x1' = x2, x2' = x3, x3' = w (1 + x1^2), y = x1 x2 + sin x3, with or without a known
-    field u = (x3, 0, x1^2): drift, an unknown input and a known field whose children are
-    not zero, for the arithmetic of the chain program."""
+    """x1' = x2, x2' = x3, x3' = w (1 + x1^2), y = x1 x2 + sin x3, z = x1 x3, with or
+    without a known field u = (x3, 0, x1^2): drift, an unknown input and a known field
+    whose children are not zero, for the arithmetic of the chain program."""
     return uj.System(
-        ("x1", "x2", "x3"), {"y": lambda s: s[0] * s[1] + jnp.sin(s[2])},
+        ("x1", "x2", "x3"), {"y": lambda s: s[0] * s[1] + jnp.sin(s[2]), "z": lambda s: s[0] * s[2]},
         known={"u": lambda s: jnp.array([s[2], 0.0, s[0] ** 2])} if known else {},
         unknown={"w": lambda s: jnp.array([0.0, 0.0, 1.0 + s[0] ** 2])},
         drift=lambda s: jnp.array([s[1], s[2], 0.0]))
@@ -164,19 +164,21 @@ def _integrator_chain(known=True):
 
 @pytest.mark.parametrize("known", [True, False], ids=["known field", "drift only"])
 def test_chain_block_equals_the_blocks_of_its_orders(known):
-    """``_Eorc._chain_block`` (one Taylor pass, the Jacobian of m powers, their Hessian-vector
-    products) row for row against ``_Eorc._block`` of each power alone."""
+    """``_Eorc._chain_block`` (one Taylor pass per generator, the Jacobian of m powers, their
+    Hessian-vector products) row for row against ``_Eorc._block`` of each order's frontier,
+    for a frontier of two generators: ``(L_F0 y, z)``, then ``(L_F0^2 y, L_F0 z)``, ..."""
     from uio_jax._eorc import _Eorc
 
     run = _Eorc(_integrator_chain(known), 5, 16, 0, uj.default_rtol())
-    labels = ["y"]
-    for _ in range(3):
-        labels.append(run._child_labels(labels[-1])[0])
+    frontiers = [(run._child_labels("y")[0], "z")]
+    for _ in range(2):
+        frontiers.append(run._drift_children(frontiers[-1]))
     with jax.enable_x64(True):
         xs = run.ctx.xs
-        got = np.asarray(run._chain_block(labels[1], 3)(xs))
-        want = np.stack([np.asarray(run._block([run._node(lbl, 1)])(xs)) for lbl in labels[1:]], 1)
-    assert got.shape == (16, 3, 2 if known else 1, run.ext.n)
+        got = np.asarray(run._chain_block(frontiers[0], 3)(xs))
+        want = np.stack([np.asarray(run._block([run._node(lbl, 1) for lbl in f])(xs))
+                         for f in frontiers], 1)
+    assert got.shape == (16, 3, 2 * (2 if known else 1), run.ext.n)
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
 
 
@@ -224,10 +226,10 @@ def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
     chains = []
     real = _eorc._Eorc._chain_block
     monkeypatch.setattr(_eorc._Eorc, "_chain_block",
-                        lambda self, label, m, batch=None: chains.append((label, m))
-                        or real(self, label, m, batch))
+                        lambda self, labels, m, batch=None: chains.append((labels, m))
+                        or real(self, labels, m, batch))
     with_chain = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=4)
-    assert chains == [("L_F0 y", 3)]
+    assert chains == [(("L_F0 y",), 3)]
     monkeypatch.setattr(_eorc._Eorc, "_chain_length", lambda self, labels, k: 0)
     per_order = uj.analyze(hidden_chain(), method="eorc", samples=SAMPLES, k_max=4)
     # By hand: every x1(t) is reachable (x1''' = (1 + x1^2) w), and y = x1 + sin(x1')

@@ -61,8 +61,8 @@ Per order, one jitted block evaluates the gradients of all children of the front
 of ``phi`` and one forward-over-reverse Hessian-vector product per field (not ``N``
 forward tangents of every child: 5-7x less work on the vehicle); compiled blocks are
 cached per extended System, so a second analysis of the same System compiles nothing.
-Where the frontier repeats its pattern (one generator, then its drift child kept alone, as
-in the higher orders of the vehicle in wind), the blocks of the next orders (up to
+Where the frontier repeats its pattern (the drift children of the last frontier kept
+alone, as in the higher orders of the vehicle in wind), the blocks of the next orders (up to
 :data:`CHAIN_ORDERS`) are one *chain* program: one Taylor pass to the highest power, the
 Jacobian of all the powers and its Hessian-vector products. It compiles about as fast as
 the highest order's block alone (vehicle to k = 8 cold: 69-70 s -> 47.5-47.8 s) and runs
@@ -439,17 +439,18 @@ class _Eorc:
         self.cache["blocks"][key] = fn
         return fn
 
-    def _chain_block(self, label, m, batch=None):
-        """Jitted ``xs (S, N) -> (S, m, 1 + m_u, N)``: the blocks of ``m`` orders in one
-        program, for the frontiers ``{L_F0^i phi}``, ``i = 0..m-1`` (``phi`` = ``label`` =
-        ``L_F0^j base``): row ``i`` holds the gradients of the children of
-        ``phi_i = L_F0^(j+i) base``, as :meth:`_block` of ``[phi_i]`` would give them.
+    def _chain_block(self, labels, m, batch=None):
+        """Jitted ``xs (S, N) -> (S, m, P (1 + m_u), N)``: the blocks of ``m`` orders in one
+        program, for the frontiers ``{L_F0^i phi_1, .., L_F0^i phi_P}``, ``i = 0..m-1``
+        (``phi_p`` = ``labels[p]`` = ``L_F0^(j_p) base_p``): row ``i`` holds the gradients
+        of the children of every ``L_F0^i phi_p``, as :meth:`_block` of that frontier would
+        give them (the children of ``phi_1`` first).
 
-        One Taylor pass of ``base`` to order ``j + m - 1`` gives every ``phi_i``; their
+        One Taylor pass of each ``base_p`` to order ``j_p + m - 1`` gives its powers; their
         gradients are one reverse pass each (``jax.jacrev``, vmapped over the ``m`` rows),
         and the Hessian-vector products along the fields are one ``jax.jvp`` of that
         Jacobian per field. Without known fields the rows are the gradients of
-        ``L_F0^(j+1+i) base`` (a pass to order ``j + m``, no second derivative).
+        ``L_F0^(j_p+1+i) base_p`` (a pass to order ``j_p + m``, no second derivative).
 
         The trace is about as large as the block of the highest order alone, so the ``m``
         orders compile once instead of ``m`` times (vehicle in wind, orders 5-8: 4 237
@@ -459,30 +460,35 @@ class _Eorc:
         is used only where the frontier pattern repeats, for a few orders at a time (see
         :meth:`_chain_length`).
         """
-        key = (("chain", label, m), self.cache["mode"], batch)
+        key = (("chain", labels, m), self.cache["mode"], batch)
         fn = self.cache["blocks"].get(key)
         if fn is not None:
             return fn
-        base, j = self._power_of(label)
-        psi = self._fn(base)
-        if not self.known:
-            powers = lie_powers(psi, self.ext.drift, j + m)
-            jac = jax.jacrev(lambda x: powers(x)[j + 1:])
-
-            def children(x):
-                return jac(x)[:, None, :]
-        else:
+        fields = (self.ext.drift,) + tuple(f for _, f in self.known)
+        rows = []  # per generator: x -> (m, 1 + m_u, N)
+        for label in labels:
+            base, j = self._power_of(label)
+            psi = self._fn(base)
+            if not self.known:
+                powers = lie_powers(psi, self.ext.drift, j + m)
+                jac = jax.jacrev(lambda x, powers=powers, j=j: powers(x)[j + 1:])
+                rows.append(lambda x, jac=jac: jac(x)[:, None, :])
+                continue
             powers = lie_powers(psi, self.ext.drift, j + m - 1)
-            jac = jax.jacrev(lambda x: powers(x)[j:])
-            fields = (self.ext.drift,) + tuple(f for _, f in self.known)
+            rows.append(jax.jacrev(lambda x, powers=powers, j=j: powers(x)[j:]))
 
-            def children(x):
-                values, pulls = zip(*(jax.vjp(v, x) for v in fields))
-                V = jnp.stack(values)  # (1 + m_u, N)
-                dP, hv = jax.vmap(lambda t: jax.jvp(jac, (x,), (t,)))(V)  # (1 + m_u, m, N)
-                D = dP[0]  # (m, N): the gradients of phi_0..phi_(m-1)
+        def children(x):
+            if not self.known:
+                return jnp.concatenate([row(x) for row in rows], axis=1)
+            values, pulls = zip(*(jax.vjp(v, x) for v in fields))
+            V = jnp.stack(values)  # (1 + m_u, N)
+            out = []
+            for jac in rows:
+                dP, hv = jax.vmap(lambda t, jac=jac: jax.jvp(jac, (x,), (t,)))(V)  # (1 + m_u, m, N)
+                D = dP[0]  # (m, N): the gradients of the m powers
                 jtg = jnp.stack([jax.vmap(lambda d, p=pull: p(d)[0])(D) for pull in pulls], 1)
-                return jnp.swapaxes(hv, 0, 1) + jtg  # (m, 1 + m_u, N)
+                out.append(jnp.swapaxes(hv, 0, 1) + jtg)  # (m, 1 + m_u, N)
+            return jnp.concatenate(out, axis=1)
 
         fn = vmapped(children, batch)
         self.cache["blocks"][key] = fn
@@ -511,7 +517,7 @@ class _Eorc:
         chain = self.chain
         if chain is not None:
             row = k - chain["k0"]
-            if 0 < row < chain["m"] and labels == (chain["labels"][row],):
+            if 0 < row < chain["m"] and labels == chain["labels"][row]:
                 return (list(frontier), chain["key"], 0.0, time.perf_counter(),
                         chain["grads"][:, row], row)
             self.chain = None  # the frontier left the assumed pattern
@@ -520,14 +526,15 @@ class _Eorc:
         while True:
             m = self._chain_length(labels, k)
             batch = STREAM_BATCH if k > self.cache["stream_after"] and len(xs) > STREAM_BATCH else None
-            program = ("chain", labels[0], m) if m else labels
+            program = ("chain", labels, m) if m else labels
             key = (program, self.cache["mode"], xs.shape, batch)
             compiled = self.cache["compiled"].get(key)
             if compiled is not None:
                 break
             if m:
-                parts = ["eorc-chain", self.cache["mode"], f"batch {batch}", f"orders {m}", labels[0]]
-                make = lambda b, batch=batch, m=m: self._chain_block(labels[0], m, b or batch)  # noqa: E731
+                parts = ["eorc-chain", self.cache["mode"], f"batch {batch}", f"orders {m}",
+                         "\n".join(labels)]
+                make = lambda b, batch=batch, m=m: self._chain_block(labels, m, b or batch)  # noqa: E731
             else:
                 parts = ["eorc-block", self.cache["mode"], f"batch {batch}", "\n".join(labels)]
                 make = lambda b, batch=batch: self._block(frontier, b or batch)  # noqa: E731
@@ -550,9 +557,9 @@ class _Eorc:
             grads = compiled(xs)
         if not m:
             return list(frontier), key, t1 - t0, t1, grads, None
-        chain_labels = [labels[0]]
+        chain_labels = [labels]
         for _ in range(m - 1):
-            chain_labels.append(self._child_labels(chain_labels[-1])[0])
+            chain_labels.append(self._drift_children(chain_labels[-1]))
         self.chain = {"k0": k, "m": m, "labels": chain_labels, "key": key, "grads": grads}
         return list(frontier), key, t1 - t0, t1, grads[:, 0], 0
 
@@ -560,22 +567,25 @@ class _Eorc:
         """Orders ``k..min(K, k + CHAIN_ORDERS - 1)`` in one chain program
         (:meth:`_chain_block`): their number, or 0 (a block of this order alone).
 
-        A chain is a guess that every later frontier is the drift child of the one before
-        (``L_F0 phi`` kept alone, its ``L_{F_i} phi`` rejected), as in the higher orders
-        of the vehicle in wind. It is made when that already happened once: the frontier
-        of order ``k - 1`` was one generator and order ``k``'s is its drift child. If a
-        later frontier differs, the chain is dropped and that order gets its own block.
-        Only in Taylor mode (the fallbacks evaluate single powers), and for two orders or
-        more. At most :data:`CHAIN_ORDERS` orders: where the pattern goes on, the next
-        chain starts after this one by the same rule.
+        A chain is a guess that every later frontier is the drift children of the one
+        before (each ``L_F0 phi`` kept, every ``L_{F_i} phi`` rejected), as in the higher
+        orders of the vehicle in wind (one generator) or of StrikePy's
+        ``TS_unknown_inputs_reparameterized`` (two, no known field). It is made when that
+        already happened once: order ``k``'s frontier is the drift children of order
+        ``k - 1``'s, in order. If a later frontier differs, the chain is dropped and that
+        order gets its own block. Only in Taylor mode (the fallbacks evaluate single
+        powers), and for two orders or more. At most :data:`CHAIN_ORDERS` orders: where the
+        pattern goes on, the next chain starts after this one by the same rule.
         """
         previous = self.frontiers.get(k - 1)
-        if (self.cache["mode"] != "taylor" or k >= self.K or len(labels) != 1
-                or previous is None or len(previous) != 1):
-            return 0
-        if self._child_labels(previous[0])[0] != labels[0]:
+        if (self.cache["mode"] != "taylor" or k >= self.K or not labels
+                or previous is None or labels != self._drift_children(previous)):
             return 0
         return min(self.K - k + 1, CHAIN_ORDERS)
+
+    def _drift_children(self, labels):
+        """Labels of ``L_F0 phi`` for each generator of ``labels`` (a tuple, in order)."""
+        return tuple(self._child_labels(label)[0] for label in labels)
 
     def absorb_children(self, frontier, k, started=None):
         """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them.
