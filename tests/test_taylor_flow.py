@@ -121,3 +121,43 @@ def test_parameters_are_constants_of_the_recurrence():
     carried = [e.params["num_carry"] for j in (full, lean)
                for e in j.jaxpr.eqns if e.primitive.name == "scan"]  # fori_loop, static bounds
     assert carried[1] < carried[0], carried
+
+
+def test_segmented_orders_cover_each_order_once():
+    """High orders run in several loops (windows fitted to each loop's orders): the loops
+    cover orders 1..K-1 once, in order; one loop below the threshold."""
+    from uio_jax import _taylor_flow
+
+    for K in (1, 2, 5, _taylor_flow.SEGMENT_FROM - 1, _taylor_flow.SEGMENT_FROM, 23):
+        seg = _taylor_flow._segments(K)
+        covered = [k for lo, hi in seg for k in range(lo, hi)]
+        assert covered == list(range(1, K)), (K, seg)
+        expect = 1 if 1 < K < _taylor_flow.SEGMENT_FROM else min(_taylor_flow.SEGMENTS, K - 1)
+        assert len(seg) == expect, (K, seg)
+
+
+def test_segmented_recurrence_is_exact_at_high_order():
+    """Above the threshold (several loops): x' = x^2 / (1 + 0 x) has x(t) = x0 / (1 - x0 t),
+    so x_k = x0^(k + 1) and d x_k / d x0 = (k + 1) x0^k exactly (a product and a quotient);
+    and the rich field gives the same coefficients as with one loop."""
+    from uio_jax import _taylor_flow
+
+    K = _taylor_flow.SEGMENT_FROM + 2
+    assert len(_taylor_flow._segments(K)) > 1
+    x0 = 0.8
+    field = lambda x: x**2 / (1.0 + 0.0 * x)  # noqa: E731
+    fn = lambda y: flow_coefficients(field, y, K)[:, 0]  # noqa: E731
+    val, jac = jax.jit(lambda y: (fn(y), jax.jacfwd(fn)(y)))(jnp.array([x0]))
+    k = np.arange(1, K + 1)
+    np.testing.assert_allclose(val, x0 ** (k + 1), rtol=1e-13)
+    np.testing.assert_allclose(jac[:, 0], (k + 1) * x0**k, rtol=1e-13)
+
+    x = jnp.array([0.7, 1.1, 0.9])
+    segmented = jax.jit(lambda z: flow_coefficients(_field, z, K))(x)
+    saved = _taylor_flow.SEGMENTS
+    try:
+        _taylor_flow.SEGMENTS = 1
+        one_loop = jax.jit(lambda z: flow_coefficients(_field, z, K))(x)
+    finally:
+        _taylor_flow.SEGMENTS = saved
+    np.testing.assert_allclose(segmented, one_loop, rtol=1e-12, atol=1e-13 * float(jnp.max(jnp.abs(one_loop))))
