@@ -138,9 +138,8 @@ def _linear(ps, key, prim, params, ins):
 class _Pass:
     """One order k of the recurrence: reads the carried stacks, writes their order k."""
 
-    def __init__(self, k, K, state, width=None):
+    def __init__(self, k, K, state):
         self.k, self.K = k, K
-        self.width = K + 1 if width is None else width  # > every order k of this pass
         self.old = state
         self.new = {}
 
@@ -190,14 +189,13 @@ class _Pass:
         if isinstance(self.k, int):  # concrete order: a static slice
             w = jnp.flip(b[: self.k + 1], axis=0)
             return jnp.sum(a[: self.k + 1] * w, axis=0)
-        return jnp.sum(a[: self.width] * self.window(b), axis=0)
+        return jnp.sum(a * self.window(b), axis=0)
 
     def window(self, b):
-        """``w[i] = b[k - i]`` for ``i <= k``, 0 above, ``i < width``: a window of the reversed,
-        zero-padded b."""
+        """``w[i] = b[k - i]`` for ``i <= k``, 0 above: a window of the reversed, zero-padded b."""
         K = self.K
         rev = jnp.flip(jnp.concatenate([jnp.zeros((K,) + b.shape[1:], b.dtype), b]), axis=0)
-        return lax.dynamic_slice_in_dim(rev, K - self.k, self.width)
+        return lax.dynamic_slice_in_dim(rev, K - self.k, K + 1)
 
     def slot(self, key, coef_fn, shape, dtype):
         """The stack named ``key`` with its order-k coefficient ``coef_fn(own)`` written."""
@@ -303,7 +301,7 @@ def _apply(ps, key, eqn, ins):
         a, b = ps.stack(ins[0]), ps.stack(ins[1])
 
         def coef(own):  # sum_i dot(a[i], b[k - i])
-            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a[: ps.width], ps.window(b)), axis=0)
+            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a, ps.window(b)), axis=0)
 
         return [ps.series(ps.slot(key, coef, shape, dtype))]
     if name == "div":
@@ -365,8 +363,8 @@ def flow_coefficients(F, x, K, known=(), constants=True):
     N = x.shape[0]
     const = constant_states(F, x, known) if constants else np.zeros(N, bool)
 
-    def run(k, xs, state, width=None):
-        ps = _Pass(k, K, state, width)
+    def run(k, xs, state):
+        ps = _Pass(k, K, state)
         root = _T(ps.at_k(xs), stack=xs, const=const if const.any() else None, c0=xs[0])
         (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_T(ps.at_k(s), stack=s) for s in known])
         fk = ps.at(out)
@@ -380,37 +378,9 @@ def flow_coefficients(F, x, K, known=(), constants=True):
 
     xs = jnp.zeros((K + 1, N), x.dtype).at[0].set(x)
     xs, state = run(0, xs, {})  # order 0 fixes the shapes of every carried stack
-    for lo, hi in _segments(K):
-        xs, state = lax.fori_loop(lo, hi, lambda k, c, hi=hi: run(k, *c, width=hi), (xs, state))
+    if K > 1:
+        xs, state = lax.fori_loop(1, K, lambda k, c: run(k, *c), (xs, state))
     return xs[1:]
-
-
-#: From this highest order K on, the passes of orders 1..K-1 run in :data:`SEGMENTS` loops
-#: instead of one (see :func:`_segments`).
-SEGMENT_FROM = 16
-
-#: Loops of a segmented recurrence.
-SEGMENTS = 3
-
-
-def _segments(K):
-    """``[(lo, hi), ...]``: the orders ``1 .. K - 1`` of the recurrence in loops.
-
-    A pass of order ``k`` in the loop ``[lo, hi)`` convolves windows of ``hi``
-    coefficients (``k + 1`` are needed; one loop over every order convolves ``K``). From
-    ``K >= SEGMENT_FROM`` on, :data:`SEGMENTS` loops of about equal length: each is traced
-    and compiled on its own, so compile time grows about in proportion. Measured on the
-    series Jacobians (35 / 32 tangents, batches of 8 samples, 2 cores, interleaved rounds
-    in one process): Arabidopsis at K = 19 7.8 -> 4.2 ms per sample (2 loops: 6.4, 4
-    loops: no better than 3), compile 27.5 -> 61.4 s; JAKSTAT at K = 12 0.68 ms with 1, 2
-    or 3 loops, compile 12.5 -> 29.8 s, hence the threshold.
-    """
-    if K <= 1:
-        return []
-    m = SEGMENTS if K >= SEGMENT_FROM else 1
-    m = max(1, min(m, K - 1))
-    cuts = [1 + round(i * (K - 1) / m) for i in range(m + 1)]
-    return [(lo, hi) for lo, hi in zip(cuts, cuts[1:]) if hi > lo]
 
 
 def constant_states(F, x, known=()):
