@@ -274,6 +274,27 @@ def test_jobs_run_models_in_worker_processes(zoo_file):
     assert "raised RuntimeError: boom" in res[3].error
 
 
+def test_parallel_batch_calls_zoo_functions_in_the_workers(tmp_path, zoo_file):
+    """With jobs > 1 the caller does not build the zoo's Systems (the workers do, once): the
+    rows, the errors and the skipped functions are those of the in-process batch."""
+    from uio_jax._loading import load_module
+
+    counted = _write(tmp_path / "counted_zoo.py", ZOO.replace(
+        "def two_states():\n", "def two_states():\n        CALLS.append('two_states')\n"))
+    serial = uj.batch_analyze(zoo_file, samples=SAMPLES)
+    parallel = uj.batch_analyze(counted, jobs=2, samples=SAMPLES)
+    assert load_module(counted).CALLS == []  # nothing called in this process
+    assert [r.model.rpartition(":")[2] for r in parallel] == ["two_states", "blind", "broken", "CONSTANT"]
+    for a, b in zip(serial, parallel):
+        assert (a.ok, a.method, a.dim, a.n, a.observable) == (b.ok, b.method, b.dim, b.n, b.observable)
+        assert (a.error is None) == (b.error is None)
+    assert parallel[2].error.endswith("raised RuntimeError: boom")
+    assert parallel[0].seconds > 0
+    why = lambda res: {name.rpartition(":")[2]: reason for name, reason in res.skipped}  # noqa: E731
+    assert why(parallel) == why(serial) and why(parallel)["not_a_model"] == "returns int"
+    assert "3 functions giving no System skipped" in parallel.summary()
+
+
 def test_a_worker_is_bound_to_the_cpu_of_its_slot():
     """Worker k runs on the k-th allowed CPU (cyclically); a lone worker (None) keeps all.
     Where the platform has no CPU affinity, binding does nothing (and raises nothing)."""

@@ -12,7 +12,8 @@
   in ``_experiment`` (the zoo's convention for Monte Carlo experiments, see
   :func:`uio_jax.load_experiment`) or their return annotation names another type.
   A function that returns something else is skipped (listed in ``skipped``); one that
-  raises is a failed model. A StrikePy model module (recognised by
+  raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are called
+  in the worker process that analyses their model, not in the caller first. A StrikePy model module (recognised by
   ``uio_jax._strikepy_import.is_strikepy_module``, when that importer is installed) is one
   model;
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
@@ -56,7 +57,7 @@ import numbers
 import os
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ._errors import LoadError, OptionError, UioJaxError
 from ._progress import is_terminal
@@ -277,7 +278,8 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
     if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, numbers.Real)
                                 or not timeout > 0):
         raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
-    entries, skipped = discover(models)
+    # models that may run in worker processes are built there: not here first as well
+    entries, skipped = discover(models, build=jobs == 1 and timeout is None)
     keys = [_time_key(e, analyze_kwargs) for e in entries]
     bar = _BatchProgress(len(entries), enabled=progress)
     try:
@@ -294,8 +296,16 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
     finally:
         bar.close()
     _record_seconds(keys, rows)
+    rows, skipped = _move_skipped(rows, skipped)
     options = {k: v for k, v in analyze_kwargs.items() if v is not None}
     return BatchResult(tuple(rows), tuple(skipped), time.perf_counter() - t0, options)
+
+
+def _move_skipped(rows, skipped):
+    """Deferred zoo functions that gave no System leave the rows for ``skipped`` (after
+    the functions skipped without being called)."""
+    late = [(row.spec, row.why) for row in rows if isinstance(row, _Skipped)]
+    return [r for r in rows if not isinstance(r, _Skipped)], list(skipped) + late
 
 
 # ---------------------------------------------------------------------------- discovery
@@ -309,13 +319,28 @@ class _Entry:
     system: System | None = field(default=None, repr=False)
     error: str | None = None
     build_s: float = 0.0  # time spent building ``system`` during discovery (added to the row)
+    deferred: bool = False  # a zoo function not called yet: called where the model runs
 
 
-def discover(models):
+@dataclass(frozen=True)
+class _Skipped:
+    """In place of a row: a deferred zoo function that gave no System."""
+
+    spec: str
+    why: str
+
+
+def discover(models, *, build: bool = True):
     """Expand paths, globs, directories and zoo files into models.
 
     Args:
         models: a path, a System, or a sequence of them (see :func:`batch_analyze`).
+        build: call the zoo files' functions now (their Systems are then reused). False:
+            a function that must be called to know what it builds is an entry marked
+            ``deferred``, called where the model runs (a worker process); one that gives
+            no System then turns into a skipped function. A parallel batch of the zoo and
+            StrikePy's models spent 19 s here, before its workers started, building
+            Systems the workers built again.
 
     Returns:
         ``(entries, skipped)``: the models in order, and ``(name, reason)`` of zoo
@@ -335,7 +360,7 @@ def discover(models):
             entries.append(_Entry(item.name or f"system {i + 1}", None, "system", item))
         elif isinstance(item, (str, os.PathLike)):
             for path in _expand(os.fspath(item)):
-                e, s = _entries_of(path)
+                e, s = _entries_of(path, build)
                 entries += e
                 skipped += s
         else:
@@ -389,7 +414,7 @@ def _dir_files(top: str) -> list[str]:
     return out
 
 
-def _entries_of(path: str):
+def _entries_of(path: str, build: bool = True):
     """Entries (and skipped functions) of one file or ``FILE.py:NAME`` spec."""
     if _is_spec(path):
         return [_Entry(path, path, "spec")], []
@@ -404,11 +429,12 @@ def _entries_of(path: str):
                 return [_Entry(path, path, "strikepy")], []
         except Exception as exc:  # a broken file: report it as the zoo loader would
             return [_Entry(path, error=_one_line(exc))], []
-    return _zoo_entries(path)
+    return _zoo_entries(path, build)
 
 
-def _zoo_entries(path: str):
-    """Every System a zoo file's public no-argument functions build (calls them)."""
+def _zoo_entries(path: str, build: bool = True):
+    """Every System a zoo file's public no-argument functions build (calls them, or with
+    ``build`` False marks them deferred)."""
     from ._loading import load_module
 
     try:
@@ -431,23 +457,53 @@ def _zoo_entries(path: str):
         if why:
             skipped.append((spec, why))
             continue
-        t0 = time.perf_counter()
-        try:
-            built = obj()
-        except UioJaxError as exc:
-            entries.append(_Entry(spec, spec, "spec", error=f"{spec}: {exc}", build_s=time.perf_counter() - t0))
+        if not build:
+            entries.append(_Entry(spec, spec, "spec", deferred=True))
             continue
-        except Exception as exc:
-            entries.append(_Entry(spec, spec, "spec", error=f"{spec} raised {_one_line(exc)}",
-                                  build_s=time.perf_counter() - t0))
-            continue
-        if isinstance(built, System):
-            entries.append(_Entry(spec, spec, "spec", _named(built, path, name), build_s=time.perf_counter() - t0))
+        built, error, seconds = _call_zoo_function(spec, obj)
+        if error is not None:
+            entries.append(_Entry(spec, spec, "spec", error=error, build_s=seconds))
+        elif isinstance(built, System):
+            entries.append(_Entry(spec, spec, "spec", _named(built, path, name), build_s=seconds))
         else:
-            skipped.append((spec, f"returns {type(built).__name__}"))
+            skipped.append((spec, _no_system(built)))
     if not entries and not skipped:
         return [_Entry(path, error=f"{path} defines no public function that returns a uio_jax.System")], []
     return entries, skipped
+
+
+def _call_zoo_function(spec, fn):
+    """``(result, error, seconds)`` of calling a zoo function: its return value, or the
+    one-line error of what it raised (then the result is None)."""
+    t0 = time.perf_counter()
+    try:
+        return fn(), None, time.perf_counter() - t0
+    except UioJaxError as exc:
+        return None, f"{spec}: {exc}", time.perf_counter() - t0
+    except Exception as exc:
+        return None, f"{spec} raised {_one_line(exc)}", time.perf_counter() - t0
+
+
+def _no_system(value) -> str:
+    return f"returns {type(value).__name__}"
+
+
+def _build_deferred(entry: _Entry):
+    """Call a deferred zoo function: ``(entry with its System, or with the error)``, or a
+    :class:`_Skipped` when it gives no System."""
+    from ._loading import load_module, split_spec
+
+    path, name = split_spec(entry.spec)
+    try:
+        fn = getattr(load_module(path), name)
+    except (UioJaxError, AttributeError) as exc:
+        return replace(entry, error=_one_line(exc, with_type=False), deferred=False)
+    built, error, seconds = _call_zoo_function(entry.spec, fn)
+    if error is not None:
+        return replace(entry, error=error, build_s=seconds, deferred=False)
+    if not isinstance(built, System):
+        return _Skipped(entry.spec, _no_system(built))
+    return replace(entry, system=_named(built, path, name), build_s=seconds, deferred=False)
 
 
 def _no_required_args(fn) -> bool:
@@ -511,6 +567,10 @@ def _run_entry(entry: _Entry, analyze_kwargs, keep_report=True) -> BatchRow:
     """Load and analyse one model; every error becomes the row's one-line error."""
     from ._analyze import analyze
 
+    if entry.deferred:
+        entry = _build_deferred(entry)
+        if isinstance(entry, _Skipped):
+            return entry
     t0 = time.perf_counter() - entry.build_s
     if entry.error is not None:
         return BatchRow(entry.label, error=entry.error, seconds=entry.build_s)
@@ -602,7 +662,7 @@ def _record_seconds(keys, rows):
         return
     known = _read_seconds(path)
     for k, row in zip(keys, rows):
-        if k is not None and row is not None:
+        if k is not None and isinstance(row, BatchRow):
             known[k] = round(float(row.seconds), 3)
     tmp = f"{path}.{os.getpid()}.tmp"
     try:
@@ -654,7 +714,8 @@ def _run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, bar, rows):
                     slots[k] = w = _Worker(ctx, cache_dir, k if len(slots) > 1 else None)
                 if w is not None and w.task is None and w.ready and pending:
                     i = pending.pop()
-                    w.send(i, (entries[i].label, entries[i].spec, entries[i].kind, analyze_kwargs))
+                    e = entries[i]
+                    w.send(i, (e.label, e.spec, e.kind, analyze_kwargs, e.deferred))
                     bar.start(entries[i].label)
             live = [w for w in slots if w is not None and (w.task is not None or not w.ready)]
             if not live:
@@ -681,7 +742,8 @@ def _run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, bar, rows):
                     elif msg == "ready":
                         w.ready = True
                     else:
-                        finish(w.task, BatchRow(**msg))
+                        skip = msg.get("skipped")
+                        finish(w.task, _Skipped(entries[w.task].spec, skip) if skip else BatchRow(**msg))
                         w.task = None
                 elif w.task is not None and timeout is not None and w.elapsed() >= timeout:
                     w.stop()
@@ -782,9 +844,12 @@ def _worker_init(cache_dir):
         enable_compile_cache(cache_dir)
 
 
-def _worker_run(label, spec, kind, analyze_kwargs) -> dict:
-    """Analyse one model in a worker; returns the row's fields (no Report)."""
-    row = _run_entry(_Entry(label, spec, kind), analyze_kwargs, keep_report=False)
+def _worker_run(label, spec, kind, analyze_kwargs, deferred=False) -> dict:
+    """Analyse one model in a worker; returns the row's fields (no Report), or
+    ``{"skipped": reason}`` for a deferred zoo function that gave no System."""
+    row = _run_entry(_Entry(label, spec, kind, deferred=deferred), analyze_kwargs, keep_report=False)
+    if isinstance(row, _Skipped):
+        return {"skipped": row.why}
     return {k: getattr(row, k) for k in BatchRow.__dataclass_fields__ if k != "report"}
 
 
