@@ -13,9 +13,9 @@
   :func:`uio_jax.load_experiment`) or their return annotation names another type.
   A function that returns something else is skipped (listed in ``skipped``); one that
   raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are called
-  in the worker process that analyses their model, not in the caller first. A StrikePy model module (recognised by
-  ``uio_jax._strikepy_import.is_strikepy_module``, when that importer is installed) is one
-  model;
+  in the worker process that analyses their model, not in the caller first. A StrikePy
+  model module (recognised by ``uio_jax._strikepy_import.is_strikepy_module``, when that
+  importer is installed) is one model;
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
 * a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
   names starting with ``_`` or ``.`` are ignored);
