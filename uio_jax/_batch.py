@@ -716,7 +716,7 @@ def _run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, bar, rows):
                     i = pending.pop()
                     e = entries[i]
                     w.send(i, (e.label, e.spec, e.kind, analyze_kwargs, e.deferred))
-                    bar.start(entries[i].label)
+                    bar.start(e.label)
             live = [w for w in slots if w is not None and (w.task is not None or not w.ready)]
             if not live:
                 break
