@@ -4,9 +4,10 @@ Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
 
 * trial ``i`` uses the key ``fold_in(key(seed), i)`` (split once into an initial and a run
   key); epoch ``j`` draws ONE block of normals ``normal(fold_in(run_key, j), ...)`` for all
-  its Euler sub-steps and its outputs (in float32: :data:`NOISE_DTYPE`). So every
+  its Euler sub-steps and its outputs (float32 normals, see :func:`_trial_functions`). So every
   trial's numbers depend only on ``(seed, i)``: not on the batch size, the chunking or
-  the sharding.
+  the sharding. The numbers are JAX's default threefry ones, bit for bit, drawn by
+  :mod:`uio_jax._threefry` (unrolled hash: faster to compile and to run on a CPU).
 * nested scan: chunks (a Python loop, which drives the progress bar) -> records
   (statistics kept every ``record_every`` epochs) -> epochs (one output update) -> Euler
   sub-steps (truth, readings, EKF predict; ``UNROLL`` below).
@@ -31,6 +32,7 @@ from jax import lax
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
+from . import _threefry as threefry
 from ._ekf import mahalanobis_squared, make_model, output_mask, predict, update, wrap_angle
 from ._errors import ModelError, OptionError
 from ._experiment import Experiment
@@ -42,13 +44,6 @@ CHUNK_TRIAL_STEPS = 1.5e7
 #: Inner-scan unroll of the Euler sub-steps. notes/ekf.md found 5 best at B = 1 and neutral
 #: at large B; measured here at 512 trials per device, 5 costs 2x the CPU time of 1.
 UNROLL = 1
-#: Precision the noise normals are drawn in (then used in float64). float32 halves the
-#: threefry bits and makes the inverse error function cheap: the simulation alone (truth,
-#: readings, RNG; 4096 trials) runs at 10.5-11 M trial-steps/s instead of 7.5, the 5-state
-#: run at 5.3 instead of 4.3. The cost: normals resolve 2^-24 and reach about 5.3 sigma
-#: (a probability of 1e-7 beyond), where float64 ones reach about 8; noise levels of a
-#: few percent do not see the difference. The filter's arithmetic stays float64.
-NOISE_DTYPE = jnp.float32
 
 _CACHE: "weakref.WeakKeyDictionary[Experiment, dict]" = weakref.WeakKeyDictionary()
 
@@ -83,9 +78,8 @@ def _trial_functions(exp: Experiment, traj: bool):
         return jnp.concatenate([x, w_last, jnp.zeros(p * (exp.order - 1))])
 
     def init(trial_id, root):
-        key = jax.random.fold_in(root, trial_id)
-        k_init, k_run = jax.random.split(key)
-        z = jax.random.normal(k_init, (N,), NOISE_DTYPE).astype(jnp.float64)
+        k_init, k_run = threefry.split(threefry.fold_in(root, trial_id))
+        z = threefry.normal(k_init, N).astype(jnp.float64)
         x = jnp.asarray(x0)
         w_last = jnp.asarray(w0)
         xa = truth_aug(x, w_last) + prior * z
@@ -97,8 +91,12 @@ def _trial_functions(exp: Experiment, traj: bool):
 
     def epoch(carry, j):
         key, x, istate, w_last, xa, Pm = carry[:6]
-        z = jax.random.normal(jax.random.fold_in(key, j), (K * (ni + m) + n_out,),
-                              NOISE_DTYPE).astype(jnp.float64)
+        # float32 normals, used in float64: half the threefry bits of float64 ones and a
+        # cheap inverse error function. The simulation alone (truth, readings, RNG; 4096
+        # trials) ran at 10.5-11 M trial-steps/s instead of 7.5 with jax.random. The cost:
+        # they resolve 2^-24 and reach about 5.3 sigma (1e-7 beyond) where float64 ones
+        # reach about 8; noise levels of a few percent do not see the difference.
+        z = threefry.normal(threefry.fold_in(key, j), K * (ni + m) + n_out).astype(jnp.float64)
         zs = z[:K * (ni + m)].reshape(K, ni + m)
         zy = z[K * (ni + m):]
 
@@ -257,7 +255,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         experiment: an :class:`~uio_jax.Experiment` (e.g. from the zoo).
         trials: number of trials B (>= 1). Trial i uses ``fold_in(key(seed), i)``, so the
             first 64 trials of a run with B = 256 equal a run with B = 64.
-        seed: non-negative integer.
+        seed: integer in ``[0, 2**64)``.
         keep: number of trials (the first ones) whose full trajectories (truth, dead
             reckoning, EKF and its sigma, at every epoch) are kept, for plots.
         devices: JAX devices to shard the trials over (default: all of them).
@@ -269,7 +267,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         ``(trials, n_records + 1, N)`` in float32).
 
     Raises:
-        OptionError: trials <= 0, negative seed or keep.
+        OptionError: trials <= 0, seed outside ``[0, 2**64)``, negative keep.
         ModelError: the model is NaN at the start, or the filter became NaN/inf.
     """
     if not isinstance(experiment, Experiment):
@@ -277,6 +275,8 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
                           f"{type(experiment).__name__}")
     B = _check_int(trials, "trials", 1)
     seed = _check_int(seed, "seed", 0)
+    if seed >= 2**64:
+        raise OptionError(f"seed must be below 2**64, got {seed}")
     keep = min(_check_int(keep, "keep", 0), B)
     exp = experiment
     with jax.enable_x64(True):
@@ -287,7 +287,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         Bp = per_dev * nd
         n_rec_chunk, n_rec = _chunk_records(exp, Bp)
         init_j, chunk_j, sharding = _compiled(exp, devices, per_dev, n_rec_chunk)
-        root = jax.random.key(seed)
+        root = jnp.asarray(threefry.seed_key(seed))
         ids = jax.device_put(jnp.arange(Bp, dtype=jnp.uint32), sharding)
         t0 = time.perf_counter()
         p0 = time.process_time()
@@ -368,7 +368,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
     ids = np.asarray(list(trial_ids), np.uint32)
     with jax.enable_x64(True):
         fn = _traj_fn(exp)
-        out = fn(jnp.asarray(ids), jax.random.key(seed))
+        out = fn(jnp.asarray(ids), jnp.asarray(threefry.seed_key(seed)))
         out = jax.tree.map(np.asarray, out)
     (x_t0, xa0, sig0, xdr0, P0), (x_t, xa, sig, xdr, y, u_reads, Ps) = out
     k, E = x_t.shape[0], x_t.shape[1]
