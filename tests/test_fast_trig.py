@@ -75,3 +75,45 @@ def test_float32_operands_keep_the_library_functions():
     fast = with_vectorized_trig(lambda x: jnp.sin(x))
     text = str(jax.make_jaxpr(fast)(jnp.ones(3, jnp.float32)))
     assert " sin " in text
+
+
+def _count(jaxpr, name):
+    """Equations of primitive ``name`` in a jaxpr and its sub-jaxprs."""
+    total = 0
+    for eqn in jaxpr.eqns:
+        total += eqn.primitive.name == name
+        for value in eqn.params.values():
+            sub = getattr(value, "jaxpr", value)
+            if hasattr(sub, "eqns"):
+                total += _count(sub, name)
+    return total
+
+
+def test_sin_and_cos_of_one_angle_share_one_reduction():
+    """``cos(x[2])`` and ``sin(x[2])`` slice ``x`` twice: the repeated slice is recognised,
+    so the angle is reduced once (one ``round``), and the values are unchanged."""
+    def field(x):
+        return jnp.stack([jnp.cos(x[2]), jnp.sin(x[2]), jnp.cos(x[0]), x[2] * x[2], x[2] * x[2]])
+
+    fast = with_vectorized_trig(field)
+    with jax.enable_x64(True):
+        x = jnp.array([0.3, -1.0, 2.5])
+        jaxpr = jax.make_jaxpr(fast)(x).jaxpr
+        np.testing.assert_allclose(fast(x), field(x), rtol=3e-16, atol=0)
+    assert _count(jaxpr, "round") == 2  # x[2] and x[0]
+    assert _count(jaxpr, "integer_pow") + _count(jaxpr, "mul") > 0
+    assert _count(jaxpr, "slice") == 2
+
+
+def test_trig_of_constants_is_evaluated_once_on_the_host():
+    """``cos(gamma)`` of a constant angle stages no reduction, and keeps its value."""
+    def field(x):
+        g = 0.7 * np.pi
+        return jnp.stack([jnp.cos(g) * x[0], jnp.sin(g) * x[1]])
+
+    fast = with_vectorized_trig(field)
+    with jax.enable_x64(True):
+        x = jnp.array([2.0, 3.0])
+        jaxpr = jax.make_jaxpr(fast)(x).jaxpr
+        np.testing.assert_array_equal(fast(x), [np.cos(0.7 * np.pi) * 2.0, np.sin(0.7 * np.pi) * 3.0])
+    assert _count(jaxpr, "round") == 0
