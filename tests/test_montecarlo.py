@@ -117,7 +117,7 @@ def test_cli_montecarlo(tmp_path, capsys):
     out_json = tmp_path / "mc.json"
     code = cli.main(["montecarlo", zoo("unicycle_disturbance.py:range_gamma_known"),
                      "--trials", "64", "--seed", "1", "--keep", "0", "--no-analysis",
-                     "--json", str(out_json), "--no-progress"])
+                     "--json", str(out_json), "--no-progress", "--no-cache"])
     assert code == 0
     text = capsys.readouterr().out
     assert "bearing phi" in text and "NEES" in text
@@ -127,11 +127,35 @@ def test_cli_montecarlo(tmp_path, capsys):
     assert d["trials"] == 64 and "verdict" in d
 
 
+def test_cli_montecarlo_keeps_its_programs_in_the_compile_cache(tmp_path, capsys):
+    """The second run of an experiment loads the compiled programs from the cache directory
+    (the first one wrote them) and gives the same numbers."""
+    import json
+
+    cache = tmp_path / "cache"
+    outs = []
+    for i in range(2):
+        out = tmp_path / f"mc{i}.json"
+        assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"),
+                         "--trials", "8", "--keep", "0", "--no-analysis", "--no-progress",
+                         "--cache-dir", str(cache), "--json", str(out)]) == 0
+        if i == 0:
+            written = sorted(p.name for p in cache.rglob("*") if p.is_file())
+            assert any("chunk_local" in name for name in written), written
+        outs.append(json.loads(out.read_text()))
+    assert sorted(p.name for p in cache.rglob("*") if p.is_file()) == written  # nothing new
+    assert outs[0]["verdict"] == outs[1]["verdict"]
+
+
 @pytest.mark.parametrize("argv, needle", [
-    (["montecarlo", zoo("unicycle_disturbance.py:nope"), "--trials", "4"], "no experiment"),
-    (["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"), "--trials", "0"], "trials"),
-    (["montecarlo", zoo("unicycle_disturbance.py:gamma_known_range"), "--trials", "4"],
+    (["montecarlo", zoo("unicycle_disturbance.py:nope"), "--trials", "4", "--no-cache"],
+     "no experiment"),
+    (["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"), "--trials", "0", "--no-cache"],
+     "trials"),
+    (["montecarlo", zoo("unicycle_disturbance.py:gamma_known_range"), "--trials", "4", "--no-cache"],
      "Experiment"),
+    (["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"), "--trials", "4",
+      "--cache-dir", "/proc/no/such/dir"], "such"),
 ])
 def test_cli_montecarlo_bad_input(argv, needle, capsys):
     assert cli.main(argv) == 2
@@ -141,7 +165,7 @@ def test_cli_montecarlo_bad_input(argv, needle, capsys):
 
 
 def test_unknown_experiment_lists_the_names_to_type(capsys):
-    assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:nope"), "--trials", "4"]) == 2
+    assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:nope"), "--trials", "4", "--no-cache"]) == 2
     listed = capsys.readouterr().err.split("it defines: ")[1].rstrip(")\n").split(", ")
     assert "range_gamma_known" in listed and "phi_gamma_unknown" in listed
     assert not any(name.startswith("_") or name.endswith("_experiment") for name in listed)

@@ -3,9 +3,9 @@
 ``main(argv) -> int`` returns the exit code: 0 on success, 2 on bad input (one line on
 stderr, never a traceback from inside JAX), 1 when a batch has failures.
 
-``analyze`` and ``batch`` use JAX's persistent compilation cache
-(:func:`uio_jax.enable_compile_cache`; ``--cache-dir`` moves it, ``--no-cache`` turns it
-off) for the duration of the command: a second run of the same models skips XLA
+All three use JAX's persistent compilation cache (:func:`uio_jax.enable_compile_cache`;
+``--cache-dir`` moves it, ``--no-cache`` turns it off) for the duration of the command: a
+second run of the same models, or of the same experiment with as many trials, skips XLA
 compilation.
 """
 
@@ -64,7 +64,7 @@ def _build_parser():
     except ImportError:  # the Monte Carlo module is optional at this stage
         _montecarlo_cli = None
     if _montecarlo_cli is not None:
-        _montecarlo_cli.add_parser(sub)
+        _cache_options(_montecarlo_cli.add_parser(sub))
     return p
 
 
@@ -197,7 +197,9 @@ def main(argv=None) -> int:
         if args.command == "montecarlo":
             from . import _montecarlo_cli
 
-            return _montecarlo_cli.run(args)
+            _montecarlo_cli.split_host_devices()  # before anything starts JAX's backend
+            with _compile_cache(args):
+                return _montecarlo_cli.run(args)
         raise _UsageError(f"unknown command {args.command!r}")
     except _UsageError as exc:
         print(f"uio-jax: error: {exc}", file=sys.stderr)
