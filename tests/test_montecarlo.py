@@ -194,3 +194,14 @@ def test_sharded_equals_single_device(tmp_path):
     two = np.load(out)
     # float32 records; the two compilations may round differently in the last f64 bits
     np.testing.assert_allclose(two, one.stats, rtol=1e-5, atol=1e-7)
+
+
+def test_seed_outside_64_bits_is_one_line_error():
+    from uio_jax import trajectories
+
+    exp = UNI.range_gamma_known_experiment()
+    for seed in (-1, 2**64):
+        with pytest.raises(OptionError, match="seed"):
+            run_montecarlo(exp, 2, seed=seed)
+        with pytest.raises(OptionError, match="seed"):
+            trajectories(exp, [0], seed=seed)

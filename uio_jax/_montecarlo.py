@@ -210,6 +210,13 @@ def _check_int(value, what, lo):
     return int(value)
 
 
+def _check_seed(seed):
+    seed = _check_int(seed, "seed", 0)
+    if seed >= 2**64:
+        raise OptionError(f"seed must be below 2**64, got {seed}")
+    return seed
+
+
 def _chunk_records(exp, n_trials):
     """Records per chunk: the largest divisor of the record count within the budget."""
     n_rec = exp.n_epochs // exp.record_every
@@ -276,9 +283,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         raise OptionError(f"run_montecarlo needs a uio_jax Experiment, got "
                           f"{type(experiment).__name__}")
     B = _check_int(trials, "trials", 1)
-    seed = _check_int(seed, "seed", 0)
-    if seed >= 2**64:
-        raise OptionError(f"seed must be below 2**64, got {seed}")
+    seed = _check_seed(seed)
     keep = min(_check_int(keep, "keep", 0), B)
     exp = experiment
     with jax.enable_x64(True):
@@ -357,7 +362,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
     Args:
         experiment: the experiment.
         trial_ids: iterable of trial indices.
-        seed: the run's seed.
+        seed: the run's seed, an integer in ``[0, 2**64)``.
 
     Returns:
         dict of numpy arrays (``k`` trials, ``E`` epochs, index 0 is t = 0):
@@ -370,7 +375,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
     ids = np.asarray(list(trial_ids), np.uint32)
     with jax.enable_x64(True):
         fn = _traj_fn(exp)
-        out = fn(jnp.asarray(ids), jnp.asarray(threefry.seed_key(seed)))
+        out = fn(jnp.asarray(ids), threefry.seed_key(_check_seed(seed)))
         out = jax.tree.map(np.asarray, out)
     (x_t0, xa0, sig0, xdr0, P0), (x_t, xa, sig, xdr, y, u_reads, Ps) = out
     k, E = x_t.shape[0], x_t.shape[1]

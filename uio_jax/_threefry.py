@@ -10,9 +10,12 @@ Why not ``jax.random``: on a CPU, JAX lowers each threefry hash as a rolled ``wh
 loop (5 iterations of 4 rounds) to keep the program small. XLA compiles such a loop as
 separate kernels, and each hash costs 0.35-0.45 CPU-s of compile time; the Monte Carlo
 run has five of them (trial key, split, prior draw; epoch key, epoch draw). The unrolled
-hash below is about 100 integer operations that XLA fuses into the kernel that uses the
-numbers. Measured on this 2-core machine (4096 trials): the init program's compile
-2.0 -> 0.5 CPU-s, and a draw of 301 normals per trial 10.5 -> 5.0 ms.
+hash below is about 100 integer operations that XLA fuses into the kernels that use the
+numbers (each such kernel computes its own share; where two kernels need the same words,
+both compute them: about twice per epoch in the Monte Carlo chunk). Measured on this
+2-core machine (4096 trials): a program of fold_in, split and 5 normals per trial
+compiles in 0.5 CPU-s instead of 2.0, and a draw of 301 normals per trial runs in 5.0 ms
+instead of 10.5.
 
 Threefry-2x32 with 20 rounds (Salmon et al., "Parallel random numbers: as easy as 1, 2,
 3", SC 2011): key ``(k0, k1)``, ``k2 = k0 ^ k1 ^ 0x1BD11BDA``; counter ``(x0, x1)``;
@@ -100,7 +103,7 @@ def bits(key, n: int):
     """``jax.random.bits(key, (n,), uint32)``: ``n`` random 32-bit words, ``(n,)``."""
     y0, y1 = threefry2x32(key[0], key[1], jnp.zeros(n, jnp.uint32),
                           jnp.arange(n, dtype=jnp.uint32))
-    return y0 ^ y1
+    return lax.bitwise_xor(y0, y1)
 
 
 def normal(key, n: int):
@@ -109,7 +112,8 @@ def normal(key, n: int):
     A uniform ``u`` in ``(-1, 1)`` from the 23 high bits of each word (mantissa trick),
     then ``sqrt(2) erfinv(u)``, exactly as JAX does.
     """
-    mantissa = (bits(key, n) >> _U32(9)) | _U32(0x3F800000)  # a float in [1, 2)
+    mantissa = lax.bitwise_or(lax.shift_right_logical(bits(key, n), _U32(9)),
+                              _U32(0x3F800000))  # the bits of a float in [1, 2)
     f = lax.bitcast_convert_type(mantissa, jnp.float32) - np.float32(1.0)
     lo = np.nextafter(np.float32(-1.0), np.float32(0.0))
     hi = np.float32(1.0)
