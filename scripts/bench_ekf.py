@@ -171,10 +171,11 @@ def _write(path, rows, floor, started, load0, machine):
         f"Workload: {rows[0]['trials']} trials x {rows[0]['steps']} Euler steps (10 s at "
         "5e-4 s), range output every 50 steps, truth simulation and RNG inside the timed "
         f"run, trials sharded over {rows[0]['devices']} CPU devices. Rate = trial-steps/s, "
-        "median of the runs; compile time apart: from the start of the run to both programs "
-        "compiled (the chunk program's trace, lowering and XLA compile, the initial state's "
-        "beside it), median (min-max) over fresh processes (the timed run's and the compile-only "
-        "ones, which compile the same programs and run one chunk).",
+        "median of the runs; compile time apart: from the call's start (the model check "
+        "included) to both programs compiled (the chunk program's trace, lowering and XLA "
+        "compile, the initial state's beside it), median (min-max) over fresh processes (the "
+        "timed run's and the compile-only ones, which compile the same programs and run one "
+        "chunk).",
         "",
         "| filter | trial-steps/s (median) | target | runs: M/s (load, CPU s / wall s) | "
         "per CPU-second | compile | peak RSS | filterpy (same data): wall, per CPU-s | "
