@@ -92,18 +92,19 @@ def fold_in(key, data):
     return jnp.stack([y0, y1])
 
 
+def _hash_counters(key, n: int):
+    """The hash of the counters ``(0, i)``, ``i < n``, as partitionable threefry counts."""
+    return threefry2x32(key[0], key[1], jnp.zeros(n, jnp.uint32), jnp.arange(n, dtype=jnp.uint32))
+
+
 def split(key, num: int = 2):
     """``jax.random.split``: ``num`` new keys, ``uint32`` ``(num, 2)``."""
-    y0, y1 = threefry2x32(key[0], key[1], jnp.zeros(num, jnp.uint32),
-                          jnp.arange(num, dtype=jnp.uint32))
-    return jnp.stack([y0, y1], axis=1)
+    return jnp.stack(_hash_counters(key, num), axis=1)
 
 
 def bits(key, n: int):
     """``jax.random.bits(key, (n,), uint32)``: ``n`` random 32-bit words, ``(n,)``."""
-    y0, y1 = threefry2x32(key[0], key[1], jnp.zeros(n, jnp.uint32),
-                          jnp.arange(n, dtype=jnp.uint32))
-    return lax.bitwise_xor(y0, y1)
+    return lax.bitwise_xor(*_hash_counters(key, n))
 
 
 def normal(key, n: int):
