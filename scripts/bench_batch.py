@@ -86,7 +86,7 @@ def _dir_size(path) -> int:
 def _driver(paths, samples, k_max, cache_dir, method):
     """In this process: every model analysed twice (second pass = evaluation only)."""
     import uio_jax as uj
-    from uio_jax._batch import _load, discover
+    from uio_jax._batch.batch import _load, discover
 
     uj.enable_compile_cache(cache_dir)
     entries, _ = discover(paths)
@@ -125,7 +125,7 @@ def main(argv=None):
         print(json.dumps(_driver(args.paths, args.samples, args.k_max, args.cache_dir, args.method)))
         return 0
 
-    from uio_jax._batch import _expand
+    from uio_jax._batch.batch import _expand
 
     # the model files are listed once, so that every phase runs the same ones even if files
     # are added to a directory meanwhile

@@ -31,7 +31,7 @@ def _setup():
 
     jax.config.update("jax_num_cpu_devices", os.cpu_count() or 1)
     jax.config.update("jax_enable_x64", True)
-    from uio_jax._loading import load_module
+    from uio_jax._io.loading import load_module
 
     return load_module(os.path.join(ROOT, "systems", "unicycle_disturbance.py"))
 
@@ -41,7 +41,7 @@ def one(case, trials, repeats, floor=False):
     zoo = _setup()
     import jax
 
-    from uio_jax import _montecarlo as mc
+    from uio_jax._filter import montecarlo as mc
 
     if floor:  # the ceiling: truth, readings and RNG only (the EKF predict/update skipped)
         mc.predict = lambda model, xa, P, u: (xa, P)
@@ -81,7 +81,7 @@ def filterpy_rate(case, n_trials):
     sys.path.insert(0, os.path.join(ROOT, "tests"))
     from test_ekf import _run_filterpy
 
-    from uio_jax._montecarlo import trajectories
+    from uio_jax._filter.montecarlo import trajectories
 
     exp = getattr(zoo, CASES[case])()
     total, cpu = 0.0, 0.0

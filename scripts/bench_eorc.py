@@ -27,6 +27,8 @@ import time
 
 import jax
 
+from uio_jax._analysis.rank import default_rtol
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "systems"))
 
@@ -37,20 +39,20 @@ def _load():
 
 def _eqns(jaxpr):
     """Jaxpr equations, counted recursively (the library's own counter)."""
-    from uio_jax._generators import _count_eqns
+    from uio_jax._calculus.generators import _count_eqns
 
     return _count_eqns(jaxpr)
 
 
 def bench_jax(system_fn, k_max, samples, repeats, warm_ks=()):
     import uio_jax as uj
-    from uio_jax import _eorc
+    from uio_jax._analysis import eorc as _eorc
 
     with jax.enable_x64(True):
         system = system_fn()
         t0 = time.perf_counter()
         run, history, reason, k = _eorc.run_eorc(system, samples=samples, seed=0,
-                                                 rtol=uj.default_rtol(), k_max=k_max)
+                                                 rtol=default_rtol(), k_max=k_max)
         cold = time.perf_counter() - t0
         rows = []
         xs = run.ctx.xs

@@ -49,8 +49,8 @@ def main(argv=None):
     import numpy as np
 
     import uio_jax as uj
-    from uio_jax import _montecarlo as mc
-    from uio_jax._loading import load_module
+    from uio_jax._filter import montecarlo as mc
+    from uio_jax._io.loading import load_module
 
     dev = jax.devices()[0]
     rows = []

@@ -14,7 +14,7 @@ by an old benchmark of ours, and ``__init__.py`` excluded), in ONE run:
   states, identifiable / unidentifiable parameters, observable unknown inputs, FISPO, rank)
   and the raw tail of its output are cached per model in ``docs/benchmarks/strikepy_runs.json``
   with the machine, the load and the StrikePy version. ``--rerun`` refreshes the cache.
-* **ours**: ``uio_jax._strikepy_import.load_strikepy(path)``, then
+* **ours**: ``uio_jax._io.strikepy_import.load_strikepy(path)``, then
   ``uj.analyze(system, method="auto", samples=4096)``. *cold* = the first call on the freshly
   loaded ``System`` (JIT compilation included; the JAX backend is started once beforehand, so
   its start-up is not in any model's time; the process is shared by all models);
@@ -312,7 +312,7 @@ def _timed(fn):
 def _ours_worker(path, samples, warm, method="auto"):
     """In the worker process: import ``path`` with the project's importer and analyse it (cold + warm)."""
     import uio_jax as uj
-    from uio_jax._strikepy_import import load_strikepy
+    from uio_jax._io.strikepy_import import load_strikepy
 
     _warm_up_jax()
     rec = {"load_before": os.getloadavg()}

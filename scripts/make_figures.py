@@ -28,7 +28,7 @@ def _setup():
     import jax
 
     jax.config.update("jax_num_cpu_devices", os.cpu_count() or 1)
-    from uio_jax._loading import load_module
+    from uio_jax._io.loading import load_module
 
     uni = load_module(os.path.join(ROOT, "systems", "unicycle_disturbance.py"))
     veh = load_module(os.path.join(ROOT, "systems", "vehicle_wind.py"))
@@ -39,7 +39,7 @@ def _columns(results, rows, pair, fname, title):
     """One column per result: trajectory, then one error panel per name, then NEES."""
     import matplotlib.pyplot as plt
 
-    from uio_jax._plots import plot_errors, plot_nees, plot_trajectories
+    from uio_jax._filter.plots import plot_errors, plot_nees, plot_trajectories
 
     nr = len(rows) + 2
     fig, grid = plt.subplots(nr, len(results), figsize=(4.2 * len(results), 2.3 * nr),
@@ -64,7 +64,7 @@ def main(argv=None):
     p.add_argument("--out", default=os.path.join(ROOT, "docs", "figures"))
     a = p.parse_args(argv)
     uni, veh = _setup()
-    from uio_jax._montecarlo import run_montecarlo
+    from uio_jax._filter.montecarlo import run_montecarlo
 
     os.makedirs(a.out, exist_ok=True)
     summaries = []

@@ -207,7 +207,7 @@ def _experiment(output, gamma_known):
 
 
 def _make_experiment(output, gamma_known):
-    from uio_jax._experiment import Experiment, Measurement, Quantity
+    from uio_jax import Experiment, Measurement, Quantity
 
     system = {("r", True): gamma_known_range, ("r", False): gamma_unknown_range,
               ("phi", True): gamma_known_phi, ("phi", False): gamma_unknown_phi,

@@ -273,7 +273,7 @@ def _vehicle_experiment(wind, features=FEATURES, hover=False, n_steps=20000, tag
 
 
 def _make_vehicle_experiment(wind, features, hover, n_steps, tag, prior_r, prior_q):
-    from uio_jax._experiment import Experiment, Measurement, Quantity
+    from uio_jax import Experiment, Measurement, Quantity
 
     system = wind_unknown() if wind else no_wind()
     meas = []

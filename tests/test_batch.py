@@ -13,8 +13,9 @@ import pytest
 from helpers import zoo_path
 
 import uio_jax as uj
-from uio_jax import _batch, cli
-from uio_jax._compile_cache import compile_cache, default_cache_dir, disable_compile_cache
+from uio_jax import cli
+from uio_jax._batch import batch as _batch
+from uio_jax._engine.compile_cache import compile_cache, default_cache_dir, disable_compile_cache
 
 SAMPLES = 64
 
@@ -90,7 +91,7 @@ def test_zoo_file_discovery(zoo_file):
     assert set(reasons) == {"not_a_model", "flight_experiment", "annotated"}
     assert reasons["not_a_model"] == "returns int"
     assert "experiment" in reasons["flight_experiment"] and "Experiment" in reasons["annotated"]
-    from uio_jax._loading import load_module
+    from uio_jax._io.loading import load_module
 
     assert load_module(zoo_file).CALLS == []  # neither private nor skipped functions were called
     assert entries[0].system.name == "tiny_zoo.py:two_states"  # unnamed: named after its entry
@@ -277,7 +278,7 @@ def test_jobs_run_models_in_worker_processes(zoo_file):
 def test_parallel_batch_calls_zoo_functions_in_the_workers(tmp_path, zoo_file):
     """With jobs > 1 the caller does not build the zoo's Systems (the workers do, once): the
     rows, the errors and the skipped functions are those of the in-process batch."""
-    from uio_jax._loading import load_module
+    from uio_jax._io.loading import load_module
 
     counted = _write(tmp_path / "counted_zoo.py", ZOO.replace(
         "def two_states():\n", "def two_states():\n        CALLS.append('two_states')\n"))
@@ -302,7 +303,7 @@ def test_a_worker_is_bound_to_the_cpu_of_its_slot():
         assert _batch._pin_to_one_cpu(0) is None
         return
     allowed = sorted(os.sched_getaffinity(0))
-    code = ("import os, sys; from uio_jax._batch import _pin_to_one_cpu; "
+    code = ("import os, sys; from uio_jax._batch.batch import _pin_to_one_cpu; "
             "_pin_to_one_cpu(None if sys.argv[1] == 'None' else int(sys.argv[1])); "
             "print(sorted(os.sched_getaffinity(0)))")
     for slot, want in [(0, [allowed[0]]), (len(allowed) + 1, [allowed[1 % len(allowed)]]), (None, allowed)]:
@@ -355,7 +356,6 @@ def test_recorded_times_order_the_workers_longest_first(tmp_path, zoo_file, monk
     """A batch records each model's time in the cache directory; the next parallel batch
     hands the models to its workers longest first (unknown ones first, in the given order),
     and its rows keep the given order."""
-    from uio_jax import _batch
 
     specs = [f"{zoo_file}:two_states", f"{zoo_file}:blind"]
     with compile_cache(tmp_path / "cc") as path:

@@ -103,7 +103,7 @@ def test_each_decided_step_is_announced_once(spec, method):
     import io
 
     import uio_jax as uj
-    from uio_jax._loading import load_system
+    from uio_jax._io.loading import load_system
     from uio_jax._progress import StepPrinter, step_listener
 
     seen, buf = [], io.StringIO()

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from conftest import zoo
 
-from uio_jax._loading import load_module
-from uio_jax._montecarlo import trajectories
+from uio_jax._filter.montecarlo import trajectories
+from uio_jax._io.loading import load_module
 
 filterpy = pytest.importorskip("filterpy.kalman")
 
@@ -152,8 +152,8 @@ def test_update_skips_masked_outputs():
     import jax.numpy as jnp
 
     import uio_jax as uj
-    from uio_jax._ekf import make_model, update
-    from uio_jax._experiment import Experiment, Measurement
+    from uio_jax._filter.ekf import make_model, update
+    from uio_jax._model.experiment import Experiment, Measurement
 
     sys_ = uj.System(("a", "b"), {"a": lambda x: x[0]},
                      known={"u": lambda x: jnp.array([1.0, 0.0])},

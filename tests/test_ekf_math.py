@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._ekf import mahalanobis_squared, make_model, predict
-from uio_jax._experiment import Experiment, Measurement
+from uio_jax._filter.ekf import mahalanobis_squared, make_model, predict
+from uio_jax._model.experiment import Experiment, Measurement
 
 
 def _toy_experiment(order):

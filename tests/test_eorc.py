@@ -14,8 +14,9 @@ from conftest import ROOT, zoo
 from helpers import zoo_report
 
 import uio_jax as uj
-from uio_jax._eorc import _nested_power, extended_system, lie_power
-from uio_jax._taylor import lie_powers
+from uio_jax._analysis.eorc import _nested_power, extended_system, lie_power
+from uio_jax._analysis.rank import default_rtol
+from uio_jax._engine.taylor import lie_powers
 
 SAMPLES = 512  # compile time dominates; the rank decisions have gaps of > 6 decades
 
@@ -126,8 +127,8 @@ def test_gradient_block_equals_dense_jacobian_of_the_children():
     """``_Eorc._block`` (Hessian-vector products, the fields pulled back once for every
     generator) against ``jacfwd`` of the children built by nested jvp, row for row: several
     generators (a power, a mixed word, an output), the drift and two known fields."""
-    from uio_jax._eorc import _Eorc
-    from uio_jax._lie import lie_derivative
+    from uio_jax._analysis.eorc import _Eorc
+    from uio_jax._calculus.lie import lie_derivative
 
     sys_ = uj.System(
         ("a", "b", "c"), {"y": lambda s: s[0] * s[1], "z": lambda s: jnp.sin(s[2])},
@@ -135,7 +136,7 @@ def test_gradient_block_equals_dense_jacobian_of_the_children():
                "u2": lambda s: jnp.array([0.0, jnp.cos(s[0]), s[1] ** 2])},
         unknown={"w": lambda s: jnp.array([0.0, 0.0, s[0]])},
         drift=lambda s: jnp.array([s[1], -s[0] * s[2], 0.5 * s[1]]))
-    run = _Eorc(sys_, 2, 16, 0, uj.default_rtol())
+    run = _Eorc(sys_, 2, 16, 0, default_rtol())
     frontier = [run._node(lbl, 0) for lbl in ("y", "z")]
     for phi in list(frontier):  # L_F0 y (a power) and L_u1 y (a mixed word)
         run._children(phi)
@@ -167,9 +168,9 @@ def test_chain_block_equals_the_blocks_of_its_orders(known):
     """``_Eorc._chain_block`` (one Taylor pass per generator, the Jacobian of m powers, their
     Hessian-vector products) row for row against ``_Eorc._block`` of each order's frontier,
     for a frontier of two generators: ``(L_F0 y, z)``, then ``(L_F0^2 y, L_F0 z)``, ..."""
-    from uio_jax._eorc import _Eorc
+    from uio_jax._analysis.eorc import _Eorc
 
-    run = _Eorc(_integrator_chain(known), 5, 16, 0, uj.default_rtol())
+    run = _Eorc(_integrator_chain(known), 5, 16, 0, default_rtol())
     frontiers = [(run._child_labels("y")[0], "z")]
     for _ in range(2):
         frontiers.append(run._drift_children(frontiers[-1]))
@@ -187,10 +188,10 @@ def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes():
     program covers orders 2..5 (K = 6, at most CHAIN_ORDERS = 4 orders). Order 3 with its
     assumed frontier takes row 1; another frontier at order 3 drops the chain and gets a
     block of its own (same gradients as ``_block``)."""
-    from uio_jax._eorc import CHAIN_ORDERS, _Eorc
+    from uio_jax._analysis.eorc import CHAIN_ORDERS, _Eorc
 
     assert CHAIN_ORDERS == 4
-    run = _Eorc(_integrator_chain(), 6, 16, 0, uj.default_rtol())
+    run = _Eorc(_integrator_chain(), 6, 16, 0, default_rtol())
     y = run._node("y", 0)
     up = run._node(run._children(y)[0], 1)
     assert run.dispatch([y], 1)[5] is None and run.chain is None  # nothing repeated yet
@@ -214,7 +215,7 @@ def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
     hidden x4: from order 1 on, the EORC keeps the drift child alone (every ``L_u phi`` is
     0), so one chain program serves orders 2..4. Same dims, ranks, observable states and
     inputs as with a block per order."""
-    from uio_jax import _eorc
+    from uio_jax._analysis import eorc as _eorc
 
     def hidden_chain():
         return uj.System(
@@ -252,7 +253,7 @@ def test_fallback_without_jet_rule():
 def test_streamed_blocks_give_the_same_report(monkeypatch):
     """Blocks over the samples in batches (after a block measured STREAM_ELEMENTS) answer
     as the blocks over all samples at once; here every block after order 1 is streamed."""
-    from uio_jax import _eorc
+    from uio_jax._analysis import eorc as _eorc
 
     case = "unicycle_disturbance.py:gamma_known_range"
     plain = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._affine import JET_OPS, Jet, nonaffine_pattern
-from uio_jax._expressions import (
+from uio_jax._io.affine import JET_OPS, Jet, nonaffine_pattern
+from uio_jax._io.expressions import (
     FUNCTIONS,
     Binary,
     Call,
@@ -96,7 +96,7 @@ def test_deep_nesting_is_refused_not_crashing():
 
 
 def test_depth_and_size_limits():
-    from uio_jax._expressions import MAX_DEPTH, depth, size
+    from uio_jax._io.expressions import MAX_DEPTH, depth, size
 
     e = parse_expression("+".join(["x1"] * MAX_DEPTH), NAMES)
     assert depth(e) == MAX_DEPTH and size(e) == 2 * MAX_DEPTH - 1
@@ -111,8 +111,8 @@ def test_column_counts_characters_not_bytes():
 
 
 def test_the_modules_never_call_eval_or_exec():
-    root = os.path.dirname(uj.__file__)
-    for mod in ("_expressions.py", "_model_file.py", "_strikepy_import.py", "_sympy_import.py", "_affine.py"):
+    root = os.path.join(os.path.dirname(uj.__file__), "_io")
+    for mod in ("expressions.py", "model_file.py", "strikepy_import.py", "sympy_import.py", "affine.py"):
         with open(os.path.join(root, mod)) as fh:
             tree = ast.parse(fh.read())
         calls = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}

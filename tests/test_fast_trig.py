@@ -6,7 +6,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from uio_jax._fast_trig import ACCURATE_BELOW, cos, sin, with_vectorized_trig
+from uio_jax._engine.fast_trig import ACCURATE_BELOW, cos, sin, with_vectorized_trig
 
 
 def _ulps(got, exact):

@@ -12,7 +12,7 @@ import pytest
 from helpers import SAMPLES, zoo_path, zoo_report
 
 import uio_jax as uj
-from uio_jax._strikepy_import import generic_value, is_strikepy_module, read_strikepy
+from uio_jax._io.strikepy_import import generic_value, is_strikepy_module, load_strikepy, read_strikepy
 
 sp = pytest.importorskip("sympy")
 
@@ -59,7 +59,7 @@ def test_from_sympy_with_params_matches_the_model_file(tmp_path):
     s = uj.System.from_sympy([x1, x2], [x1], dynamics=sp.Matrix([-(k01 + k21) * x1 + k12 * x2 + u,
                                                                  k21 * x1 - k12 * x2]),
                              known=[u], params=[k01, k12, k21], name="two_compartment")
-    f = uj.load_model_file(os.path.join(os.path.dirname(zoo_path("gps")), "two_compartment.toml"))
+    f = uj.load_system(os.path.join(os.path.dirname(zoo_path("gps")), "two_compartment.toml"))
     assert tuple(s.params) == tuple(f.params) and set(s.outputs) == {"x1"}
     rng = np.random.default_rng(0)
     for _ in range(5):
@@ -68,7 +68,7 @@ def test_from_sympy_with_params_matches_the_model_file(tmp_path):
         np.testing.assert_allclose(s.known["u"](x, p), f.known["u"](x, p), rtol=1e-14)
     path = str(tmp_path / "s.toml")
     uj.save_model(s, path)
-    assert uj.load_model_file(path).source == s.source
+    assert uj.load_system(path).source == s.source
 
 
 def test_from_sympy_errors(monkeypatch):
@@ -154,10 +154,10 @@ def test_shipped_model_loads_and_matches_sympy(name):
 
 @needs_strikepy
 def test_non_affine_inputs_of_p53_and_ts_are_promoted():
-    p53 = uj.load_strikepy(model_path("p53"))
+    p53 = load_strikepy(model_path("p53"))
     assert p53.states[-1] == "u1" and set(p53.known) == {"d_u1"} and "u1" in p53.outputs
     assert any("known input 'u1' enters the dynamics non-affinely" in n for n in p53.notes)
-    ts = uj.load_strikepy(model_path("TS_unknown_inputs_reparameterized"))
+    ts = load_strikepy(model_path("TS_unknown_inputs_reparameterized"))
     assert ts.states[-2:] == ("w1", "w2") and set(ts.unknown) == {"d_w1", "d_w2"} and not ts.known
     assert sum("promoted to a state" in n for n in ts.notes) == 2
 
@@ -179,7 +179,7 @@ def test_known_constants_and_aliases():
 @needs_strikepy
 @pytest.mark.parametrize("name", ["1A_integral", "p53", "TS_unknown_inputs_reparameterized"])
 def test_strikepy_model_converts_to_toml(tmp_path, name):
-    system = uj.load_strikepy(model_path(name))
+    system = load_strikepy(model_path(name))
     path = str(tmp_path / f"{name}.toml")
     uj.save_model(system, path)
     back = uj.load_system(path)
@@ -194,9 +194,9 @@ def test_cr_scaling_symmetry_and_c2m_identifiability():
     ratios (s1 x0)/(1 + s2 x0) and (2 k x0)/(1 + s2 x0) are seen (rank 2 of 4), nothing is
     identifiable or observable. C2M (y = x1, input gain b unknown): the transfer function
     b (s + k21) / (s^2 + (k1e + k12 + k21) s + k1e k21) gives all four parameters."""
-    cr = uj.analyze(uj.load_strikepy(model_path("CR")), samples=256)
+    cr = uj.analyze(load_strikepy(model_path("CR")), samples=256)
     assert cr.dim == 2 and not any(cr.observable.values()) and not any(cr.identifiable.values())
-    c2m = uj.analyze(uj.load_strikepy(model_path("C2M")), samples=256)
+    c2m = uj.analyze(load_strikepy(model_path("C2M")), samples=256)
     assert c2m.fully_observable and all(c2m.identifiable.values()) and len(c2m.identifiable) == 4
 
 
@@ -211,7 +211,7 @@ TOO_BIG_TO_ANALYZE = {"Arabidopsis"}
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [m for m in SHIPPED if m not in TOO_BIG_TO_ANALYZE])
 def test_shipped_model_analyzes(name):
-    rep = uj.analyze(uj.load_strikepy(model_path(name)), samples=256)
+    rep = uj.analyze(load_strikepy(model_path(name)), samples=256)
     assert rep.dim >= 1 and rep.certificate.used > 0
 
 
@@ -267,7 +267,7 @@ def test_broken_strikepy_modules(tmp_path, change, fragment):
     text = GOOD.replace(old, new)
     path = _write(tmp_path, text)
     with pytest.raises(uj.UioJaxError) as info:
-        uj.load_strikepy(path)
+        load_strikepy(path)
     msg = str(info.value)
     assert "\n" not in msg and path in msg and fragment in msg
 
@@ -275,10 +275,10 @@ def test_broken_strikepy_modules(tmp_path, change, fragment):
 def test_inlining_cannot_blow_up(tmp_path):
     text = GOOD.replace("h = [x1]", "a = x1*x1\n" + "a = a*a\n" * 60 + "h = [a]")
     with pytest.raises(uj.LoadError, match=r"line \d+: too large"):
-        uj.load_strikepy(_write(tmp_path, text))
+        load_strikepy(_write(tmp_path, text))
     text = GOOD.replace("h = [x1]", "a = x1\n" + "a = a + x1\n" * 500 + "h = [a]")
     with pytest.raises(uj.LoadError, match="nested too deeply"):
-        uj.load_strikepy(_write(tmp_path, text))
+        load_strikepy(_write(tmp_path, text))
 
 
 def test_load_system_dispatch(tmp_path):

@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 
 import uio_jax as uj
-from uio_jax import _lie
-from uio_jax._generators import builder_for
+from uio_jax._calculus import lie as _lie
+from uio_jax._calculus.generators import builder_for
 
 
 def h(x):

@@ -11,7 +11,7 @@ import tomllib
 from helpers import ROOT, SAMPLES, published, zoo_report, zoo_system
 
 import uio_jax as uj
-from uio_jax._model_file import ModelSpec, build_system, read_model_file, spec_from_dict, to_toml
+from uio_jax._io.model_file import ModelSpec, build_system, load_model_file, read_model_file, spec_from_dict, to_toml
 
 SYSTEMS = os.path.join(ROOT, "systems")
 UNICYCLE = os.path.join(SYSTEMS, "unicycle_range_v_unknown.toml")
@@ -30,7 +30,7 @@ def analyze(system):
 @functools.cache
 def file_report(path):
     """Report of a model file, computed once per session."""
-    return analyze(uj.load_model_file(path))
+    return analyze(uj.load_system(path))
 
 
 def write(tmp_path, text, name="m.toml"):
@@ -71,7 +71,7 @@ x2 = "-x2 + a*x1"
 
 # ----------------------------------------------------------------------------- examples
 def test_unicycle_toml_matches_the_zoo_lambda_version():
-    sys = uj.load_model_file(UNICYCLE)
+    sys = uj.load_system(UNICYCLE)
     assert sys.name == "unicycle_range_v_unknown"
     assert isinstance(sys.source, ModelSpec)
     rep = file_report(UNICYCLE)
@@ -84,7 +84,7 @@ def test_unicycle_toml_matches_the_zoo_lambda_version():
 
 def test_general_form_gives_the_same_system_as_the_affine_form():
     g = build_system(spec_from_dict(tomllib.loads(GENERAL), "general"))
-    a = uj.load_model_file(UNICYCLE)
+    a = uj.load_system(UNICYCLE)
     assert g.drift is None  # v*cos(.) at v = 0 vanishes exactly: no drift, single_ui applies
     x = np.array([1.2, 0.3, -0.4])
     for fields_g, fields_a in ((g.known, a.known), (g.unknown, a.unknown)):
@@ -116,7 +116,7 @@ def test_pendulum_damping_is_hidden_by_the_unknown_torque():
 def _round_trip(system, tmp_path, suffix):
     path = str(tmp_path / f"model{suffix}")
     uj.save_model(system, path)
-    back = uj.load_model_file(path)
+    back = uj.load_system(path)
     assert back.source == system.source or back.source.to_dict() == {
         **system.source.to_dict(), **({"name": system.name} if system.name else {})}
     return back
@@ -136,7 +136,7 @@ def test_save_and_load_give_the_same_report(tmp_path_factory, suffix, which):
             fh.write(PROMOTED)
     else:
         path = UNICYCLE if which == "unicycle" else TWO_COMPARTMENT
-    sys = uj.load_model_file(path)
+    sys = uj.load_system(path)
     back = _round_trip(sys, tmp_path_factory.mktemp("out"), suffix)
     assert back.states == sys.states and tuple(back.params) == tuple(sys.params)
     assert back.notes == sys.notes
@@ -167,7 +167,7 @@ v = "-k*cos(θ)"
     out = to_toml(spec.to_dict())
     assert spec_from_dict(tomllib.loads(out), "again") == spec
     assert spec_from_dict(json.loads(json.dumps(spec.to_dict())), "again") == spec
-    sys = uj.load_model_file(write(tmp_path, text))
+    sys = uj.load_system(write(tmp_path, text))
     back = _round_trip(sys, tmp_path, ".toml")
     assert back.source == spec
 
@@ -177,12 +177,12 @@ def test_python_systems_cannot_be_written(tmp_path):
     with pytest.raises(uj.ModelError, match="made of Python functions and cannot be written"):
         uj.save_model(sys, str(tmp_path / "m.toml"))
     with pytest.raises(uj.ModelError, match="must end in .toml or .json"):
-        uj.save_model(uj.load_model_file(UNICYCLE), str(tmp_path / "m.yaml"))
+        uj.save_model(uj.load_system(UNICYCLE), str(tmp_path / "m.yaml"))
 
 
 # ----------------------------------------------------------------------------- promotion
 def test_non_affine_inputs_are_promoted_with_notes(tmp_path):
-    sys = uj.load_model_file(write(tmp_path, PROMOTED))
+    sys = uj.load_system(write(tmp_path, PROMOTED))
     # u**2: u becomes a measured state driven by d_u; w*x1 is affine in w
     assert sys.states == ("x1", "x2", "u")
     assert set(sys.known) == {"a", "d_u"} and not sys.unknown
@@ -207,7 +207,7 @@ unknown = ["w", "s"]
 [dynamics]
 x = "a*w - x + Abs(s)"
 """
-    sys = uj.load_model_file(write(tmp_path, text))
+    sys = uj.load_system(write(tmp_path, text))
     notes = " | ".join(sys.notes)
     assert "'unused' appears in no equation: dropped" in notes
     assert "known input 'c' appears in an output" in notes
@@ -222,7 +222,7 @@ x = "a*w - x + Abs(s)"
 
 def test_drift_entries_that_are_zero_give_no_drift(tmp_path):
     text = 'states = ["x"]\n[outputs]\ny = "x"\n[drift]\nx = "0"\n[unknown.w]\nx = "1"\n'
-    assert uj.load_model_file(write(tmp_path, text)).drift is None
+    assert uj.load_system(write(tmp_path, text)).drift is None
 
 
 # ----------------------------------------------------------------------------- errors
@@ -286,10 +286,12 @@ def test_missing_and_unknown_files(tmp_path):
     with pytest.raises(uj.LoadError, match="model file not found"):
         uj.load_system(str(tmp_path / "nope.toml"))
     with pytest.raises(uj.LoadError, match="must end in .toml or .json"):
-        uj.load_model_file(str(tmp_path / "nope.yaml"))
+        load_model_file(str(tmp_path / "nope.yaml"))
+    with pytest.raises(uj.LoadError, match="FILE.py:NAME, MODEL.toml, MODEL.json or a StrikePy MODEL.py"):
+        uj.load_system(str(tmp_path / "nope.yaml"))
     (tmp_path / "bin.toml").write_bytes(b"\xff\xfe")
     with pytest.raises(uj.LoadError, match="not UTF-8"):
-        uj.load_model_file(str(tmp_path / "bin.toml"))
+        uj.load_system(str(tmp_path / "bin.toml"))
 
 
 def test_cli_analyzes_a_model_file(capsys):

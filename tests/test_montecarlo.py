@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from conftest import zoo
 
+import uio_jax as uj
 from uio_jax import cli
 from uio_jax._errors import ModelError, OptionError
-from uio_jax._loading import load_module
-from uio_jax._montecarlo import run_montecarlo
+from uio_jax._filter.montecarlo import run_montecarlo
+from uio_jax._io.loading import load_module
 
 UNI = load_module(zoo("unicycle_disturbance.py"))
 VEH = load_module(zoo("vehicle_wind.py"))
@@ -82,7 +83,7 @@ def test_vehicle_without_wind_only_the_distance_converges():
 def test_compare_with_analysis_range_gamma_known():
     """Beside the analysis (single_ui on the outputs read): every row agrees."""
     res = run_montecarlo(UNI.range_gamma_known_experiment(), 64, seed=0, keep=0)
-    cmp = res.compare(samples=256)
+    cmp = res.compare(uj.analyze(res.experiment.analysis_system(), samples=256))
     assert cmp["analysis"] is not None, cmp["note"]  # single_ui is available
     assert cmp["analysis"] == "single_ui"
     assert all(r["observable"] for r in cmp["states"].values())
@@ -104,7 +105,7 @@ def test_bad_inputs_raise_one_line_errors():
 def test_filter_nan_midway_is_one_line_error():
     import jax.numpy as jnp
 
-    from uio_jax._experiment import Measurement
+    from uio_jax._model.experiment import Measurement
 
     exp = UNI.range_gamma_known_experiment()
     # finite at the start (xv = 1), NaN once the vehicle has moved
@@ -191,8 +192,8 @@ def test_sharded_equals_single_device(tmp_path):
     code = (
         "import jax, numpy as np\n"
         "jax.config.update('jax_num_cpu_devices', 2)\n"
-        "from uio_jax._loading import load_module\n"
-        "from uio_jax._montecarlo import run_montecarlo\n"
+        "from uio_jax._io.loading import load_module\n"
+        "from uio_jax._filter.montecarlo import run_montecarlo\n"
         f"m = load_module({zoo('unicycle_disturbance.py')!r})\n"
         "exp = m.range_gamma_known_experiment().with_(n_steps=2000)\n"
         "assert len(jax.devices()) == 2\n"

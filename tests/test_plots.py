@@ -5,9 +5,9 @@ import pytest
 from conftest import zoo
 
 from uio_jax._errors import OptionError
-from uio_jax._loading import load_module
-from uio_jax._montecarlo import run_montecarlo
-from uio_jax._plots import plot_errors, plot_montecarlo, plot_nees, plot_trajectories
+from uio_jax._filter.montecarlo import run_montecarlo
+from uio_jax._filter.plots import plot_errors, plot_montecarlo, plot_nees, plot_trajectories
+from uio_jax._io.loading import load_module
 
 UNI = load_module(zoo("unicycle_disturbance.py"))
 

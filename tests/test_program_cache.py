@@ -8,9 +8,9 @@ import pytest
 from helpers import zoo_system
 
 import uio_jax as uj
-from uio_jax import _program_cache
-from uio_jax._compile_cache import compile_cache
-from uio_jax._generators import jaxpr_sizes
+from uio_jax._calculus.generators import jaxpr_sizes
+from uio_jax._engine import program_cache as _program_cache
+from uio_jax._engine.compile_cache import compile_cache
 
 
 def _programs(cache_dir):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._rank import decide_increase
+from uio_jax._analysis.rank import decide_increase, decide_rank, default_rtol
 
 
 def _spectra(ranks, m=5, seed=0):
@@ -22,7 +22,7 @@ def _spectra(ranks, m=5, seed=0):
 
 def test_decide_rank_resists_drops_and_fakes():
     ranks = [3] * 90 + [2] * 5 + [4] * 5  # 5% near the singular set, 5% faked by round-off
-    d = uj.decide_rank(_spectra(ranks), np.ones(100, bool), 1e-8)
+    d = decide_rank(_spectra(ranks), np.ones(100, bool), 1e-8)
     assert d.rank == 3
     assert d.fraction == pytest.approx(0.9)
     assert d.sigma_r_min >= 1e-3 and d.sigma_next_max <= 1e-13
@@ -32,7 +32,7 @@ def test_decide_rank_resists_drops_and_fakes():
 def test_decide_rank_ignores_invalid_samples():
     ranks = [2] * 10 + [4] * 30
     valid = np.array([True] * 10 + [False] * 30)
-    assert uj.decide_rank(_spectra(ranks), valid, 1e-8).rank == 2
+    assert decide_rank(_spectra(ranks), valid, 1e-8).rank == 2
 
 
 def test_decide_increase_majority_and_margins():
@@ -109,12 +109,12 @@ def test_samples_where_the_model_is_undefined_are_dropped_and_counted():
 def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     """``test_units`` (residuals of every e_j from ``I - B^T B``) equals ``test`` of the
     unit covectors; ``contains`` and ``absorb`` accept either without re-testing."""
-    from uio_jax._generators import Node
-    from uio_jax._rank import Codistribution
+    from uio_jax._analysis.rank import Codistribution
+    from uio_jax._calculus.generators import Node
 
     rng = np.random.default_rng(1)
     S, n = 300, 6
-    codist = Codistribution(n, S, rng.uniform(0.5, 2.0, n), uj.default_rtol())
+    codist = Codistribution(n, S, rng.uniform(0.5, 2.0, n), default_rtol())
     g = rng.normal(size=(S, 3, n))
     g[:, 0, 3:] = g[:, 1, 3:] = 0.0  # the span lies in span{e_1, e_2, e_3}
     g[:, 2] = g[:, 0] + 2.0 * g[:, 1]  # dependent: rank 2

@@ -10,8 +10,10 @@ import pytest
 from helpers import zoo_path, zoo_report
 
 import uio_jax as uj
-from uio_jax import _generators, _series, cli
-from uio_jax._context import Context
+from uio_jax import cli
+from uio_jax._analysis import series as _series
+from uio_jax._analysis.context import Context
+from uio_jax._calculus import generators as _generators
 
 SAMPLES = 512
 

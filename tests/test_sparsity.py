@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from conftest import zoo
 
-from uio_jax._ekf import make_model
-from uio_jax._loading import load_module
-from uio_jax._sparsity import jacobian_pattern, structural_zeros
+from uio_jax._engine.sparsity import jacobian_pattern, structural_zeros
+from uio_jax._filter.ekf import make_model
+from uio_jax._io.loading import load_module
 
 
 def _numeric_pattern(fn, q, points=6, seed=0):
@@ -77,7 +77,7 @@ def test_loops_are_not_read_as_calls():
 
 
 def test_an_unreadable_jaxpr_gives_the_dense_pattern(monkeypatch):
-    from uio_jax import _sparsity
+    from uio_jax._engine import sparsity as _sparsity
 
     def broken(*args):
         raise ValueError("a rule that fails")

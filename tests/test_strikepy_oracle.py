@@ -3,7 +3,7 @@
 For each small known-input model in StrikePy's format (``tests/data/strikepy_models/``, re-typed
 from the models shipped with StrikePy 1.0), the test
 
-* reads the file with the project's importer (``uio_jax._strikepy_import.load_strikepy``) and
+* reads the file with the project's importer (``uio_jax._io.strikepy_import.load_strikepy``) and
   analyses it (``uj.analyze``, ``method="auto"``, which is the ORC on ``z = [x; p]``);
 * evaluates the same file independently with sympy (``runpy``; the file is trusted test data)
   and builds the Hermann-Krener codistribution of the joint system ``z = [x; p]``,
@@ -239,7 +239,7 @@ def _params():
 
 @pytest.mark.parametrize("name", _params())
 def test_importer_and_analysis_match_the_sympy_oracle(name):
-    from uio_jax._strikepy_import import load_strikepy
+    from uio_jax._io.strikepy_import import load_strikepy
 
     path = DATA / f"{name}.py"
     obs, ident, dim = hk_oracle(_read_model(path))

@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from uio_jax._taylor import flow_series
-from uio_jax._taylor_flow import flow_coefficients
+from uio_jax._engine.taylor import flow_series
+from uio_jax._engine.taylor_flow import flow_coefficients
 
 
 def _field(x):
@@ -100,7 +100,7 @@ def test_parameters_are_constants_of_the_recurrence():
     """States with a structurally zero derivative are found, and treating them as constants
     (fewer carried stacks: products with them are linear) gives the same values and
     Jacobians as the recurrence without that knowledge and as the stacked passes."""
-    from uio_jax._taylor_flow import constant_states
+    from uio_jax._engine.taylor_flow import constant_states
 
     z = jnp.array([0.7, 1.1, 0.9, 1.3, 0.6, 1.7])
     np.testing.assert_array_equal(constant_states(_field_with_parameters, z), [0, 0, 0, 1, 1, 1])

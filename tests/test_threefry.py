@@ -1,11 +1,11 @@
-"""The unrolled threefry of uio_jax._threefry gives jax.random's numbers bit for bit."""
+"""The unrolled threefry of uio_jax._engine.threefry gives jax.random's numbers bit for bit."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from uio_jax import _threefry as threefry
+from uio_jax._engine import threefry
 
 SEEDS = [0, 1, 12345, 2**31 + 7, 2**32 - 1, 2**40 + 3]
 DATA = [0, 1, 77, 4095, 2**31, 2**32 - 1]

@@ -1,49 +1,73 @@
 """uio_jax: which states of a nonlinear system can be estimated when inputs are unknown.
 
-Public API (see DESIGN.md section 2)::
+Public API (the names below are a contract; everything under ``uio_jax._*`` is private)::
 
     import uio_jax as uj
     sys = uj.System(states=..., outputs=..., known=..., unknown=..., drift=..., domain=...)
     rep = uj.analyze(sys, method="auto", samples=4096, seed=0)
+
+The implementation lives in private layers (README, "Layout"): ``_model`` <- ``_engine`` <-
+``_calculus`` <- ``_analysis``; ``_filter``; ``_io``; ``_batch``; ``cli``.
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _version
 
-from ._analysis_plots import plot_analysis as plot_analysis
-from ._analyze import analyze as analyze
-from ._batch import BatchResult as BatchResult
-from ._batch import BatchRow as BatchRow
-from ._batch import batch_analyze as batch_analyze
-from ._compile_cache import enable_compile_cache as enable_compile_cache
-from ._errors import LoadError as LoadError
+# the model
+from ._model.system import System as System
+from ._model.experiment import Experiment as Experiment
+from ._model.experiment import Measurement as Measurement
+from ._model.experiment import Quantity as Quantity
+
+# the analyses and their report
+from ._analysis.analyze import analyze as analyze
+from ._analysis.report import Report as Report
+from ._analysis.report import Step as Step
+from ._analysis.report import Certificate as Certificate
+from ._analysis.plots import plot_analysis as plot_analysis
+
+# Monte Carlo filtering
+from ._filter.montecarlo import run_montecarlo as run_montecarlo
+from ._filter.montecarlo import trajectories as trajectories
+from ._filter.result import MonteCarloResult as MonteCarloResult
+from ._filter.plots import plot_montecarlo as plot_montecarlo
+from ._filter.plots import plot_trajectories as plot_trajectories
+from ._filter.plots import plot_errors as plot_errors
+from ._filter.plots import plot_nees as plot_nees
+
+# loading and saving models
+from ._io.loading import load_system as load_system
+from ._io.model_file import save_model as save_model
+from ._io.experiment_loading import load_experiment as load_experiment
+from ._io import sympy_import as _sympy_import  # noqa: F401  (installs System.from_sympy)
+
+# many models at once
+from ._batch.batch import batch_analyze as batch_analyze
+from ._batch.batch import BatchResult as BatchResult
+from ._batch.batch import BatchRow as BatchRow
+
+# the compilation cache
+from ._engine.compile_cache import enable_compile_cache as enable_compile_cache
+
+# errors
+from ._errors import UioJaxError as UioJaxError
 from ._errors import ModelError as ModelError
 from ._errors import OptionError as OptionError
-from ._errors import UioJaxError as UioJaxError
-from ._experiment import Experiment as Experiment
-from ._experiment import Measurement as Measurement
-from ._experiment import Quantity as Quantity
-from ._expressions import ExpressionError as ExpressionError
-from ._loading import load_system as load_system
-from ._model_file import load_model_file as load_model_file
-from ._model_file import save_model as save_model
-from ._montecarlo import run_montecarlo as run_montecarlo
-from ._montecarlo import trajectories as trajectories
-from ._montecarlo_cli import load_experiment as load_experiment
-from ._plots import plot_errors as plot_errors
-from ._plots import plot_montecarlo as plot_montecarlo
-from ._plots import plot_nees as plot_nees
-from ._plots import plot_trajectories as plot_trajectories
-from ._rank import RankDecision as RankDecision
-from ._rank import decide_rank as decide_rank
-from ._rank import default_rtol as default_rtol
-from ._report import Certificate as Certificate
-from ._report import Report as Report
-from ._report import Step as Step
-from ._result import MonteCarloResult as MonteCarloResult
-from ._strikepy_import import load_strikepy as load_strikepy
-from ._system import System as System
+from ._errors import LoadError as LoadError
+from ._errors import ExpressionError as ExpressionError
+
+__all__ = [
+    "System", "Experiment", "Measurement", "Quantity",
+    "analyze", "Report", "Step", "Certificate", "plot_analysis",
+    "run_montecarlo", "trajectories", "MonteCarloResult",
+    "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
+    "load_system", "save_model", "load_experiment",
+    "batch_analyze", "BatchResult", "BatchRow",
+    "enable_compile_cache",
+    "UioJaxError", "ModelError", "OptionError", "LoadError", "ExpressionError",
+]
 
 try:
-    __version__ = version("uio_jax")
-except PackageNotFoundError:  # running from a source tree
+    __version__ = _version("uio_jax")
+except _PackageNotFoundError:  # running from a source tree
     __version__ = "0.0.0"

@@ -20,3 +20,7 @@ class OptionError(UioJaxError):
 
 class LoadError(UioJaxError):
     """A model file or entry point could not be loaded."""
+
+
+class ExpressionError(ModelError):
+    """An expression of a model file is not valid or uses something outside the whitelist."""

@@ -1,0 +1,247 @@
+"""Shared machinery of the analyses: samples, memoized nodes, the growing codistribution.
+
+Each recursion (ORC, single unknown input, EORC) is a Python loop over steps m (bounded
+by n + 2); inside a step the new candidate generators are evaluated in one jitted,
+vmapped call and pruned by :class:`~uio_jax._rank.Codistribution`.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._calculus.generators import Node, builder_for
+from .._errors import ModelError
+from .._model.sampling import sample_states
+from .._progress import announce_step
+from .rank import Codistribution
+from .report import Certificate, Report, Step
+
+
+class Context:
+    """Samples, node builder and codistribution of one analysis of one System.
+
+    Args:
+        system: the System whose state the codistribution lives on.
+        samples: number of sampled states S.
+        seed: seed of the samples.
+        rtol: rank tolerance.
+    """
+
+    def __init__(self, system, samples, seed, rtol):
+        self.system = system
+        self.builder = builder_for(system)
+        self.samples = samples
+        with jax.enable_x64(True):
+            self._start(sample_states(system, samples, seed), rtol)
+
+    def _start(self, xs, rtol):
+        """Samples ``xs`` ``(S, n)`` and an empty codistribution on them."""
+        self.xs = xs
+        lo, hi = self.system.box()
+        self.codist = Codistribution(self.system.n, self.samples, hi - lo, rtol)
+        self.memberships = []  # RankDecisions of membership tests (for the certificate)
+        self._decided_before = (0, 0)  # acceptances, rejections at the last step()
+        self._grads = {}  # Node -> (S, n) gradient at the samples
+
+    def subset(self, samples: int) -> "Context":
+        """A fresh Context (empty codistribution, same builder) on the first ``samples``
+        of these samples: a cheap preview of an analysis, e.g. to plan its evaluations."""
+        sub = Context.__new__(Context)
+        sub.system, sub.builder = self.system, self.builder
+        sub.samples = min(int(samples), self.samples)
+        sub._start(self.xs[:sub.samples], self.codist.rtol)
+        return sub
+
+    # -------------------------------------------------------------- nodes
+    def output_nodes(self) -> list[Node]:
+        return [self.builder.scalar(k, fn) for k, fn in self.system.outputs.items()]
+
+    def field_node(self, label) -> Node:
+        return self.builder.field(label, self.system.fields()[label])
+
+    @property
+    def dim(self) -> int:
+        return self.codist.rank
+
+    # -------------------------------------------------------------- evaluation
+    def gradients(self, nodes) -> np.ndarray:
+        """Gradients of scalar nodes at the samples, ``(S, c, n)`` (cached per node)."""
+        nodes = list(nodes)
+        missing = [nd for nd in dict.fromkeys(nodes) if nd not in self._grads]
+        if missing:
+            grads = self.builder.gradients(missing, self.xs)
+            for i, nd in enumerate(missing):
+                self._grads[nd] = grads[:, i]
+        return np.stack([self._grads[nd] for nd in nodes], axis=1)
+
+    def remember_gradients(self, nodes, grads) -> None:
+        """Keep gradients ``(S, c, n)`` of ``nodes`` evaluated elsewhere (no re-evaluation)."""
+        for i, nd in enumerate(nodes):
+            self._grads.setdefault(nd, grads[:, i])
+
+    def absorb(self, nodes, grads=None) -> list[Node]:
+        """Keep the candidate nodes that raise the generic rank.
+
+        Args:
+            nodes: scalar Nodes.
+            grads: their gradients ``(S, c, n)`` if already evaluated.
+        """
+        nodes = list(nodes)
+        if not nodes:
+            return []
+        if grads is None:
+            grads = self.gradients(nodes)
+        try:
+            return self.codist.absorb(nodes, grads)
+        except FloatingPointError:
+            bad = [nd.label for i, nd in enumerate(nodes)
+                   if not np.isfinite(grads[:, i]).any()]
+            what = f"generator {bad[0]!r}" if bad else "the generators"
+            raise ModelError(
+                f"{what} is NaN/inf at every sampled state: check the model and its domain"
+            ) from None
+
+    def absorb_lie(self, phis, field_nodes) -> list[Node]:
+        """Form every ``L_v phi`` (phi in ``phis``, v in ``field_nodes``) and absorb them."""
+        nodes, grads = self.lie_block(phis, field_nodes)
+        return self.absorb(nodes, grads)
+
+    def lie_block(self, phis, field_nodes):
+        """Nodes ``L_v phi`` and their gradients ``(S, c, n)`` (cached per node)."""
+        nodes, grads = self.builder.lie_block(phis, field_nodes, self.xs)
+        self.remember_gradients(nodes, grads)
+        return nodes, grads
+
+    def contains(self, covectors) -> list[bool]:
+        """Membership of covector families ``(C, S, n)``; evidence goes to the certificate."""
+        results = self.codist.contains(np.asarray(covectors))
+        self.memberships.extend(results)
+        return [member for member, _ in results]
+
+    def contains_nodes(self, nodes) -> list[bool]:
+        """Whether the gradients of scalar nodes lie in the span."""
+        grads = self.gradients(list(nodes))
+        return self.contains(np.moveaxis(grads, 1, 0))
+
+    def observable_states(self) -> dict[str, bool]:
+        """State name -> ``e_j`` in the span (one test of every unit covector)."""
+        results = self.codist.contains(None, self.codist.test_units(self.system.n))
+        self.memberships.extend(results)
+        return dict(zip(self.system.states, [member for member, _ in results]))
+
+    def step(self, m, added, **extra) -> Step:
+        """A history entry for the current state of the codistribution.
+
+        ``Step.fraction`` is the smallest agreeing fraction among the rank decisions taken
+        since the previous step (candidates kept and candidates rejected; 1.0 if none): the
+        evidence the step rests on, free, where an SVD of the whole span at every step
+        would cost ``O(S r^2 n)`` each (5 of Arabidopsis' 28 s). The final span gets its
+        SVD once, in :meth:`certificate`.
+        """
+        cd = self.codist
+        a, r = self._decided_before
+        decided = cd.acceptances[a:] + cd.rejections[r:]
+        self._decided_before = (len(cd.acceptances), len(cd.rejections))
+        fraction = min((d.fraction for d in decided), default=1.0)
+        return announce_step(Step(m, self.dim, tuple(nd.label for nd in added), fraction, extra))
+
+    # -------------------------------------------------------------- results
+    def certificate(self) -> Certificate:
+        cd = self.codist
+        final = cd.decision()
+        counted = cd.acceptances + [d for m, d in self.memberships if not m]
+        pruned = cd.rejections + [d for m, d in self.memberships if m]
+        everything = counted + pruned
+        used = int(cd.valid.sum())
+        return Certificate(
+            samples=self.samples,
+            used=used,
+            dropped=self.samples - used,
+            fraction=final.fraction,
+            min_fraction=min(d.fraction for d in everything),
+            sigma_r_min=min((d.sigma_r_min for d in counted), default=1.0),
+            conditioning=final.sigma_r_min,
+            sigma_next_max=max((d.sigma_next_max for d in pruned), default=0.0),
+            rtol=cd.rtol,
+            decisions=len(everything),
+        )
+
+    def report(self, method, history, stop_reason, *, notes=(), details=None,
+               system=None, dim=None, observable=None, space=None) -> Report:
+        """Build the Report: certificate, weak-certificate note, generators.
+
+        ``system``, ``dim``, ``observable`` and ``space`` default to this context's own
+        (the EORC passes the original system and its projections of the extended space).
+        """
+        system = system or self.system
+        if observable is None:
+            observable = self.observable_states()
+        notes = list(system.notes) + list(notes)
+        cert = self.certificate()
+        if cert.min_fraction < 0.5:
+            notes.append(
+                f"weak certificate: a rank decision was backed by only "
+                f"{100 * cert.min_fraction:.0f}% of the samples; try more samples or a "
+                "smaller domain away from singular states"
+            )
+        return Report(
+            method=method,
+            states=system.states,
+            dim=self.dim if dim is None else dim,
+            observable=observable,
+            history=tuple(history),
+            certificate=cert,
+            generators=tuple(nd.label for nd in self.codist.nodes),
+            stop_reason=stop_reason,
+            notes=tuple(notes),
+            details=details or {},
+            system_name=system.name,
+            params=system.joint_param_names,
+            _space=SampledSpace(self) if space is None else space,
+        )
+
+
+class SampledSpace:
+    """The final codistribution of a Context, queried by a Report."""
+
+    def __init__(self, ctx: Context):
+        self._ctx = ctx
+        self._nodes = tuple(ctx.codist.nodes)
+
+    def unobservable_directions(self, x) -> np.ndarray:
+        n = self._ctx.system.n
+        x = np.asarray(x, dtype=np.float64)
+        if x.shape != (n,):
+            raise ModelError(f"state must have shape ({n},), got {x.shape}")
+        if not np.isfinite(x).all():
+            raise ModelError("state contains NaN/inf")
+        r = len(self._nodes)
+        if r == 0:
+            return np.eye(n)
+        with jax.enable_x64(True):
+            g = self._ctx.builder.gradients(self._nodes, jnp.asarray(x)[None])[0]
+        if not np.isfinite(g).all():
+            raise ModelError("the codistribution is not defined at this state (NaN/inf)")
+        g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+        _, _, vt = np.linalg.svd(g)
+        return vt[r:].T.copy()
+
+    def sample_singular_values(self) -> np.ndarray:
+        return self._ctx.codist.sample_ratios()
+
+    def is_observable(self, fn) -> bool:
+        if not callable(fn):
+            raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
+        n = self._ctx.system.n
+        with jax.enable_x64(True):
+            try:
+                out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
+            except Exception as exc:
+                raise ModelError(f"function fails on a state of length {n}: "
+                                 f"{type(exc).__name__}") from None
+        if getattr(out, "shape", None) != ():
+            raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
+        node = Node(getattr(fn, "__name__", "fn"), fn, "scalar")
+        grads = self._ctx.gradients([node])  # (S, 1, n)
+        member, _ = self._ctx.codist.contains(np.moveaxis(grads, 1, 0))[0]
+        return bool(member)

@@ -1,0 +1,235 @@
+"""Generic-input output series: the rank test of STRIKE-GOLDD / StrikePy, without nested brackets.
+
+For a system without unknown inputs, ``x' = f0(x) + sum_i f_i(x) u_i(t)``, ``y = h(x)``
+(parameters included as states with ``p' = 0``), take the known inputs to be a *generic*
+analytic input: ``u_i(t) = sum_k a_ik t^k`` with random coefficients ``a_ik`` drawn once
+from the seed. Along the solution from ``x``, the output has the Taylor series
+``y(t) = sum_k y_k(x) t^k`` with ``y_k = y^(k)(0) / k!``; ``y^(k)`` is the k-th time
+derivative of the output, the function whose gradient STRIKE-GOLDD stacks into its
+observability-identifiability matrix (there with symbolic ``u, u', ..., u^(k-1)``).
+The rank at order K is
+
+    r_K = rank [ dy_0 ; dy_1 ; ... ; dy_K ]    (p (K + 1) rows, n columns)
+
+evaluated at every sampled state and certified like every other rank of the package.
+For generic inputs ``r_K`` reaches the dimension of the observation space of
+Hermann-Krener (the ORC's final codistribution): the ORC and this test give the same
+final dimension and the same observable states, but the steps differ (ORC step m holds
+every Lie derivative of order <= m along each field separately; order K here holds only
+the combinations that appear in ``y^(K)``). Sedoglavic (2002), "A probabilistic algorithm
+to test local algebraic observability in polynomial time", uses the same test.
+
+Stopping: the increments ``r_K - r_(K-1)`` never increase (the observability indices of
+the output filtration), so the first order that adds nothing closes the span; otherwise
+the rank reaches n, or the cap (``max_order``, default n) is hit.
+
+Cost: all coefficients up to order K come from one univariate Taylor pass
+(the coefficient recurrence of :mod:`uio_jax._taylor_flow`, ``O(K^2)`` work per operation
+of the model, F's graph traced once) and one forward-mode Jacobian: no nested
+differentiation, so models whose ORC graphs grow geometrically with the step (tens of
+states and parameters, several fields) take seconds.
+"""
+
+import hashlib
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._calculus.generators import Node
+from .._engine.taylor import taylor
+from .._engine.taylor_flow import flow_coefficients
+from .._errors import OptionError
+from .._progress import step_listener
+from .context import Context
+
+
+def check_applicable(system) -> None:
+    """The series test needs every input known (unknown inputs: single_ui or EORC)."""
+    if system.unknown:
+        raise OptionError(
+            f"method 'series' needs every input known, but {', '.join(system.unknown)} is unknown; "
+            "use method='auto' (single_ui or EORC)"
+        )
+
+
+def input_coefficients(system, orders: int, seed: int) -> np.ndarray:
+    """Coefficients ``a`` of shape ``(m_u, orders + 1)`` of the generic input (seeded).
+
+    ``u_i(t) = sum_k a[i, k] t^k``; standard normal coefficients, the same for every
+    sampled state (one generic input; its coefficients avoid the measure-zero set where
+    the rank drops with probability 1).
+    """
+    rng = np.random.default_rng([seed, 0x5E41E5])
+    # order by order, so that a[:, k] does not depend on how many orders are drawn
+    cols = [rng.standard_normal(len(system.known)) for _ in range(orders + 1)]
+    return np.stack(cols, axis=1).reshape(len(system.known), orders + 1)
+
+
+def output_series(system, a, K):
+    """``x -> (K + 1, p)``: normalized Taylor coefficients ``y_k(x)`` of the outputs.
+
+    The flow's coefficients come from the coefficient recurrence of
+    :func:`uio_jax._taylor_flow.flow_coefficients` (``O(K^2)`` per operation of the model),
+    with the generic input entering as a known series; the outputs from one stacked Taylor
+    pass (:func:`uio_jax._taylor.taylor`).
+
+    Args:
+        system: a System without unknown inputs (states only; parameters already joint).
+        a: input coefficients ``(m_u, >= K + 1)`` from :func:`input_coefficients`.
+        K: highest order.
+    """
+    n = system.n
+    drift = system.drift
+    known = tuple(system.known.values())
+    u_series = (jnp.asarray(a[:, :K + 1].T),) if known else ()  # (K + 1, m_u)
+    outputs = tuple(system.outputs.values())
+
+    def field(x, *u):
+        dx = drift(x) if drift is not None else jnp.zeros((n,), x.dtype)
+        for i, f in enumerate(known):
+            dx = dx + f(x) * u[0][i]
+        return dx
+
+    def out(x):
+        return jnp.stack([jnp.asarray(h(x)).reshape(()) for h in outputs])
+
+    def coefficients(x):
+        if K == 0:
+            return out(x)[None]
+        return taylor(out, x, flow_coefficients(field, x, K, known=u_series))
+
+    return coefficients
+
+
+#: From this many samples on, the orders a series test needs are first found on the first
+#: :data:`EXPLORE_SAMPLES` samples (see :func:`run_series`).
+EXPLORE_FROM = 512
+
+#: Samples of the exploring run (a few batches of the streamed programs, which it reuses).
+EXPLORE_SAMPLES = 128
+
+
+class _Series:
+    """Nodes ``y_k[h]`` of one System and generic input, and the programs that evaluate them.
+
+    A program of order K gives the gradients of every ``y_k``, ``k <= K`` (the Taylor pass
+    and its tangents cost the same whatever rows are kept): a request for orders up to
+    ``k_hi`` runs the smallest program made so far that reaches ``k_hi``, else a new one.
+    """
+
+    def __init__(self, ctx: Context, seed: int, cap: int):
+        self.system = ctx.system
+        self.builder = ctx.builder
+        self.a = input_coefficients(self.system, cap + 1, seed)
+        tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
+        self.outs = ctx.output_nodes()
+        self.orders_made = []  # K of every program made
+        self.nodes = {}
+        for k in range(cap + 1):
+            for i, h in enumerate(self.outs):
+                if k == 0:
+                    self.nodes[k, i] = h
+                    continue
+                sig = f"series:{tag}:{k}:{h.sig}" if h.sig else ""
+                self.nodes[k, i] = ctx.builder.node(
+                    ("series", tag, k, h.label),
+                    lambda k=k, i=i, h=h, sig=sig: Node(f"y_{k}[{h.label}]", _coefficient(self.system, self.a, k, i),
+                                                      "scalar", k, sig))
+
+    def gradients(self, ctx: Context, k_lo, k_hi):
+        """Gradients of every ``y_k`` for ``k_lo <= k <= k_hi`` at ``ctx``'s samples:
+        ``(S, (k_hi - k_lo + 1) p, n)``."""
+        p = len(self.outs)
+        K = min((K for K in self.orders_made if K >= k_hi), default=k_hi)
+        if K not in self.orders_made:
+            self.orders_made.append(K)
+        nodes = tuple(self.nodes[k, i] for k in range(K + 1) for i in range(p))
+        coefficients = output_series(self.system, self.a, K)
+
+        def make():
+            return jax.jacfwd(lambda x: coefficients(x).reshape(-1))
+
+        grads = self.builder.program("series", nodes, make, ctx.xs, streamed=True)
+        rows = slice(k_lo * p, (k_hi + 1) * p)
+        ctx.remember_gradients(nodes[rows], grads[:, rows])
+        return nodes[rows], grads[:, rows]
+
+
+def _coefficient(system, a, k, i):
+    """``x -> y_k[i](x)`` (one pass to order k; used for single evaluations)."""
+    coefficients = output_series(system, a, k)
+    return lambda x: coefficients(x)[k, i]
+
+
+def run_series(ctx: Context, *, seed: int, max_order=None):
+    """Absorb ``dy_k`` order by order; returns ``(history, stop_reason, k_reached)``.
+
+    Orders are evaluated in blocks (one Taylor pass from order 0 each). How many orders a
+    model needs is known only at the end; with many samples, a first run on the first
+    :data:`EXPLORE_SAMPLES` samples finds it, so the run on all samples evaluates one
+    program reaching that order (the largest one the exploring run made) instead of a
+    first guess and its continuation. Every rank decision of the result is still taken on
+    all samples, in the same order, so the result is the same as without the exploration.
+    """
+    n = ctx.system.n
+    cap = n if max_order is None else int(max_order)
+    series = _Series(ctx, seed, cap)
+    first = None
+    if ctx.samples >= EXPLORE_FROM:
+        with step_listener(None):  # the exploring run's steps are not the report's
+            _, _, first = _absorb_orders(ctx.subset(EXPLORE_SAMPLES), series, cap, None, record=False)
+    return _absorb_orders(ctx, series, cap, first)
+
+
+def _absorb_orders(ctx, series, cap, first, record=True):
+    """The order-by-order loop of :func:`run_series`; ``first``: the highest order of the
+    first block (None: the fewest orders that could reach rank n); ``record=False``: no
+    history (no rank decision of the whole span per order)."""
+    n, p = ctx.system.n, len(ctx.system.outputs)
+    history = []
+    k, computed, grads_by_k = 0, -1, {}
+    # first block: the fewest orders that could reach rank n, or those the exploring run needed
+    chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
+    added = None
+    while True:
+        if k > computed:
+            if added is not None:
+                # an order adds at most what the last one added (non-increasing increments):
+                # reaching rank n needs at least this many more orders; 2 at least, since
+                # every block re-runs the Taylor pass from order 0
+                chunk = max(2, math.ceil((n - ctx.dim) / len(added)))
+            hi = min(cap, max(k + chunk - 1, k))
+            nodes, grads = series.gradients(ctx, k, hi)
+            for j in range(k, hi + 1):
+                sl = slice((j - k) * p, (j - k + 1) * p)
+                grads_by_k[j] = (nodes[sl], grads[:, sl])
+            computed = hi
+        nodes, grads = grads_by_k.pop(k)
+        added = ctx.absorb(list(nodes), grads)
+        if record:
+            history.append(ctx.step(k, added))
+        if ctx.dim >= n:
+            return history, f"full rank {n} at order {k}", k
+        if not added:
+            return history, f"order {k} adds nothing: span closed", k
+        if k >= cap:
+            return history, f"max_order={cap} reached before convergence", k
+        k += 1
+
+
+def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
+    """Run the generic-input series test on ``ctx`` and build its Report."""
+    check_applicable(ctx.system)
+    history, reason, k = run_series(ctx, seed=seed, max_order=max_order)
+    notes = [why] if why else []
+    if ctx.system.known:
+        notes.append(
+            "series: rank of the output Taylor coefficients y_0..y_K along a generic known input "
+            "(STRIKE-GOLDD's test); its final span equals the ORC's, its per-order dims are not the ORC's steps"
+        )
+    return ctx.report("series", history, reason, notes=notes, details={"order": k})
+
+
+__all__ = ["series_report", "run_series", "output_series", "input_coefficients", "check_applicable"]

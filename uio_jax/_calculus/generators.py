@@ -1,0 +1,375 @@
+"""Labelled, memoized nodes: the scalar functions and vector fields of an analysis.
+
+Every function the recursions build (``L_f h``, ``[phi, g] / L_g^1``, ...) is a
+:class:`Node` with a readable label. The :class:`Builder` memoizes nodes by
+``(operation, operand labels)``, so each closure is created once per System and the jit
+caches keyed on function identity keep hitting across steps and across calls of
+``analyze`` on the same System. The batched gradient evaluator of a tuple of nodes is
+cached the same way.
+"""
+
+import hashlib
+import math
+import weakref
+from dataclasses import dataclass
+
+import jax
+import numpy as np
+
+from .._engine import program_cache as _program_cache
+from . import lie as _lie
+
+
+@dataclass(frozen=True, eq=False)
+class Node:
+    """A scalar function (``kind='scalar'``) or a vector field (``kind='field'``).
+
+    Attributes:
+        label: readable name, e.g. ``"L_f4 h_u"`` or ``"[phi1_v, g]/L_g^1"``.
+        fn: the callable, ``x (n,) -> ()`` or ``(n,)``.
+        kind: ``"scalar"`` or ``"field"``.
+        depth: number of differentiations behind it (a measure of trace size).
+        sig: structural signature (the operation tree down to the model's named outputs
+            and fields, hashed); empty for a node of unknown provenance. Programs of
+            nodes that all have one can be kept on disk (:mod:`uio_jax._program_cache`).
+    """
+
+    label: str
+    fn: object
+    kind: str
+    depth: int = 0
+    sig: str = ""
+
+    def __repr__(self):
+        return f"Node({self.label!r})"
+
+
+class Builder:
+    """Creates and memoizes the nodes of one System."""
+
+    def __init__(self, system=None):
+        self._system = weakref.ref(system) if system is not None else (lambda: None)
+        self._nodes: dict[tuple, Node] = {}
+        self._compiled: dict[tuple, object] = {}
+        self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
+        self.stats: list[CompileStat] = []
+
+    def _get(self, key, make):
+        node = self._nodes.get(key)
+        if node is None:
+            node = make()
+            self._nodes[key] = node
+        return node
+
+    def node(self, key, make) -> Node:
+        """The node memoized under ``key`` (a tuple), created by ``make()`` the first time."""
+        return self._get(key, make)
+
+    def scalar(self, label, fn) -> Node:
+        """A named scalar function given by the user (an output)."""
+        return self._get(("scalar", label), lambda: Node(label, fn, "scalar", sig=_sig("out", label)))
+
+    def field(self, label, fn) -> Node:
+        """A named vector field given by the user."""
+        return self._get(("field", label), lambda: Node(label, fn, "field", sig=_sig("field", label)))
+
+    def lie(self, v: Node, phi: Node) -> Node:
+        """``L_v phi``.
+
+        Repeated derivatives along the same field, ``L_v^j base`` with ``j >=
+        TAYLOR_FROM``, are built as one Taylor pass along the flow of ``v``
+        (:func:`uio_jax._taylor.lie_powers`) instead of ``j`` nested ``jvp``: the traced
+        graph grows linearly in ``j`` instead of geometrically (a 35-state model needs
+        ``j`` ~ 15). A model using a primitive without a Taylor rule keeps the nested form.
+        """
+        key = ("lie", v.label, phi.label)
+        node = self._nodes.get(key)
+        if node is not None:
+            return node
+        base, j = self._powers.get((phi, v.label), (phi, 0))
+        fn = None
+        if j + 1 >= TAYLOR_FROM:
+            fn = _taylor_power(base.fn, v.fn, j + 1, phi.fn)
+        if fn is None:
+            fn = _lie.lie_derivative(phi.fn, v.fn)
+        node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
+                    _sig("lie", v.sig, phi.sig))
+        self._nodes[key] = node
+        self._powers[(node, v.label)] = (base, j + 1)
+        return node
+
+    def bracket(self, a: Node, b: Node) -> Node:
+        """``[a, b]``."""
+        return self._get(
+            ("bracket", a.label, b.label),
+            lambda: Node(
+                f"[{a.label}, {b.label}]",
+                _lie.lie_bracket(a.fn, b.fn),
+                "field",
+                max(a.depth, b.depth) + 1,
+                _sig("bracket", a.sig, b.sig),
+            ),
+        )
+
+    def scaled(self, v: Node, s: Node, label=None) -> Node:
+        """The field ``v / s``."""
+        return self._get(
+            ("scaled", v.label, s.label),
+            lambda: Node(
+                label or f"{_wrap(v.label)}/{_wrap(s.label)}",
+                _lie.scaled_field(v.fn, s.fn),
+                "field",
+                max(v.depth, s.depth),
+                _sig("scaled", v.sig, s.sig),
+            ),
+        )
+
+    def ratio(self, num: Node, den: Node, power=1, label=None) -> Node:
+        """The scalar ``num / den**power``."""
+        return self._get(
+            ("ratio", num.label, den.label, power),
+            lambda: Node(
+                label or f"{_wrap(num.label)}/({den.label})^{power}",
+                _lie.ratio(num.fn, den.fn, power),
+                "scalar",
+                max(num.depth, den.depth),
+                _sig("ratio", num.sig, den.sig, str(power)),
+            ),
+        )
+
+    def _evaluate(self, key, make, xs, streamed=False):
+        """Evaluate the vmapped function ``make()`` at ``xs``, compiling once per key/shape.
+
+        Large graphs (nested Lie derivatives) are compiled with XLA's backend optimization
+        level 0: it roughly halves compile time, which dominates for these one-off
+        functions, at the cost of a slower (still millisecond-scale) execution. With the
+        persistent compilation cache on, the traced program is also kept on disk
+        (:mod:`uio_jax._program_cache`) and a later process skips the tracing. Trace size
+        and compile time are recorded in ``self.stats`` for the benchmarks.
+
+        ``streamed``: compile for one batch of :data:`STREAM_BATCH` samples with
+        :data:`STREAM_OPTIONS` and run the batches one after the other (see there: for
+        programs whose per-sample intermediates are large, such as Jacobians of deep
+        Taylor passes). The program is then the same for every sample count, so a run on
+        a subset of the samples reuses it.
+        """
+        example = xs[:STREAM_BATCH] if streamed else xs
+        ck = (key, tuple(example.shape))
+        compiled = self._compiled.get(ck)
+        with jax.enable_x64(True):
+            if compiled is None:
+                kind, *groups = key
+                parts = [kind] + [",".join(nd.sig for nd in g) if all(nd.sig for nd in g) else ""
+                                  for g in groups]
+                system = self._system()
+                if system is None:
+                    parts = [""]  # not keyable without the model's fingerprint
+                compiled, t = _program_cache.compile_program(
+                    system, parts, lambda batch: _program_cache.vmapped(make(), batch),
+                    example, _streamed_options if streamed else _large_graph_options)
+                self._compiled[ck] = compiled
+                self.stats.append(CompileStat(_key_label(key), t.eqns, t.trace_s, t.compile_s, t.from_disk))
+            if streamed:
+                return _in_batches(compiled, xs, example.shape[0])
+            return compiled(xs)
+
+    def gradients(self, nodes, xs) -> np.ndarray:
+        """Gradients of scalar ``nodes`` at the states ``xs``.
+
+        Args:
+            nodes: sequence of scalar Nodes (c of them).
+            xs: states, shape ``(S, n)``, float64.
+
+        Returns:
+            numpy array of shape ``(S, c, n)`` (NaN/inf where a function is undefined).
+        """
+        nodes = tuple(nodes)
+        make = lambda: _lie.stacked_gradients(tuple(nd.fn for nd in nodes))
+        return np.asarray(self._evaluate(("grad", nodes), make, xs))
+
+    def values(self, nodes, xs) -> list:
+        """Values of nodes (scalars or fields) at the states ``xs``.
+
+        Returns:
+            list of numpy arrays, ``(S,)`` for a scalar node and ``(S, n)`` for a field.
+        """
+        nodes = tuple(nodes)
+        fns = tuple(nd.fn for nd in nodes)
+        make = lambda: (lambda x: tuple(f(x) for f in fns))
+        return [np.asarray(v) for v in self._evaluate(("values", nodes), make, xs)]
+
+    def program(self, kind, nodes, make, xs, streamed=False) -> np.ndarray:
+        """Evaluate ``jax.vmap(make())`` at ``xs``, a program about the scalar ``nodes``.
+
+        Compiled once per ``(kind, nodes, shape)`` like the built-in evaluations, and kept
+        on disk by the program cache when every node has a signature. ``streamed``: see
+        :meth:`_evaluate`.
+        """
+        return np.asarray(self._evaluate((kind, tuple(nodes)), make, xs, streamed))
+
+    def lie_block(self, phis, fields, xs):
+        """All ``L_v phi`` for ``phi in phis`` (scalar nodes), ``v in fields`` (field nodes).
+
+        Args:
+            phis: scalar Nodes.
+            fields: field Nodes.
+            xs: states ``(S, n)``.
+
+        Returns:
+            ``(nodes, grads)``: the memoized Nodes (phi-major order) and their gradients
+            at ``xs``, numpy ``(S, len(phis) * len(fields), n)``.
+        """
+        phis, fields = tuple(phis), tuple(fields)
+        nodes = [self.lie(v, phi) for phi in phis for v in fields]
+        if not nodes:
+            return nodes, np.zeros((xs.shape[0], 0, xs.shape[1]))
+        make = lambda: _lie.lie_derivative_gradients(
+            tuple(p.fn for p in phis), tuple(v.fn for v in fields))
+        return nodes, np.asarray(self._evaluate(("block", phis, fields), make, xs))
+
+
+#: Graphs with more jaxpr equations than this are compiled at XLA optimization level 0.
+LARGE_GRAPH = 20000
+
+#: ``L_v^j base`` with ``j`` at least this is one Taylor pass rather than nested jvp.
+TAYLOR_FROM = 3
+
+
+def _taylor_power(psi, v, j, nested):
+    """``x -> L_v^j psi (x)`` by one Taylor pass, or None when a primitive has no rule.
+
+    The Taylor form is traced once on a dummy state (shape of ``nested``'s argument is
+    unknown here, so the check happens on first call through a fallback wrapper).
+    """
+    from .._engine.taylor import lie_powers
+
+    powers = lie_powers(psi, v, j)
+    state = {"fn": None}
+
+    def power(x):
+        fn = state["fn"]
+        if fn is None:
+            try:
+                jax.eval_shape(powers, jax.ShapeDtypeStruct(x.shape, x.dtype))
+                fn = lambda y: powers(y)[j]  # noqa: E731
+            except (NotImplementedError, KeyError, TypeError, ValueError):  # no Taylor rule
+                fn = _lie.lie_derivative(nested, v)
+            state["fn"] = fn
+        return fn(x)
+
+    return power
+
+
+@dataclass(frozen=True)
+class CompileStat:
+    """Trace size and compile cost of one jitted evaluation (for benchmarks).
+
+    ``from_disk``: the traced program came from the program cache (``trace_s`` is 0).
+    """
+
+    what: str
+    eqns: int
+    trace_s: float
+    compile_s: float
+    from_disk: bool = False
+
+
+#: Samples per call of a streamed program (compiled for this many, run batch after batch).
+#: Series Jacobians, 4096 samples, per sample, batches of 128 -> 32 (2 cores, interleaved
+#: runs): Arabidopsis (n = 35, K = 21) 11.9-12.2 -> 9.2-10.1 ms, JAKSTAT (n = 32, K = 5)
+#: 0.59-0.61 -> 0.42-0.45 ms, SIWR (n = 11, K = 8) 0.052-0.054 -> 0.033-0.035 ms, p53
+#: 0.22-0.24 -> 0.19-0.21 ms; 64 lies between. The smaller batch keeps more of each
+#: intermediate ``(batch, n tangents, K + 1, ...)`` in the caches. With the recurrence's
+#: linear operations on order k only (2026-11-27), batches of 32 -> 8, four rounds of 256
+#: samples in one process: Arabidopsis (K = 21) 5.0-5.7 -> 3.1-4.7 ms, JAKSTAT (K = 12)
+#: 0.94-1.28 -> 0.65-0.92 ms, p53 (K = 10) 0.26-0.40 -> 0.14-0.18 ms; SIWR (K = 8)
+#: 0.02 -> 0.03-0.05 ms (512 calls per 4096 samples: about 0.1 s of dispatch).
+STREAM_BATCH = 8
+
+#: XLA options of a streamed program (compile about 25 % faster here, same run time).
+STREAM_OPTIONS = _program_cache.FAST_COMPILE
+# Measured on the series Jacobians (4096 samples, 2 cores; evaluation / compile / XLA
+# temporaries): JAKSTAT (n = 32, K = 5) all at once 2.75 s / 8.8 s / 1.4 GB, streamed
+# 2.02 s / 6.7 s / 42 MB; p53 (n = 28) 1.22 s / 4.9 s / 723 MB -> 0.81 s / 3.8 s / 21 MB;
+# Arabidopsis (n = 35, K = 17) in halves (over the memory budget, compiled twice) 31.3 s /
+# 2 x 15 s / 3.8 GB -> 25.9 s / 18 s / 114 MB in batches of 64. The intermediates,
+# ``(batch, n tangents, K + 1, ...)`` each, stay in the caches instead of streaming through
+# memory.
+
+
+def _in_batches(compiled, xs, batch):
+    """``compiled`` (a program for ``batch`` samples) over all of ``xs`` ``(S, n)``, batch by
+    batch; the last batch is padded with the first samples, their rows dropped. Numpy
+    ``(S, ...)``."""
+    xs = np.asarray(xs)
+    count = xs.shape[0]
+    pad = -count % batch
+    if pad:
+        xs = np.concatenate([xs, np.resize(xs, (pad,) + xs.shape[1:])])
+    outs = [compiled(xs[i:i + batch]) for i in range(0, xs.shape[0], batch)]
+    return np.concatenate([np.asarray(o) for o in outs])[:count]
+
+
+def _streamed_options(traced):
+    """``(eqns, XLA options)`` of a streamed program (level 0 too above LARGE_GRAPH)."""
+    eqns, options = _large_graph_options(traced)
+    return eqns, {**(options or {}), **STREAM_OPTIONS}
+
+
+def _large_graph_options(traced):
+    """``(eqns, XLA options)``: optimization level 0 above :data:`LARGE_GRAPH` equations."""
+    eqns = _count_eqns(traced.jaxpr.jaxpr)
+    return eqns, ({"xla_backend_optimization_level": 0} if eqns > LARGE_GRAPH else None)
+
+
+def _sig(op, *operands) -> str:
+    """Signature of a node made by ``op`` from operands (their signatures, or plain names).
+
+    Empty when an operand has none (provenance unknown).
+    """
+    if any(not o for o in operands):
+        return ""
+    return hashlib.sha256(repr((op, operands)).encode()).hexdigest()[:32]
+
+
+def _count_eqns(jaxpr) -> int:
+    """Equations of a jaxpr, sub-jaxprs included."""
+    return jaxpr_sizes(jaxpr)[0]
+
+
+def jaxpr_sizes(jaxpr) -> tuple[int, int]:
+    """``(equations, array elements their outputs hold)`` of a jaxpr, sub-jaxprs included."""
+    eqns = elements = 0
+    for eqn in jaxpr.eqns:
+        eqns += 1
+        elements += sum(math.prod(getattr(v.aval, "shape", ())) for v in eqn.outvars)
+        for param in eqn.params.values():
+            sub = getattr(param, "jaxpr", None)
+            if sub is not None:
+                e, el = jaxpr_sizes(getattr(sub, "jaxpr", sub))
+                eqns, elements = eqns + e, elements + el
+    return eqns, elements
+
+
+def _key_label(key) -> str:
+    kind, *rest = key
+    parts = []
+    for group in rest:
+        parts.append(",".join(nd.label for nd in group))
+    return f"{kind}[{' | '.join(parts)}]"
+
+
+def _wrap(label: str) -> str:
+    return label if (" " not in label and "/" not in label) else f"({label})"
+
+
+_BUILDERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def builder_for(system) -> Builder:
+    """The (cached) Builder of a System: the same System reuses its nodes and jit caches."""
+    b = _BUILDERS.get(system)
+    if b is None:
+        b = Builder(system)
+        _BUILDERS[system] = b
+    return b

@@ -1,0 +1,196 @@
+"""Structural sparsity of a Jacobian, read from the function's jaxpr.
+
+``jacobian_pattern(fn, x)`` answers "which output elements can depend on which input
+elements" for ``fn: (q,) -> (n,)`` without evaluating anything: every jaxpr variable gets a
+boolean array ``dep`` of shape ``(*var.shape, q)`` (element ``e`` of the variable may depend
+on input ``j`` when ``dep[e, j]``), propagated equation by equation:
+
+* element-wise primitives (``add``, ``mul``, ``sin``, ``select_n``, ...): the union of the
+  operands' deps, element by element (scalars broadcast);
+* structural primitives (``slice``, ``squeeze``, ``reshape``, ``broadcast_in_dim``,
+  ``concatenate``, ``stack``, ``split``, ``transpose``, ``rev``): the deps moved with the
+  elements;
+* calls (``pjit``, ``closed_call``, ``custom_jvp_call``, ...): their sub-jaxpr, recursively;
+* anything else (``dot_general``, reductions, gathers, loops such as ``scan`` and
+  ``while``, ...): every output element depends on everything any operand depends on.
+
+Each element also carries a flag "exactly zero whatever the input" (literals and constants
+equal to 0, ``jnp.zeros``, products with such an element, sums of two, ``sin`` of one, ...):
+model code writes structural zeros as ``0.0 * x[2]`` or pads fields with ``jnp.zeros``,
+and such an element depends on nothing.
+
+The result is a superset of the true pattern (never misses a dependence: the last rule is
+always safe), exact for functions written element by element, as vector fields of models
+are. A structural zero of ``dfn/dx`` is then exactly zero at every point where the
+derivative is finite.
+"""
+
+import jax
+import numpy as np
+from jax.extend.core import Literal
+
+from .taylor import CALLS, call_body
+
+#: Primitives whose output element ``e`` depends on operand elements ``e`` only.
+_ELEMENTWISE = frozenset("""
+abs acos acosh add and asin asinh atan atan2 atanh cbrt ceil clamp conj convert_element_type
+copy copy_p cos cosh digamma div eq erf erf_inv erfc exp exp2 expm1 floor ge gt igamma imag
+integer_pow is_finite le lgamma log log1p logistic lt max min mul ne neg nextafter not or pow
+real reduce_precision rem round rsqrt select_n sign sin sinh sqrt square stop_gradient sub
+tan tanh xor
+""".split())
+
+#: Element-wise primitives with ``f(0) = 0``: an exact zero stays one.
+_ZERO_PRESERVING = frozenset("""
+abs asin asinh atan atanh cbrt convert_element_type copy copy_p erf expm1 imag log1p neg
+real reduce_precision sign sin sinh sqrt square stop_gradient tan tanh
+""".split())
+
+
+
+def jacobian_pattern(fn, x) -> np.ndarray:
+    """Boolean ``(n, q)``: ``True`` where ``d fn(x)_i / d x_j`` may be non-zero.
+
+    Should the propagation meet a jaxpr it cannot read (a rule failing on an unusual
+    primitive's parameters), the answer is the dense pattern: never a missed dependence.
+
+    Args:
+        fn: ``(q,) -> (n,)`` (any array-in, array-out JAX function).
+        x: an example argument (its shape and dtype only are used).
+    """
+    out, q = _output_states(fn, x)
+    if out is None:  # a jaxpr form the rules do not know: no zeros claimed
+        return np.ones((_out_size(fn, x), q), bool)
+    return out[..., :q].reshape(-1, q)
+
+
+def structural_zeros(fn, x) -> np.ndarray:
+    """Boolean ``(n,)``: ``True`` where ``fn(x)_i`` is exactly zero for every input.
+
+    Same propagation as :func:`jacobian_pattern` (literal and constant zeros, ``jnp.zeros``
+    padding, products with such an element, ...); a jaxpr the rules cannot read claims no
+    zero.
+    """
+    out, q = _output_states(fn, x)
+    if out is None:
+        return np.zeros(_out_size(fn, x), bool)
+    return out[..., q].reshape(-1)
+
+
+def _out_size(fn, x) -> int:
+    """Number of output elements of ``fn(x)``."""
+    return sum(int(np.prod(o.shape)) for o in jax.tree.leaves(jax.eval_shape(fn, jax.numpy.asarray(x))))
+
+
+def _output_states(fn, x):
+    """The propagated state ``(*out shape, q + 1)`` of ``fn``'s single output and ``q``;
+    ``(None, q)`` when a rule fails."""
+    x = jax.numpy.asarray(x)
+    closed = jax.make_jaxpr(fn)(x)
+    q = x.size
+    state_in = np.zeros(x.shape + (q + 1,), bool)
+    state_in[..., :q] = np.eye(q, dtype=bool).reshape(x.shape + (q,))
+    try:
+        (out,) = _propagate(closed.jaxpr, closed.consts, [state_in], q)
+    except Exception:
+        return None, q
+    return out, q
+
+
+# A variable's state: bool array (*shape, q + 1); [..., :q] the inputs an element may
+# depend on, [..., q] whether it is exactly zero for every input.
+
+def _known(value, q):
+    value = np.asarray(value)
+    state = np.zeros(value.shape + (q + 1,), bool)
+    state[..., q] = value == 0
+    return state
+
+
+def _propagate(jaxpr, consts, states_in, q):
+    env = {}
+
+    def read(v):
+        if isinstance(v, Literal):
+            return _known(v.val, q)
+        return env[v]
+
+    for v, c in zip(jaxpr.constvars, consts):
+        env[v] = _known(c, q)
+    for v, st in zip(jaxpr.invars, states_in):
+        env[v] = st
+    for eqn in jaxpr.eqns:
+        outs = _rule(eqn, [read(v) for v in eqn.invars], q)
+        for v, st in zip(eqn.outvars, outs):
+            env[v] = st
+    return [read(v) for v in jaxpr.outvars]
+
+
+def _shape(v):
+    return tuple(getattr(v.aval, "shape", ()))
+
+
+def _elementwise(name, ins, shape, q):
+    full = [np.broadcast_to(st, shape + (q + 1,)) for st in ins]
+    dep = np.zeros(shape + (q,), bool)
+    for st in full:
+        dep |= st[..., :q]
+    zeros = [st[..., q] for st in full]
+    if name == "mul":
+        zero = np.logical_or.reduce(zeros)
+    elif name == "div" or name in _ZERO_PRESERVING or (
+            name == "integer_pow" and len(zeros) == 1):
+        zero = zeros[0]
+    elif name in ("add", "sub"):
+        zero = np.logical_and.reduce(zeros)
+    elif name == "select_n":
+        zero = np.logical_and.reduce(zeros[1:])
+    else:
+        zero = np.zeros(shape, bool)
+    out = np.concatenate([dep & ~zero[..., None], zero[..., None]], axis=-1)
+    return out
+
+
+def _rule(eqn, ins, q):
+    name = eqn.primitive.name
+    outs = [_shape(v) for v in eqn.outvars]
+    p = eqn.params
+    if name in _ELEMENTWISE and len(outs) == 1 and all(
+            st.shape[:-1] in ((), outs[0]) for st in ins):
+        if name == "integer_pow" and p.get("y", 1) <= 0:
+            name = "pow"                                   # x**-k: 0 is not kept
+        return [_elementwise(name, ins, outs[0], q)]
+    if name == "squeeze" or (name == "reshape" and p.get("dimensions") is None):
+        return [ins[0].reshape(outs[0] + (q + 1,))]
+    if name == "broadcast_in_dim":
+        shape, src = outs[0], ins[0]
+        kept = [1] * len(shape)
+        for axis, d in enumerate(p["broadcast_dimensions"]):
+            kept[d] = src.shape[axis]              # 1 where a size-1 axis is broadcast
+        return [np.broadcast_to(src.reshape(tuple(kept) + (q + 1,)), shape + (q + 1,)).copy()]
+    if name == "slice":
+        idx = tuple(slice(s, e, st) for s, e, st in zip(
+            p["start_indices"], p["limit_indices"], p["strides"] or (1,) * len(outs[0])))
+        return [ins[0][idx]]
+    if name == "concatenate":
+        return [np.concatenate(ins, axis=p["dimension"])]
+    if name == "stack":
+        axis = p["axis"]
+        part = outs[0][:axis] + outs[0][axis + 1:] + (q + 1,)
+        return [np.stack([np.broadcast_to(st, part) for st in ins], axis=axis)]
+    if name == "split":
+        return list(np.split(ins[0], np.cumsum(p["sizes"])[:-1], axis=p["axis"]))
+    if name == "rev":
+        return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
+    if name == "transpose":
+        return [np.transpose(ins[0], tuple(p["permutation"]) + (len(outs[0]),))]
+    body = call_body(p) if name in CALLS else None
+    if body is not None and len(body[0].invars) == len(ins):
+        res = _propagate(*body, ins, q)
+        if [st.shape[:-1] for st in res] == outs:
+            return res
+    # safe default: every output element depends on everything any operand depends on
+    union = np.zeros(q + 1, bool)
+    for st in ins:
+        union[:q] |= np.any(st[..., :q].reshape(-1, q), axis=0)
+    return [np.broadcast_to(union, s + (q + 1,)).copy() for s in outs]

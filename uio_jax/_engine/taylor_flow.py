@@ -1,0 +1,405 @@
+"""Taylor coefficients of an ODE flow by the coefficient recurrence: ``O(K^2)`` per operation.
+
+:func:`uio_jax._taylor.flow_series` finds the coefficients of ``x' = F(x)`` by running
+F's whole series graph ``K`` times (pass k reads order k of ``F(x(t))``): every product
+costs ``O(K^2)`` per pass, ``O(K^3)`` in all. The classical automatic Taylor method (Moore;
+Griewank & Walther, "Evaluating Derivatives", 2nd ed., section 13.2; the "Taylor
+integrators" of celestial mechanics) instead keeps the coefficient stack of every
+intermediate quantity of F and, at order k, computes only its order-k coefficient from the
+lower ones:
+
+* linear operations: ``c[k] = op(a[k], b[k])`` (``O(1)``: on the order-k coefficients
+  only, constants of additive positions entering at order 0);
+* product ``c = a b``: ``c[k] = sum_{i <= k} a[i] b[k - i]`` (``O(K)``);
+* quotient ``c = a / b``: ``c[k] = (a[k] - sum_{i < k} b[k - i] c[i]) / b[0]``;
+* ``e = exp(a)``: ``e[k] = (1/k) sum_{i < k} (k - i) a[k - i] e[i]``;
+* ``l = log(a)``: ``l[k] = (a[k] - (1/k) sum_{0 < i < k} i l[i] a[k - i]) / a[0]``;
+* ``r = sqrt(a)``: ``r[k] = (a[k] - sum_{0 < i < k} r[i] r[k - i]) / (2 r[0])``;
+* sin / cos through the complex exponential, integer powers by repeated squaring, real
+  powers as ``exp(b log a)``, all with intermediate stacks of their own.
+
+The stacks of the nonlinear results are the ``fori_loop`` carry (one array
+``(K + 1, *shape)`` each, orders above k still zero), and so are the stacks of the linear
+results that a nonlinear rule (or an order-0 decision) reads: a linear result is its
+order-k coefficient only, its stack made on demand. F's graph is traced once, and the
+whole flow costs ``O(K^2)`` per nonlinear operation and ``O(K)`` per linear one, instead
+of ``O(K^3)``. Known series can enter F
+as extra arguments (e.g. the coefficients of a known input ``u(t)``): their stacks are
+given in full from the start, and causality (order k of a result reads orders ``<= k`` of
+its arguments only) keeps every rule exact.
+
+Comparisons and other non-smooth operations act on the order-0 coefficients (constant
+along t at a generic state), as in :mod:`uio_jax._taylor`; an operation without a rule
+raises ``NotImplementedError``.
+
+Constant states. A state whose derivative is a structural zero of F (a parameter joined
+as a state with ``p' = 0``, see :meth:`uio_jax.System.joint`) keeps its order-0 value along
+the flow. The state stack carries a mask of those elements through F's indexing
+(``slice``, ``squeeze``, ``concatenate``, ...): an element, or a whole array, picked out of
+constant elements only is an ordinary value again, not a series. A product of a parameter
+and a series is then the linear rule (one multiplication per coefficient) instead of a
+Cauchy product, and parameter-only subexpressions (``g**a``) are evaluated once.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .sparsity import structural_zeros
+from .taylor import BILINEAR, CALLS, CONSTANT, DATA_OPERANDS, LINEAR, call_body, interpret
+
+#: indexing and reshaping primitives that move elements without combining them: a mask of
+#: constant elements moves with them (operands other than the data, e.g. gather indices,
+#: must be concrete)
+_MOVING = {"slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "transpose", "rev",
+           "copy", "copy_p", "expand_dims", "dynamic_slice", "gather", "convert_element_type"}
+
+#: operations with a rule of their own here (their order-k coefficient needs lower orders)
+_NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
+
+
+class _T:
+    """A series during pass k of the recurrence.
+
+    ``ck``: its order-k coefficient (element shape). ``stack``: its coefficients
+    ``(K + 1, *shape)`` (orders above k still zero) when carried (nonlinear results, the
+    state, known series), else None: a result of linear operations, whose stack is made
+    (carried under ``key``) only if a nonlinear rule or an order-0 decision reads it.
+    ``const``: bool mask (element shape) of elements constant along t, or None.
+    ``c0``: order-0 value, kept through element-moving operations of the state (so that
+    constant elements picked out of it need no stack).
+    """
+
+    __slots__ = ("ck", "stack", "key", "const", "c0")
+
+    def __init__(self, ck, stack=None, key=None, const=None, c0=None):
+        self.ck, self.stack, self.key, self.const, self.c0 = ck, stack, key, const, c0
+
+
+def _moved(ps, key, prim, params, ins):
+    """An element-moving primitive where constant elements are tracked: outputs whose
+    elements are all constant are plain values, others series with their mask; None when
+    no operand carries that information (the ordinary rules apply)."""
+    data = DATA_OPERANDS.get(prim.name, range(len(ins)))
+    series = [isinstance(ins[i], _T) for i in data]
+    tracked = [isinstance(ins[i], _T) and ins[i].c0 is not None for i in data]
+    if not any(tracked) and (all(series) or not any(series)):
+        return None  # no order-0 values to move (e.g. a product of two moving quantities)
+    masks, c0s = [], []
+    for i, v in enumerate(ins):
+        if i not in data:
+            if isinstance(v, (_T, jax.core.Tracer)):
+                return None  # indices not known while tracing: no mask
+            masks.append(v)
+            c0s.append(v)
+        elif isinstance(v, _T):
+            masks.append(np.zeros(v.ck.shape, bool) if v.const is None else v.const)
+            c0s.append(ps.order0(v))
+        else:
+            masks.append(np.ones(np.shape(v), bool))
+            c0s.append(v)
+    with jax.ensure_compile_time_eval():
+        if prim.name == "convert_element_type":
+            out = [masks[0]]
+        else:
+            out = prim.bind(*masks, **params)
+            out = list(out) if prim.multiple_results else [out]
+    out = [np.asarray(m, bool) for m in out]
+    c0 = prim.bind(*c0s, **params)
+    c0 = list(c0) if prim.multiple_results else [c0]
+    if all(m.all() for m in out):  # constant: the order-0 values
+        return c0
+    res = _linear(ps, key, prim, params, ins)
+    return [_T(r.ck, key=r.key, const=m if m.any() else None, c0=v0) for r, m, v0 in zip(res, out, c0)]
+
+
+def _linear(ps, key, prim, params, ins):
+    """A primitive linear in its series operands, at order k: ``c[k] = op(a[k], b[k])``
+    with constants of additive positions lifted (their value at order 0, zero above) and
+    constant factors, indices and predicates used as they are."""
+    name = prim.name
+    if name == "select_n":  # predicate constant along t
+        args = [ps.order0(ins[0])] + [ps.at(v) for v in ins[1:]]
+    elif name in DATA_OPERANDS:  # indices constant along t, not lifted
+        data = DATA_OPERANDS[name]
+        if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in data):
+            raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
+        args = [ps.at(v) if i in data else v for i, v in enumerate(ins)]
+    elif name in BILINEAR or name == "div":  # one series operand, the other a constant factor
+        args = [v.ck if isinstance(v, _T) else v for v in ins]
+    else:
+        args = [ps.at(v) for v in ins]
+    out = prim.bind(*args, **params)
+    outs = out if prim.multiple_results else [out]
+    return [_T(o, key=key + (j,)) for j, o in enumerate(outs)]
+
+
+class _Pass:
+    """One order k of the recurrence: reads the carried stacks, writes their order k."""
+
+    def __init__(self, k, K, state):
+        self.k, self.K = k, K
+        self.old = state
+        self.new = {}
+
+    # -- helpers on stacks -------------------------------------------------------------
+    def lift(self, v):
+        """A series' stack, or a constant as a series: value at order 0, zeros above."""
+        if isinstance(v, _T):
+            return self.stack(v)
+        v = jnp.asarray(v)
+        return jnp.concatenate([v[None], jnp.zeros((self.K,) + v.shape, v.dtype)])
+
+    def at_k(self, c):
+        return lax.dynamic_index_in_dim(c, self.k, keepdims=False)
+
+    def stack(self, v):
+        """The coefficient stack of a series value (made and carried if not yet)."""
+        if v.stack is None:
+            v.stack = self.slot(v.key + ("lin",), lambda own: v.ck, v.ck.shape, v.ck.dtype)
+        return v.stack
+
+    def order0(self, v):
+        """Order-0 value of a series or constant."""
+        if not isinstance(v, _T):
+            return v
+        return v.c0 if v.c0 is not None else self.stack(v)[0]
+
+    def at(self, v):
+        """Order-k coefficient of a series, or of a constant (its value at order 0, else 0)."""
+        if isinstance(v, _T):
+            return v.ck
+        v = jnp.asarray(v)
+        if isinstance(self.k, int):
+            return v if self.k == 0 else jnp.zeros_like(v)
+        return jnp.where(self.k == 0, v, jnp.zeros_like(v))
+
+    def series(self, stack):
+        """A nonlinear result: its stack, with order k read from it."""
+        return _T(self.at_k(stack), stack=stack)
+
+    def conv(self, a, b):
+        """``sum_{i <= k} a[i] b[k - i]`` for stacks ``a``, ``b`` (broadcasting elements)."""
+        ra, rb = a.ndim, b.ndim
+        if ra < rb:
+            a = a.reshape(a.shape[:1] + (1,) * (rb - ra) + a.shape[1:])
+        elif rb < ra:
+            b = b.reshape(b.shape[:1] + (1,) * (ra - rb) + b.shape[1:])
+        if isinstance(self.k, int):  # concrete order: a static slice
+            w = jnp.flip(b[: self.k + 1], axis=0)
+            return jnp.sum(a[: self.k + 1] * w, axis=0)
+        return jnp.sum(a * self.window(b), axis=0)
+
+    def window(self, b):
+        """``w[i] = b[k - i]`` for ``i <= k``, 0 above: a window of the reversed, zero-padded b."""
+        K = self.K
+        rev = jnp.flip(jnp.concatenate([jnp.zeros((K,) + b.shape[1:], b.dtype), b]), axis=0)
+        return lax.dynamic_slice_in_dim(rev, K - self.k, K + 1)
+
+    def slot(self, key, coef_fn, shape, dtype):
+        """The stack named ``key`` with its order-k coefficient ``coef_fn(own)`` written."""
+        key = "/".join(map(str, key))  # pytree dict keys must sort
+        own = self.old.get(key)
+        if own is None:
+            own = jnp.zeros((self.K + 1,) + tuple(shape), dtype)
+        ck = jnp.asarray(coef_fn(own), dtype)
+        ck = jnp.broadcast_to(ck, tuple(shape))
+        if isinstance(self.k, int):
+            c = own.at[self.k].set(ck)
+        else:
+            c = lax.dynamic_update_index_in_dim(own, ck, self.k, 0)
+        self.new[key] = c
+        return c
+
+    def orders(self, like):
+        K = self.K
+        return jnp.arange(K + 1, dtype=like.real.dtype).reshape((K + 1,) + (1,) * (like.ndim - 1))
+
+    def kk(self, dtype):
+        return jnp.asarray(self.k, dtype)
+
+    # -- nonlinear rules (each returns a stack) ------------------------------------------
+    def mul(self, key, a, b, shape, dtype):
+        return self.slot(key, lambda own: self.conv(a, b), shape, dtype)
+
+    def div(self, key, a, b, shape, dtype):
+        return self.slot(key, lambda own: (self.at_k(a) - self.conv(b, own)) / b[0], shape, dtype)
+
+    def exp(self, key, a, shape, dtype):
+        at = self.orders(a) * a
+
+        def coef(own):
+            k = jnp.maximum(self.kk(at.real.dtype), 1)
+            return jnp.where(self.k == 0, jnp.exp(a[0]), self.conv(at, own) / k)
+
+        return self.slot(key, coef, shape, dtype)
+
+    def log(self, key, a, shape, dtype):
+        def coef(own):
+            lt = self.orders(own) * own
+            k = jnp.maximum(self.kk(a.dtype), 1)
+            return jnp.where(self.k == 0, jnp.log(a[0]), (self.at_k(a) - self.conv(a, lt) / k) / a[0])
+
+        return self.slot(key, coef, shape, dtype)
+
+    def sqrt(self, key, a, shape, dtype):
+        def coef(own):
+            return jnp.where(self.k == 0, jnp.sqrt(a[0]), (self.at_k(a) - self.conv(own, own)) / (2 * own[0]))
+
+        return self.slot(key, coef, shape, dtype)
+
+    def ipow(self, key, a, p, shape, dtype):
+        if p == 0:
+            return self.lift(jnp.ones(shape, dtype))
+        if p < 0:
+            pos = self.ipow(key + ("+",), a, -p, shape, dtype)
+            return self.div(key, self.lift(jnp.ones(shape, dtype)), pos, shape, dtype)
+        out, base, i = None, a, 0
+        while p:
+            if p & 1:
+                out = base if out is None else self.mul(key + ("o", i), out, base, shape, dtype)
+            p >>= 1
+            if p:
+                base = self.mul(key + ("b", i), base, base, shape, dtype)
+            i += 1
+        return out
+
+
+def _apply(ps, key, eqn, ins):
+    prim, params = eqn.primitive, eqn.params
+    name = prim.name
+    out_aval = eqn.outvars[0].aval
+    shape, dtype = out_aval.shape, out_aval.dtype
+    if name in CALLS:
+        body = call_body(params)
+        if body is None:
+            raise NotImplementedError(f"no Taylor rule for {name}")
+        return _eval(ps, key, *body, ins)
+    series = [isinstance(v, _T) for v in ins]
+    if name in _MOVING:
+        out = _moved(ps, key, prim, params, ins)
+        if out is not None:
+            return out
+    if not any(series) or name in CONSTANT:  # constant along t: on the order-0 values
+        out = prim.bind(*[ps.order0(v) for v in ins], **params)
+        return list(out) if prim.multiple_results else [out]
+    moving = name in BILINEAR and all(series) or (name == "div" and series[1])
+    if name in LINEAR or (name in BILINEAR or name == "div") and not moving:
+        return _linear(ps, key, prim, params, ins)
+    if name == "abs":
+        return [_T(jnp.sign(ps.order0(ins[0])) * ins[0].ck, key=key + (0,))]
+    if name in ("max", "min"):
+        a0, b0 = ps.order0(ins[0]), ps.order0(ins[1])
+        pick = (a0 >= b0) if name == "max" else (a0 <= b0)
+        return [_T(jnp.where(pick, ps.at(ins[0]), ps.at(ins[1])), key=key + (0,))]
+    if name not in _NONLINEAR and name not in BILINEAR and name != "div":
+        raise NotImplementedError(f"no Taylor rule for {name}")
+    if name == "mul":
+        return [ps.series(ps.mul(key, ps.stack(ins[0]), ps.stack(ins[1]), shape, dtype))]
+    if name == "dot_general":
+        a, b = ps.stack(ins[0]), ps.stack(ins[1])
+
+        def coef(own):  # sum_i dot(a[i], b[k - i])
+            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a, ps.window(b)), axis=0)
+
+        return [ps.series(ps.slot(key, coef, shape, dtype))]
+    if name == "div":
+        return [ps.series(ps.div(key, ps.lift(ins[0]), ps.stack(ins[1]), shape, dtype))]
+    if name == "pow":  # a ** b = exp(b log a), base and exponent either constant or moving
+        lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
+        if isinstance(ins[1], _T):
+            arg = ps.mul(key + ("m",), lg, ps.stack(ins[1]), shape, dtype)
+        else:  # constant exponent: linear in the series of log a
+            arg = lg * jnp.asarray(ins[1], lg.dtype)
+        return [ps.series(ps.exp(key, arg, shape, dtype))]
+    a = ps.stack(ins[0])
+    if name == "integer_pow":
+        return [ps.series(ps.ipow(key, a, params["y"], shape, dtype))]
+    if name == "square":
+        return [ps.series(ps.mul(key, a, a, shape, dtype))]
+    if name in ("sin", "cos", "tan"):
+        cdt = jnp.result_type(dtype, jnp.complex64)
+        z = ps.exp(key + ("z",), 1j * a.astype(cdt), shape, cdt)
+        s, c = jnp.imag(z), jnp.real(z)
+        if name == "sin":
+            return [ps.series(s)]
+        if name == "cos":
+            return [ps.series(c)]
+        return [ps.series(ps.div(key, s, c, shape, dtype))]
+    if name == "exp":
+        return [ps.series(ps.exp(key, a, shape, dtype))]
+    if name == "log":
+        return [ps.series(ps.log(key, a, shape, dtype))]
+    if name == "sqrt":
+        return [ps.series(ps.sqrt(key, a, shape, dtype))]
+    # rsqrt
+    r = ps.sqrt(key + ("r",), a, shape, dtype)
+    return [ps.series(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
+
+
+def _eval(ps, prefix, jaxpr, consts, args):
+    return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(ps, prefix + (i,), eqn, ins))
+
+
+def flow_coefficients(F, x, K, known=(), constants=True):
+    """Normalized coefficients ``(K, N)`` of orders 1..K of the solution of ``x' = F(x, *s)``.
+
+    Args:
+        F: ``(x (N,), *known values) -> (N,)`` traceable vector field.
+        x: ``(N,)`` initial state (order 0).
+        K: highest order (>= 1).
+        known: stacks ``(K + 1, *shape)`` of known series entering F (e.g. an input
+            ``u(t) = sum_k a_k t^k`` given as ``a``), in full.
+        constants: treat states with a structurally zero derivative as constants
+            (:func:`constant_states`; same coefficients, less work).
+
+    Returns:
+        ``(K, N)``: ``x[k] = x^(k)(0) / k!`` for ``k = 1..K`` (equal to
+        :func:`uio_jax._taylor.flow_series` up to round-off).
+    """
+    known = tuple(jnp.asarray(s) for s in known)
+    closed = jax.make_jaxpr(F)(x, *[s[0] for s in known])
+    N = x.shape[0]
+    const = constant_states(F, x, known) if constants else np.zeros(N, bool)
+
+    def run(k, xs, state):
+        ps = _Pass(k, K, state)
+        root = _T(ps.at_k(xs), stack=xs, const=const if const.any() else None, c0=xs[0])
+        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_T(ps.at_k(s), stack=s) for s in known])
+        fk = ps.at(out)
+        fk = jnp.broadcast_to(jnp.asarray(fk, xs.dtype), (N,))
+        nxt = fk / jnp.asarray(k + 1, xs.dtype)
+        if isinstance(k, int):
+            xs = xs.at[k + 1].set(nxt)
+        else:
+            xs = lax.dynamic_update_index_in_dim(xs, nxt, k + 1, 0)
+        return xs, ps.new
+
+    xs = jnp.zeros((K + 1, N), x.dtype).at[0].set(x)
+    xs, state = run(0, xs, {})  # order 0 fixes the shapes of every carried stack
+    if K > 1:
+        xs, state = lax.fori_loop(1, K, lambda k, c: run(k, *c), (xs, state))
+    return xs[1:]
+
+
+def constant_states(F, x, known=()):
+    """Bool ``(N,)``: the states whose derivative ``F(x, *known)_i`` is a structural zero
+    (zero for every state and every value of the known series), hence constant along the
+    flow."""
+    N = x.shape[0]
+    sizes = [int(np.prod(s.shape[1:])) for s in known]
+
+    def flat(z):  # the state and one value of every known series in one vector
+        vals, at = [], N
+        for s, size in zip(known, sizes):
+            vals.append(z[at:at + size].reshape(s.shape[1:]))
+            at += size
+        return jnp.ravel(F(z[:N], *vals))
+
+    z = jnp.concatenate([jnp.ravel(x)] + [jnp.ravel(s[0]) for s in known])
+    zeros = structural_zeros(flat, z)
+    return zeros if zeros.shape == (N,) else np.zeros(N, bool)
+
+
+__all__ = ["flow_coefficients", "constant_states"]

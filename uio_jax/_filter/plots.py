@@ -1,0 +1,174 @@
+"""Figures of a Monte Carlo run (matplotlib; every function returns ``(fig, axes)``).
+
+As in the figures of 003 (trajectories: truth, dead reckoning, EKF) and 002 (error per
+quantity against time): error bands over trials with the filter's +-sigma, and a NEES band.
+Nothing is shown; save with ``fig.savefig(path)``.
+"""
+
+import math
+
+import numpy as np
+
+_DEG = 180.0 / math.pi
+
+
+def _axes(ax, nrows=1, ncols=1, size=(5.0, 4.0)):
+    import matplotlib.pyplot as plt
+
+    if ax is not None:
+        return ax.figure, ax
+    fig, axes = plt.subplots(nrows, ncols, figsize=(size[0] * ncols, size[1] * nrows),
+                             squeeze=False)
+    return fig, axes if nrows * ncols > 1 else axes[0, 0]
+
+
+def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
+    """One kept trial in the plane of two states: truth, dead reckoning, EKF.
+
+    Args:
+        result: a :class:`MonteCarloResult` with kept trajectories (``keep >= 1``).
+        trial: index among the kept trials.
+        pair: the two state indices plotted (default ``(0, 1)``: the horizontal plane).
+        ax: optional matplotlib axes.
+
+    Returns:
+        ``(fig, ax)``.
+    """
+    from .._errors import OptionError
+
+    tr = result.trajectories
+    if not tr or trial >= len(tr["ids"]):
+        raise OptionError(f"trial {trial} has no kept trajectory (run with keep > {trial})")
+    fig, ax = _axes(ax)
+    i, j = pair
+    names = result.state_names
+    ax.plot(tr["x_true"][trial, :, i], tr["x_true"][trial, :, j], ".", ms=2, color="tab:blue",
+            label="true")
+    ax.plot(tr["x_dr"][trial, :, i], tr["x_dr"][trial, :, j], "o", ms=3, mfc="none",
+            color="tab:red", markevery=4, label="dead reckoning")
+    ax.plot(tr["x_hat"][trial, :, i], tr["x_hat"][trial, :, j], "*", ms=3, color="k",
+            markevery=4, label="EKF")
+    ax.set_xlabel(f"{names[i]} (m)")
+    ax.set_ylabel(f"{names[j]} (m)")
+    ax.set_title(result.experiment.name.split(":")[-1], fontsize=9)
+    ax.legend(fontsize=7)
+    return fig, ax
+
+
+def _band(ax, t, err, sig, scale, color):
+    """Signed errors of every trial: 5-95% band, RMSE (+-), RMS filter sigma (+-)."""
+    lo, hi = np.percentile(err, [5, 95], axis=0)
+    ax.fill_between(t, lo * scale, hi * scale, color=color, alpha=0.25, lw=0,
+                    label="5-95% of trials")
+    rmse = np.sqrt(np.mean(err**2, axis=0)) * scale
+    s = np.sqrt(np.mean(sig**2, axis=0)) * scale
+    ax.plot(t, rmse, color=color, lw=1.2, label="RMSE")
+    ax.plot(t, -rmse, color=color, lw=1.2)
+    ax.plot(t, s, "k--", lw=0.9, label="filter +-sigma")
+    ax.plot(t, -s, "k--", lw=0.9)
+    ax.axhline(0.0, color="0.6", lw=0.5)
+
+
+def plot_errors(result, names=None, *, axes=None, ncols=3):
+    """Error bands over trials with the filter's +-sigma, per state or named quantity.
+
+    Args:
+        result: a :class:`MonteCarloResult`.
+        names: states and/or named quantities to plot (default: the system states and
+            every named quantity).
+        axes: optional flat sequence of axes, one per name.
+        ncols: columns of the grid when ``axes`` is None.
+
+    Returns:
+        ``(fig, axes)`` with ``axes`` a flat list.
+    """
+    import matplotlib.pyplot as plt
+
+    from .._errors import OptionError
+
+    exp = result.experiment
+    states, quants = list(result.state_names), list(result.quantity_names)
+    if names is None:
+        names = list(exp.system.states) + quants
+    ang_s = exp.angle_mask()
+    ang_q = [q.angle for q in exp.quantities]
+    if axes is None:
+        nrows = -(-len(names) // ncols)
+        fig, grid = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.4 * nrows),
+                                 squeeze=False, sharex=True)
+        axes = list(grid.ravel())
+        for a in axes[len(names):]:
+            a.set_visible(False)
+    else:
+        axes = list(axes)
+        fig = axes[0].figure
+    for a, nm in zip(axes, names):
+        if nm in states:
+            k = states.index(nm)
+            err, sig, ang = result.errors[:, :, k], result.sigmas[:, :, k], ang_s[k]
+        elif nm in quants:
+            k = quants.index(nm)
+            err, sig = result.quantity_errors[:, :, k], result.quantity_sigmas[:, :, k]
+            ang = ang_q[k]
+        else:
+            raise OptionError(f"no state or quantity named {nm!r}")
+        scale = _DEG if ang else 1.0
+        _band(a, result.t, err, sig, scale, "tab:blue")
+        a.set_title(f"{nm} error" + (" (deg)" if ang else ""), fontsize=9)
+        a.tick_params(labelsize=7)
+    axes[0].legend(fontsize=6, loc="upper right")
+    for a in axes[-ncols:]:
+        a.set_xlabel("t (s)", fontsize=8)
+    fig.tight_layout()
+    return fig, axes
+
+
+def plot_nees(result, *, ax=None):
+    """NEES over time: mean, median and 5-95% band over trials, with the expected dof.
+
+    Returns:
+        ``(fig, ax)``.
+    """
+    fig, ax = _axes(ax, size=(5.0, 3.0))
+    nees, t = result.nees, result.t
+    lo, hi = np.percentile(nees, [5, 95], axis=0)
+    ax.fill_between(t, lo, hi, color="tab:green", alpha=0.25, lw=0, label="5-95%")
+    ax.plot(t, np.mean(nees, axis=0), color="tab:green", label="mean")
+    ax.plot(t, np.median(nees, axis=0), color="tab:olive", ls=":", label="median")
+    ax.axhline(result.nees_dof(), color="k", ls="--", lw=0.9,
+               label=f"expected ({result.nees_dof()} dof)")
+    ax.set_yscale("log")
+    ax.set_xlabel("t (s)", fontsize=8)
+    ax.set_title("NEES", fontsize=9)
+    ax.legend(fontsize=6)
+    return fig, ax
+
+
+def plot_montecarlo(result, names=None):
+    """One summary figure: a trajectory (if kept), the error bands and the NEES band.
+
+    Returns:
+        ``(fig, axes)`` with ``axes`` a flat list (trajectory first when present).
+    """
+    import matplotlib.pyplot as plt
+
+    exp = result.experiment
+    if names is None:
+        names = list(exp.system.states) + list(result.quantity_names)
+    has_traj = bool(result.trajectories) and len(result.trajectories["ids"]) > 0
+    n_panels = len(names) + 1 + int(has_traj)
+    ncols = 3
+    nrows = -(-n_panels // ncols)
+    fig, grid = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.5 * nrows), squeeze=False)
+    axes = list(grid.ravel())
+    k = 0
+    if has_traj:
+        plot_trajectories(result, ax=axes[0])
+        k = 1
+    plot_errors(result, names, axes=axes[k:k + len(names)])
+    plot_nees(result, ax=axes[k + len(names)])
+    for a in axes[k + len(names) + 1:]:
+        a.set_visible(False)
+    fig.suptitle(f"{exp.name}: {result.trials} trials", fontsize=10)
+    fig.tight_layout()
+    return fig, axes

@@ -1,0 +1,320 @@
+"""Result of a Monte Carlo run: statistics over trials, verdict, comparison with analysis."""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: A quantity "converges" when its RMSE at the end and its RMS filter sigma at the end are
+#: both at most this fraction of the prior std (the expected RMSE at t = 0).
+CONVERGED_RATIO = 0.6
+#: ... and "does not converge" when its RMSE at the end is at least this fraction of the
+#: prior std, or when its filter sigma has reached a plateau (``PLATEAU_RATIO``) well above
+#: the noise floor (sigma ratio > ``CONVERGED_RATIO / 2``). In between: undecided (None).
+STALLED_RATIO = 0.8
+#: sigma(end) / sigma(t_end / 2) above this means the filter sigma has stopped shrinking.
+PLATEAU_RATIO = 0.9
+#: RMSE(end) above this multiple of the RMS filter sigma(end): the filter is overconfident.
+OVERCONFIDENT = 2.0
+#: A trial diverged when its error at the end, in units of the prior std, has an RMS over
+#: the NEES states above this (3 prior sigmas).
+DIVERGED_PRIOR_SIGMAS = 3.0
+
+
+@dataclass(frozen=True, eq=False)
+class MonteCarloResult:
+    """Statistics of a Monte Carlo run (host numpy arrays).
+
+    Attributes:
+        experiment: the :class:`~uio_jax.Experiment` run.
+        trials: B. seed: the seed.
+        t: ``(T,)`` record times (s); ``t[0] = 0`` is the prior.
+        stats: ``(B, T, 2N + 2d + 1)`` float32 per-trial records: errors (N; angles
+            wrapped), filter sigmas (N), errors and sigmas along the d named quantities,
+            NEES over ``experiment.nees_states``.
+        trajectories: full trajectories of the first ``keep`` trials (see
+            :func:`~uio_jax._montecarlo.trajectories`) or ``None``.
+        timings: compile and run seconds, trial-steps/s, devices, load average.
+    """
+
+    experiment: object
+    trials: int
+    seed: int
+    t: np.ndarray
+    stats: np.ndarray
+    trajectories: dict | None
+    timings: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ slices
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Filter state names (system states, then the augmented ones)."""
+        return self.experiment.state_names()
+
+    @property
+    def quantity_names(self) -> tuple[str, ...]:
+        """Names of the named quantities."""
+        return tuple(q.name for q in self.experiment.quantities)
+
+    def _split(self):
+        N = len(self.state_names)
+        d = len(self.quantity_names)
+        s = self.stats
+        return (s[..., :N], s[..., N:2 * N], s[..., 2 * N:2 * N + d],
+                s[..., 2 * N + d:2 * N + 2 * d], s[..., -1])
+
+    @property
+    def errors(self) -> np.ndarray:
+        """``(B, T, N)`` estimate minus truth (angles wrapped)."""
+        return self._split()[0].astype(np.float64)
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        """``(B, T, N)`` filter standard deviations ``sqrt(diag P)``."""
+        return self._split()[1].astype(np.float64)
+
+    @property
+    def quantity_errors(self) -> np.ndarray:
+        """``(B, T, d)`` errors along the named quantities."""
+        return self._split()[2].astype(np.float64)
+
+    @property
+    def quantity_sigmas(self) -> np.ndarray:
+        """``(B, T, d)`` filter sigma of the named quantities, ``sqrt(grad q P grad q^T)``."""
+        return self._split()[3].astype(np.float64)
+
+    @property
+    def nees(self) -> np.ndarray:
+        """``(B, T)`` normalised estimation error squared over ``experiment.nees_states``."""
+        return self._split()[4].astype(np.float64)
+
+    # ------------------------------------------------------------------ statistics
+    def rmse(self) -> np.ndarray:
+        """``(T, N)`` RMSE over trials per state: ``sqrt(mean_b e^2)``."""
+        return np.sqrt(np.mean(self.errors**2, axis=0))
+
+    def sigma_rms(self) -> np.ndarray:
+        """``(T, N)`` RMS over trials of the filter sigma (equals the RMSE if consistent)."""
+        return np.sqrt(np.mean(self.sigmas**2, axis=0))
+
+    def quantity_rmse(self) -> np.ndarray:
+        """``(T, d)`` RMSE along the named quantities."""
+        return np.sqrt(np.mean(self.quantity_errors**2, axis=0))
+
+    def quantity_sigma_rms(self) -> np.ndarray:
+        """``(T, d)`` RMS filter sigma along the named quantities."""
+        return np.sqrt(np.mean(self.quantity_sigmas**2, axis=0))
+
+    def nees_dof(self) -> int:
+        """Degrees of freedom of the NEES (its expected value when consistent)."""
+        return len(self.experiment.nees_states)
+
+    def divergent(self) -> np.ndarray:
+        """``(B,)`` bool: trials whose end error exceeds ``DIVERGED_PRIOR_SIGMAS`` priors."""
+        names = self.state_names
+        idx = [names.index(s) for s in self.experiment.nees_states]
+        prior = np.asarray(self.experiment.prior_std)[idx]
+        e = self.errors[:, -1, idx] / prior
+        return np.sqrt(np.mean(e**2, axis=1)) > DIVERGED_PRIOR_SIGMAS
+
+    # ------------------------------------------------------------------ verdict
+    def verdict(self) -> dict:
+        """Convergence per state and per named quantity, judged by ratios end/start.
+
+        For each state (and named quantity): ``prior`` (RMS over trials of the filter
+        sigma at t = 0: the expected RMSE of the initial estimate, steadier than the
+        sample RMSE at t = 0 for few trials), ``rmse_start`` (sample, t = 0), ``rmse_end``,
+        ``ratio = rmse_end / prior``, ``sigma_ratio = sigma_end / prior`` (RMS filter sigma),
+        ``late_sigma_ratio = sigma(end) / sigma(t_end / 2)`` and ``converges``:
+
+        * ``True`` when ``ratio`` and ``sigma_ratio`` are both <= ``CONVERGED_RATIO`` (0.6);
+        * ``False`` when ``ratio >= STALLED_RATIO`` (0.8), or when the sigma has a plateau
+          (``late_sigma_ratio >= PLATEAU_RATIO``, 0.9) with ``sigma_ratio > 0.3``, or when
+          the filter is overconfident (RMSE > ``OVERCONFIDENT`` = 2 x sigma at the end: the
+          classic EKF inconsistency along unobservable directions, where the shrinking
+          sigma is no evidence);
+        * ``None`` (undecided) otherwise.
+
+        These are heuristics on finite runs (notes/ekf.md: the verdict depends on the
+        prior and the horizon; the 003 range case needs the full 10 s to halve the error).
+        Also: mean and median NEES at the end, their expected value (dof) and the
+        fraction of divergent trials (see :meth:`divergent`).
+
+        Returns:
+            ``{"states": {name: {...}}, "quantities": {name: {...}}, "nees": {...},
+            "divergent_fraction": float, "trials": B, "duration_s": T}``.
+        """
+        T = len(self.t)
+        mid = int(np.argmin(np.abs(self.t - self.t[-1] / 2)))
+        out = {"trials": self.trials, "duration_s": float(self.t[-1])}
+
+        def rows(names, rmse, sig, angles):
+            res = {}
+            for i, nm in enumerate(names):
+                r0, r1 = float(rmse[0, i]), float(rmse[-1, i])
+                s0, s1, sm = float(sig[0, i]), float(sig[-1, i]), float(sig[mid, i])
+                ratio = r1 / s0 if s0 > 0 else math.nan
+                sratio = s1 / s0 if s0 > 0 else math.nan
+                late = s1 / sm if sm > 0 else math.nan
+                res[nm] = {"prior": s0, "rmse_start": r0, "rmse_end": r1, "ratio": ratio,
+                           "sigma_end": s1, "sigma_ratio": sratio,
+                           "late_sigma_ratio": late, "angle": bool(angles[i]),
+                           "converges": _decide(ratio, sratio, late)}
+            return res
+
+        out["states"] = rows(self.state_names, self.rmse(), self.sigma_rms(),
+                             self.experiment.angle_mask())
+        out["quantities"] = rows(self.quantity_names, self.quantity_rmse(),
+                                 self.quantity_sigma_rms(),
+                                 [q.angle for q in self.experiment.quantities])
+        nees = self.nees
+        out["nees"] = {"dof": self.nees_dof(), "mean_end": float(np.mean(nees[:, -1])),
+                       "median_end": float(np.median(nees[:, -1])),
+                       "mean_over_time": float(np.mean(nees[:, T // 10:]))}
+        out["divergent_fraction"] = float(np.mean(self.divergent()))
+        return out
+
+    def compare(self, report=None) -> dict:
+        """The Monte Carlo verdict next to the analysis verdict.
+
+        Per system state: the analysis' ``observable`` against the Monte Carlo
+        ``converges``; per named quantity ``q``: ``report.is_observable(q.fn)`` (or, with no
+        report, the label ``Quantity.observable`` given by the experiment) against its
+        ``converges``.
+
+        Note: per-state ratios can mislead when an unobservable direction moves several
+        states (003, range, gamma unknown: the rotation about the origin moves xv, yv,
+        theta and gamma): each such state's error drops to the prior spread along that
+        direction, which is smaller than the state's own prior, so it may look
+        "converging". The named quantity along the symmetry (the bearing phi) is the
+        decisive check; read the per-state rows with that in mind.
+
+        Args:
+            report: a :class:`~uio_jax.Report` of the system with the outputs the
+                experiment reads (``uio_jax.analyze(experiment.analysis_system())``);
+                ``None``: no analysis, the quantities keep the experiment's labels and the
+                states are undecided. The filter layer never runs an analysis itself.
+
+        Returns:
+            ``{"analysis": method | None, "note": str, "states": {name: row},
+            "quantities": {name: row}, "agree": bool | None}`` with ``row = {"observable":
+            bool | None, "converges": bool | None, "agree": bool | None}``; ``agree`` is
+            ``None`` when either side is undecided, and the overall ``agree`` is ``False``
+            if any row disagrees, else ``None`` if any row is undecided, else ``True``.
+        """
+        note = "" if report is not None else "no analysis given"
+        v = self.verdict()
+        rows_s, rows_q = {}, {}
+        for s in self.experiment.system.states:
+            obs = None if report is None else bool(report.observable.get(s))
+            rows_s[s] = _row(obs, v["states"][s]["converges"])
+        for q in self.experiment.quantities:
+            obs = q.observable
+            if report is not None:
+                try:
+                    obs = bool(report.is_observable(q.fn))
+                except Exception:  # noqa: BLE001 - keep the experiment's label
+                    pass
+            rows_q[q.name] = _row(obs, v["quantities"][q.name]["converges"])
+        agrees = [r["agree"] for r in list(rows_s.values()) + list(rows_q.values())]
+        agree = False if False in agrees else (None if None in agrees else True)
+        return {"analysis": None if report is None else report.method, "note": note,
+                "states": rows_s, "quantities": rows_q, "agree": agree}
+
+    # ------------------------------------------------------------------ output
+    def to_dict(self) -> dict:
+        """JSON-ready summary: verdict, timings, times and RMSE / sigma curves."""
+        return {
+            "experiment": self.experiment.name, "trials": self.trials, "seed": self.seed,
+            "verdict": self.verdict(), "timings": {k: _plain(v) for k, v in self.timings.items()},
+            "t": self.t.tolist(), "states": list(self.state_names),
+            "rmse": self.rmse().tolist(), "sigma": self.sigma_rms().tolist(),
+            "quantities": list(self.quantity_names),
+            "quantity_rmse": self.quantity_rmse().tolist(),
+            "quantity_sigma": self.quantity_sigma_rms().tolist(),
+            "nees_mean": np.mean(self.nees, axis=0).tolist(),
+            "nees_median": np.median(self.nees, axis=0).tolist(),
+            "notes": self.experiment.notes,
+        }
+
+    def summary(self, comparison=None) -> str:
+        """A readable table: per state and quantity, RMSE and sigma start -> end, verdict."""
+        v = self.verdict()
+        lines = [f"Monte Carlo {self.experiment.name}: {self.trials} trials, seed {self.seed}, "
+                 f"{v['duration_s']:.4g} s"]
+        hdr = (f"  {'':<14}{'prior std':>12}{'RMSE end':>12}{'ratio':>7}"
+               f"{'sigma end':>12}{'s.ratio':>8}  converges")
+        if comparison is not None:
+            hdr += "  analysis"
+        lines.append(hdr)
+        for kind in ("states", "quantities"):
+            for nm, r in v[kind].items():
+                scale, unit = (180 / math.pi, "deg") if r["angle"] else (1.0, "")
+                conv = {True: "yes", False: "no", None: "unclear"}[r["converges"]]
+                line = (f"  {nm:<14}{r['prior'] * scale:>12.4g}{r['rmse_end'] * scale:>12.4g}"
+                        f"{r['ratio']:>7.2f}{r['sigma_end'] * scale:>12.4g}"
+                        f"{r['sigma_ratio']:>8.2f}  {conv:<9} {unit}")
+                if comparison is not None and nm in comparison[kind]:
+                    o = comparison[kind][nm]["observable"]
+                    line += "  " + {True: "observable", False: "unobservable",
+                                    None: "-"}[o]
+                lines.append(line.rstrip())
+        n = v["nees"]
+        lines.append(f"  NEES at end ({n['dof']} dof, expected {n['dof']}): mean "
+                     f"{n['mean_end']:.3g}, median {n['median_end']:.3g}; divergent trials "
+                     f"{100 * v['divergent_fraction']:.2f}%")
+        if comparison is not None:
+            if comparison["note"]:
+                lines.append(f"  {comparison['note']}")
+            else:
+                parts = []
+                for kind in ("states", "quantities"):
+                    rows = comparison[kind]
+                    bad = [k for k, r in rows.items() if r["agree"] is False]
+                    und = [k for k, r in rows.items() if r["agree"] is None]
+                    word = (f"disagree on {', '.join(bad)}" if bad else "agree") + (
+                        f" (undecided: {', '.join(und)})" if und else "")
+                    parts.append(f"{kind} {word}")
+                lines.append(f"  Monte Carlo vs analysis ({comparison['analysis']}): "
+                             + "; ".join(parts))
+                if any(r["agree"] is False for r in comparison["states"].values()):
+                    lines.append("  (a state moved by an unobservable direction together with "
+                                 "others can look converging: its error drops to the prior "
+                                 "spread along that direction; trust the named quantities)")
+        tm = self.timings
+        if tm:
+            lines.append(f"  {tm['trial_steps_per_s'] / 1e6:.2f} M trial-steps/s on "
+                         f"{tm['devices']} {tm['device_kind']} device(s); compile "
+                         f"{tm['compile_s']:.2f} s, run {tm['run_s']:.2f} s; load average "
+                         f"{tm['loadavg'][0]:.2f}")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+
+def _row(obs, conv):
+    return {"observable": obs, "converges": conv,
+            "agree": None if obs is None or conv is None else obs == conv}
+
+
+def _decide(ratio, sratio, late):
+    if not (math.isfinite(ratio) and math.isfinite(sratio)):
+        return None
+    if ratio <= CONVERGED_RATIO and sratio <= CONVERGED_RATIO:
+        return True
+    plateau = math.isfinite(late) and late >= PLATEAU_RATIO
+    # an overconfident filter (error > OVERCONFIDENT x its sigma) shrinks its sigma along
+    # directions it cannot see: its sigma is no evidence, only the error ratio counts
+    overconfident = ratio > OVERCONFIDENT * sratio
+    if ratio >= STALLED_RATIO or (plateau and sratio > CONVERGED_RATIO / 2) or overconfident:
+        return False
+    return None
+
+
+def _plain(v):
+    if isinstance(v, tuple):
+        return [float(x) for x in v]
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    return v

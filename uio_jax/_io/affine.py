@@ -1,0 +1,559 @@
+"""Split a general right-hand side ``x' = f(x, p, u, w)`` into the control-affine form.
+
+The analyses need ``x' = f0(x) + sum_i f_i(x) u_i + sum_j g_j(x) w_j``. A model written in
+the general form (model files with ``[dynamics]``, StrikePy modules, ``from_sympy`` with
+``dynamics=``) is split here:
+
+* drift ``f0(x, p) = f(x, p, 0, 0)``;
+* known field ``f_i(x, p) = d f / d u_i (x, p, 0, 0)`` and unknown field
+  ``g_j(x, p) = d f / d w_j (x, p, 0, 0)`` (a forward-mode derivative, equal to
+  ``f(e_i) - f0`` when ``f`` is affine in the inputs, without its cancellation error).
+
+**Affinity check.** ``f`` is affine in the inputs ``v = (u, w)`` iff its Hessian in ``v``
+vanishes identically. It is evaluated by forward-mode automatic differentiation to second
+order in float64 (numpy "jets" ``(value, gradient, Hessian)`` run through the same
+compiled expression closures as the JAX functions; they agree with ``jax.hessian`` to
+round-off, see the tests, and cost milliseconds where compiling ``jax.hessian`` costs
+seconds per model) at :data:`AFFINE_SAMPLES` random points ``(x, p, v)`` of the sampling boxes (states and
+parameters in their boxes, inputs in their ``domain`` box or ``(0.5, 1.5)``). Input pair
+``(a, b)`` (``a == b`` included) is declared non-affine when, at some sample where
+everything is finite, for some state ``k``
+
+    |H_kab| |v_a| |v_b| > AFFINE_RTOL * (|f_k| + sum_c |J_kc v_c| + TINY),
+
+i.e. the second-order term is not negligible against the terms of ``f_k`` there.
+Evidence for the threshold: automatic differentiation of an expression graph that is
+affine in ``v`` produces exact zeros for the second derivatives (the Hessian of a product
+with a ``v``-free factor is that factor times the other Hessian), so affine models give
+``H == 0`` exactly; only
+identities such as ``exp(log(u))`` leave round-off (about ``1e-16`` relative), far below
+``1e-8``; a genuinely non-affine term (``u/(p + u)``, ``u**2``, ``u*w``) gives ``O(1)``
+relative values at generic samples. An input that enters through ``abs``, ``sign``,
+``min`` or ``max`` (not differentiable at 0) is treated as non-affine without a test.
+
+**Promotion.** An input that enters non-affinely (or that appears in an output) is made a
+state, which is exact (the first extension of 004, what STRIKE-GOLDD does):
+
+* known ``u`` -> new state ``u`` with ``u' = d_u``, ``d_u`` a new known input (field
+  ``e_u``), and a new output ``u`` (it is known, hence measured);
+* unknown ``w`` -> new state ``w`` with ``w' = d_w``, ``d_w`` a new unknown input.
+
+Diagonal terms promote their input; the remaining cross terms (``u*w``) are covered
+greedily: the input with the most non-affine partners first, an unknown input before a
+known one, then the later declared. Every promotion adds one line to the System's notes.
+Inputs that appear in no equation are dropped, with a note.
+"""
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import ModelError
+from .expressions import Binary, Call, Expr, Ops, Unary, compile_raw, names_of, to_function, trig_funcs
+
+#: Random points where the Hessian in the inputs is evaluated.
+AFFINE_SAMPLES = 32
+#: Relative size of a second-order term above which an input is non-affine (see module doc).
+AFFINE_RTOL = 1e-8
+#: Absolute floor of the scale (a row of f that is exactly 0 at a sample).
+_TINY = 1e-300
+#: Sampling box of an input (affinity check, promoted state) without a ``domain`` entry.
+INPUT_BOX = (0.5, 1.5)
+#: Functions through which an input makes the model non-smooth: promoted without a test.
+_NONSMOOTH = {"abs", "Abs", "sign", "min", "max", "Min", "Max"}
+
+
+# ----------------------------------------------------------------------------- jets
+class Jet:
+    """Second-order forward-mode number: value ``v`` (shape ``S``), gradient ``g`` (``S + (m,)``)
+    and Hessian ``H`` (``S + (m, m)``) with respect to ``m`` seed variables.
+
+    Arithmetic with plain numbers or numpy arrays of shape ``S`` (constants) is supported;
+    the rules are the chain and product rules, so any expression that is affine in the
+    seeds gets ``H == 0`` exactly.
+    """
+
+    __slots__ = ("v", "g", "H")
+    __array_ufunc__ = None  # numpy defers to our reflected operators
+
+    def __init__(self, v, g, H):
+        self.v, self.g, self.H = v, g, H
+
+    @staticmethod
+    def seed(values, m, a):
+        """The seed variable ``a`` (of ``m``) with values ``values`` (shape ``S``)."""
+        values = np.asarray(values, dtype=np.float64)
+        g = np.zeros(values.shape + (m,))
+        g[..., a] = 1.0
+        return Jet(values, g, np.zeros(values.shape + (m, m)))
+
+    def __neg__(self):
+        return Jet(-self.v, -self.g, -self.H)
+
+    def __pos__(self):
+        return self
+
+    def __add__(self, b):
+        if isinstance(b, Jet):
+            return Jet(self.v + b.v, self.g + b.g, self.H + b.H)
+        return Jet(self.v + b, self.g, self.H)
+
+    __radd__ = __add__
+
+    def __sub__(self, b):
+        return self + (-b)
+
+    def __rsub__(self, b):
+        return (-self) + b
+
+    def __mul__(self, b):
+        if isinstance(b, Jet):
+            cross = self.g[..., :, None] * b.g[..., None, :]
+            return Jet(self.v * b.v, self.g * _c1(b.v) + b.g * _c1(self.v),
+                       self.H * _c2(b.v) + b.H * _c2(self.v) + cross + np.swapaxes(cross, -1, -2))
+        return Jet(self.v * b, self.g * _c1(b), self.H * _c2(b))
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, b):
+        if isinstance(b, Jet):
+            return self * _inv(b)
+        inv = np.divide(1.0, b)
+        return self * inv
+
+    def __rtruediv__(self, a):
+        return _inv(self) * a
+
+
+def _c1(b):
+    return np.asarray(b)[..., None]
+
+
+def _c2(b):
+    return np.asarray(b)[..., None, None]
+
+
+def _chain(x, f, d1, d2):
+    """``phi(x)`` for a Jet x, given ``phi(x.v)``, ``phi'(x.v)``, ``phi''(x.v)``."""
+    outer = x.g[..., :, None] * x.g[..., None, :]
+    return Jet(f, _c1(d1) * x.g, _c2(d1) * x.H + _c2(d2) * outer)
+
+
+def _inv(x):
+    v = x.v
+    return _chain(x, 1.0 / v, -1.0 / v**2, 2.0 / v**3)
+
+
+def _unary(fn, d):
+    """A jet function from numpy ``fn`` and ``d(v, f) -> (phi', phi'')``."""
+
+    def jf(x):
+        if not isinstance(x, Jet):
+            return fn(x)
+        f = fn(x.v)
+        d1, d2 = d(x.v, f)
+        return _chain(x, f, d1, d2)
+
+    return jf
+
+
+def _ipow(a, k):
+    if not isinstance(a, Jet):
+        return np.asarray(a, dtype=np.float64) ** k
+    if k == 0:
+        return np.ones_like(a.v)
+    if k == 1:
+        return a
+    v = a.v
+    return _chain(a, v**k, k * v ** (k - 1), k * (k - 1) * v ** (k - 2))
+
+
+def _power(a, b):
+    if not isinstance(b, Jet):
+        if not isinstance(a, Jet):
+            return np.power(np.asarray(a, dtype=np.float64), b)
+        v = a.v
+        return _chain(a, np.power(v, b), b * np.power(v, b - 1.0), b * (b - 1.0) * np.power(v, b - 2.0))
+    return _JET_MATH.exp(b * _JET_MATH.log(a))
+
+
+def _select(op):
+    def sel(a, b):
+        if not isinstance(a, Jet) and not isinstance(b, Jet):
+            return op(a, b)
+        a, b = _lift(a, b), _lift(b, a)
+        first = (a.v <= b.v) if op is np.minimum else (a.v >= b.v)
+        return Jet(np.where(first, a.v, b.v), np.where(_c1(first), a.g, b.g), np.where(_c2(first), a.H, b.H))
+
+    return sel
+
+
+def _lift(a, like):
+    if isinstance(a, Jet):
+        return a
+    v = np.broadcast_to(np.asarray(a, dtype=np.float64), like.v.shape)
+    return Jet(v, np.zeros_like(like.g), np.zeros_like(like.H))
+
+
+def _atan2(y, x):
+    if not isinstance(y, Jet) and not isinstance(x, Jet):
+        return np.arctan2(y, x)
+    j = _JET_MATH.arctan(y / x)  # same derivatives as atan2 where x != 0
+    yv = y.v if isinstance(y, Jet) else y
+    xv = x.v if isinstance(x, Jet) else x
+    return Jet(np.arctan2(yv, xv), j.g, j.H)
+
+
+class _JetMath:
+    """The numpy-like functions of :func:`trig_funcs` for jets."""
+
+    sin = staticmethod(_unary(np.sin, lambda v, f: (np.cos(v), -f)))
+    cos = staticmethod(_unary(np.cos, lambda v, f: (-np.sin(v), -f)))
+    tan = staticmethod(_unary(np.tan, lambda v, f: (1 + f**2, 2 * f * (1 + f**2))))
+    arcsin = staticmethod(_unary(np.arcsin, lambda v, f: (1 / np.sqrt(1 - v**2), v / (1 - v**2) ** 1.5)))
+    arccos = staticmethod(_unary(np.arccos, lambda v, f: (-1 / np.sqrt(1 - v**2), -v / (1 - v**2) ** 1.5)))
+    arctan = staticmethod(_unary(np.arctan, lambda v, f: (1 / (1 + v**2), -2 * v / (1 + v**2) ** 2)))
+    arctan2 = staticmethod(_atan2)
+    sinh = staticmethod(_unary(np.sinh, lambda v, f: (np.cosh(v), f)))
+    cosh = staticmethod(_unary(np.cosh, lambda v, f: (np.sinh(v), f)))
+    tanh = staticmethod(_unary(np.tanh, lambda v, f: (1 - f**2, -2 * f * (1 - f**2))))
+    arcsinh = staticmethod(_unary(np.arcsinh, lambda v, f: (1 / np.sqrt(v**2 + 1), -v / (v**2 + 1) ** 1.5)))
+    arccosh = staticmethod(_unary(np.arccosh, lambda v, f: (1 / np.sqrt(v**2 - 1), -v / (v**2 - 1) ** 1.5)))
+    arctanh = staticmethod(_unary(np.arctanh, lambda v, f: (1 / (1 - v**2), 2 * v / (1 - v**2) ** 2)))
+    exp = staticmethod(_unary(np.exp, lambda v, f: (f, f)))
+    log = staticmethod(_unary(np.log, lambda v, f: (1 / v, -1 / v**2)))
+    sqrt = staticmethod(_unary(np.sqrt, lambda v, f: (0.5 / f, -0.25 / (f * v))))
+    abs = staticmethod(_unary(np.abs, lambda v, f: (np.sign(v), 0.0 * v)))
+    sign = staticmethod(_unary(np.sign, lambda v, f: (0.0 * v, 0.0 * v)))
+
+
+_JET_MATH = _JetMath()
+#: The :class:`uio_jax._expressions.Ops` of jets (numpy, float64).
+JET_OPS = Ops(trig_funcs(_JET_MATH), _ipow, _power, _select(np.minimum), _select(np.maximum), lambda a: a)
+
+
+def _jet_parts(out, shape, m):
+    """(value, gradient, Hessian) of a jet evaluation that may be a constant."""
+    if isinstance(out, Jet):
+        return (np.broadcast_to(out.v, shape), np.broadcast_to(out.g, shape + (m,)),
+                np.broadcast_to(out.H, shape + (m, m)))
+    v = np.broadcast_to(np.asarray(out, dtype=np.float64), shape)
+    return v, np.zeros(shape + (m,)), np.zeros(shape + (m, m))
+
+
+# ----------------------------------------------------------------------------- split
+@dataclass(frozen=True)
+class Parts:
+    """A control-affine model as functions of ``z = [x; p]`` (shape ``(n + n_params,)``).
+
+    ``outputs``: name -> scalar function; ``drift`` (or None), ``known``, ``unknown``:
+    functions returning shape ``(n,)``. ``states``, ``domain`` and ``angles`` describe
+    the (possibly extended) state; ``notes`` say how it was derived. Every function runs
+    on JAX arrays (traceable) and, without JAX dispatch, on numpy arrays.
+    """
+
+    states: tuple
+    outputs: dict
+    known: dict
+    unknown: dict
+    drift: object
+    domain: dict
+    angles: tuple
+    notes: tuple = ()
+    promoted: tuple = field(default=())
+
+
+def _rows(exprs: Mapping[str, Expr], rows: Sequence[str], names: Sequence[str], constants):
+    return [compile_raw(exprs[r], names, constants) if r in exprs else None for r in rows]
+
+
+def _stack_jax(values, dtype):
+    dtype = jnp.result_type(dtype, float)
+    return jnp.stack([jnp.asarray(v, dtype=dtype) for v in values])
+
+
+def _stack_numpy(values):
+    with np.errstate(all="ignore"):
+        return np.array([float(v) for v in values], dtype=np.float64)
+
+
+def vector_function(exprs: Mapping[str, Expr], rows: Sequence[str], names: Sequence[str], constants):
+    """Compile per-row expressions into ``fn(z) -> (len(rows),)``; rows absent from ``exprs`` are 0.
+
+    ``z`` (shape ``(len(names),)``) is read by ``names`` (see
+    :func:`uio_jax._expressions.to_function`); a numpy ``z`` is evaluated with numpy.
+    """
+    fns = _rows(exprs, rows, names, constants)
+
+    def fn(z):
+        if isinstance(z, np.ndarray):
+            from .expressions import NUMPY_OPS
+
+            with np.errstate(all="ignore"):
+                return _stack_numpy([0.0 if f is None else f(z, NUMPY_OPS) for f in fns])
+        from .expressions import JAX_OPS
+
+        return _stack_jax([0.0 if f is None else f(z, JAX_OPS) for f in fns], z.dtype)
+
+    return fn
+
+
+def split_general(states, dynamics, outputs, known_inputs, unknown_inputs, params, constants,
+                  domain, angles, *, seed: int = 0) -> Parts:
+    """Split ``x' = f(x, p, u, w)`` into drift and input fields, promoting non-affine inputs.
+
+    Args:
+        states: state names (order of ``x``, length n).
+        dynamics: state -> Expr of its derivative (missing states: 0).
+        outputs: output name -> Expr (may use states, params, inputs, constants).
+        known_inputs, unknown_inputs: input names (``u`` and ``w``).
+        params: parameter name -> (lo, hi) box (order of ``p``).
+        constants: known constant name -> value.
+        domain: state or input name -> (lo, hi) sampling box.
+        angles: state names that are angles.
+        seed: seed of the affinity samples.
+
+    Returns:
+        :class:`Parts` on ``z = [x; promoted inputs; p]``: the drift ``f0 = f(u=0, w=0)``
+        (None when it vanishes identically), the fields ``d f / d u_i`` and
+        ``d f / d w_j`` at ``u = w = 0``, unit fields for the derivatives of promoted
+        inputs, and one note per promotion or dropped input.
+
+    Raises:
+        ModelError: the dynamics are not finite at any sampled point.
+    """
+    states, known_inputs, unknown_inputs = tuple(states), tuple(known_inputs), tuple(unknown_inputs)
+    inputs = known_inputs + unknown_inputs
+    notes = []
+    used = set().union(*(names_of(e) for e in dynamics.values())) if dynamics else set()
+    in_outputs = set().union(*(names_of(e) for e in outputs.values())) if outputs else set()
+    dropped = [v for v in inputs if v not in used and v not in in_outputs]
+    for v in dropped:
+        kind = "known" if v in known_inputs else "unknown"
+        notes.append(f"{kind} input {v!r} appears in no equation: dropped")
+    known_inputs = tuple(v for v in known_inputs if v not in dropped)
+    unknown_inputs = tuple(v for v in unknown_inputs if v not in dropped)
+    inputs = known_inputs + unknown_inputs
+
+    reasons = {}
+    for v in inputs:
+        if v in in_outputs:
+            reasons[v] = "appears in an output"
+    nonsmooth = _inputs_in_nonsmooth(dynamics.values(), set(inputs))
+    for v in inputs:
+        if v in nonsmooth and v not in reasons:
+            reasons[v] = "enters through abs/sign/min/max"
+    if any(v not in reasons for v in inputs):
+        pattern = nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angles, seed=seed)
+        for a, v in enumerate(inputs):
+            if pattern[a, a] and v not in reasons:
+                reasons[v] = "enters the dynamics non-affinely (second derivative in it is not 0)"
+        _cover_cross_terms(list(inputs), pattern, reasons, set(unknown_inputs))
+    promoted = tuple(v for v in inputs if v in reasons)
+    return _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
+                     constants, domain, angles, tuple(notes))
+
+
+def _inputs_in_nonsmooth(exprs, inputs):
+    found = set()
+
+    def walk(e, inside):
+        if isinstance(e, Call):
+            inside = inside or e.func in _NONSMOOTH
+            for a in e.args:
+                walk(a, inside)
+        elif isinstance(e, Binary):
+            walk(e.left, inside)
+            walk(e.right, inside)
+        elif isinstance(e, Unary):
+            walk(e.operand, inside)
+        elif inside and getattr(e, "id", None) in inputs:
+            found.add(e.id)
+
+    for e in exprs:
+        walk(e, False)
+    return found
+
+
+def _box(name, domain, angles, default):
+    if name in domain:
+        return tuple(map(float, domain[name]))
+    if name in angles:
+        return (-np.pi, np.pi)
+    return default
+
+
+def nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angles, *, seed=0,
+                      samples=AFFINE_SAMPLES) -> np.ndarray:
+    """Boolean ``(m, m)`` matrix: entry ``(a, b)`` when ``d2 f / dv_a dv_b`` is not negligible.
+
+    ``f`` is the dynamics (state -> Expr) on ``[x; p; v]`` with ``v = inputs``; the test
+    and its threshold are in the module doc.
+
+    Raises:
+        ModelError: ``f`` is not finite at any of the samples.
+    """
+    from .._model.system import DEFAULT_BOX
+
+    pnames = tuple(params)
+    names = tuple(states) + pnames + tuple(inputs)
+    fns = _rows(dynamics, states, names, constants)
+    boxes = ([_box(s, domain, angles, DEFAULT_BOX) for s in states]
+             + [tuple(map(float, params[q])) for q in pnames]
+             + [_box(v, domain, (), INPUT_BOX) for v in inputs])
+    lo = np.array([b[0] for b in boxes])
+    hi = np.array([b[1] for b in boxes])
+    zs = lo + (hi - lo) * np.random.default_rng(seed).random((samples, len(names)))
+    k, m = len(states) + len(pnames), len(inputs)
+    z = [zs[:, i] for i in range(k)] + [Jet.seed(zs[:, k + a], m, a) for a in range(m)]
+    fs, Js, Hs = [], [], []
+    with np.errstate(all="ignore"):
+        for fn in fns:
+            v, g, H = _jet_parts(0.0 if fn is None else fn(z, JET_OPS), (samples,), m)
+            fs.append(v)
+            Js.append(g)
+            Hs.append(H)
+        f, J, H = np.stack(fs, 1), np.stack(Js, 1), np.stack(Hs, 1)  # (S, n), (S, n, m), (S, n, m, m)
+        v = zs[:, k:]
+        finite = np.isfinite(f).all(axis=1) & np.isfinite(J).all(axis=(1, 2)) & np.isfinite(H).all(axis=(1, 2, 3))
+        if not finite.any():
+            raise ModelError(
+                f"the dynamics are not finite at any of {samples} sampled points "
+                "(states, parameters and inputs in their boxes)"
+            )
+        f, J, H, v = f[finite], J[finite], H[finite], v[finite]
+        scale = np.abs(f) + np.sum(np.abs(J * v[:, None, :]), axis=2) + _TINY  # (S, n)
+        second = np.abs(H) * np.abs(v)[:, None, :, None] * np.abs(v)[:, None, None, :]  # (S, n, m, m)
+        big = second > AFFINE_RTOL * scale[:, :, None, None]
+    return big.any(axis=(0, 1))
+
+
+def _cover_cross_terms(inputs, pattern, reasons, unknown):
+    """Promote inputs until no cross term u_a*u_b between two unpromoted inputs remains."""
+    m = len(inputs)
+    while True:
+        alive = [a for a in range(m) if inputs[a] not in reasons]
+        degree = {a: sum(1 for b in alive if b != a and (pattern[a, b] or pattern[b, a])) for a in alive}
+        if not degree or max(degree.values()) == 0:
+            return
+        pick = max(alive, key=lambda a: (degree[a], inputs[a] in unknown, a))
+        partners = [inputs[b] for b in alive if b != pick and (pattern[pick, b] or pattern[b, pick])]
+        reasons[inputs[pick]] = f"multiplies input {', '.join(map(repr, partners))} (the dynamics are not affine)"
+
+
+def _fresh(name, taken):
+    out = name
+    while out in taken:
+        out += "_"
+    taken.add(out)
+    return out
+
+
+def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
+              constants, domain, angles, notes):
+    from .._model.system import DEFAULT_BOX
+
+    pnames = tuple(params)
+    n0 = len(states)
+    taken = set(states) | set(pnames) | set(known_inputs) | set(unknown_inputs) | set(outputs) | set(constants)
+    new_states = tuple(states) + promoted
+    n = len(new_states)
+    znames = new_states + pnames
+    rest = tuple(v for v in known_inputs + unknown_inputs if v not in promoted)
+    nrest = len(rest)
+    fns = _rows(dynamics, states, znames + rest, constants)  # promoted inputs read their state
+
+    def rows_jax(z, r):
+        from .expressions import JAX_OPS
+
+        zz = jnp.concatenate([z, r])
+        return _stack_jax([0.0 if f is None else f(zz, JAX_OPS) for f in fns], z.dtype)
+
+    def pad(vec):
+        if n == n0:
+            return vec
+        if isinstance(vec, np.ndarray):
+            return np.concatenate([vec, np.zeros(n - n0)])
+        return jnp.concatenate([vec, jnp.zeros(n - n0, dtype=vec.dtype)])
+
+    def drift(z):
+        if isinstance(z, np.ndarray):
+            from .expressions import NUMPY_OPS
+
+            zz = np.concatenate([z, np.zeros(nrest)])
+            with np.errstate(all="ignore"):
+                return pad(_stack_numpy([0.0 if f is None else f(zz, NUMPY_OPS) for f in fns]))
+        return pad(rows_jax(z, jnp.zeros(nrest, dtype=z.dtype)))
+
+    def field_of(i):
+        def fi(z):
+            if isinstance(z, np.ndarray):  # one-off numpy evaluation: a first-order jet
+                zz = [np.float64(c) for c in z] + [Jet.seed(0.0, nrest, j) for j in range(nrest)]
+                with np.errstate(all="ignore"):
+                    cols = [_jet_parts(0.0 if f is None else f(zz, JET_OPS), (), nrest)[1][i] for f in fns]
+                return pad(np.array(cols, dtype=np.float64))
+            r0 = jnp.zeros(nrest, dtype=z.dtype)
+            e = r0.at[i].set(1.0)
+            return pad(jax.jvp(lambda r: rows_jax(z, r), (r0,), (e,))[1])
+
+        return fi
+
+    def unit(j):
+        def ej(z):
+            if isinstance(z, np.ndarray):
+                out = np.zeros(n)
+                out[j] = 1.0
+                return out
+            return jnp.zeros(n, dtype=jnp.result_type(z.dtype, float)).at[j].set(1.0)
+
+        return ej
+
+    known = {v: field_of(rest.index(v)) for v in known_inputs if v not in promoted}
+    unknown = {v: field_of(rest.index(v)) for v in unknown_inputs if v not in promoted}
+    out_fns = {k: to_function(e, znames, constants) for k, e in outputs.items()}
+    new_domain = {k: tuple(b) for k, b in domain.items() if k in states}
+    notes = list(notes)
+    for j, v in enumerate(promoted):
+        d = _fresh(f"d_{v}", taken)
+        new_domain[v] = _box(v, domain, (), INPUT_BOX)
+        if v in known_inputs:
+            known[d] = unit(n0 + j)
+            y = _fresh(v if v not in outputs else f"y_{v}", taken - {v})
+            out_fns[y] = _reader(n0 + j)
+            notes.append(f"known input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
+                         f"({d!r} a new known input) and output {y!r} (a known input is measured)")
+        else:
+            unknown[d] = unit(n0 + j)
+            notes.append(f"unknown input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
+                         f"({d!r} a new unknown input; exact for a smooth {v})")
+    boxes = [new_domain.get(s) or _box(s, domain, angles, DEFAULT_BOX) for s in new_states]
+    boxes += [tuple(map(float, params[q])) for q in pnames]
+    has_drift = bool(dynamics) and not _vanishes(drift, boxes)
+    return Parts(states=new_states, outputs=out_fns, known=known, unknown=unknown,
+                 drift=drift if has_drift else None, domain=new_domain, angles=tuple(angles),
+                 notes=tuple(notes), promoted=promoted)
+
+
+def _reader(i):
+    def read(z):
+        return z[i] if isinstance(z, np.ndarray) else jnp.asarray(z[i])
+
+    return read
+
+
+def _vanishes(fn, boxes, seed=1, samples=AFFINE_SAMPLES) -> bool:
+    """True when ``fn(z)`` is exactly 0 at every sampled ``z`` where it is finite.
+
+    A drift ``f(x, p, 0, 0)`` of a model such as ``r' = v cos(theta)`` is exactly 0 in
+    floating point (``0 * c == 0``); passing it on as a drift would send the analyses to
+    the EORC, so it is dropped.
+    """
+    lo = np.array([b[0] for b in boxes])
+    hi = np.array([b[1] for b in boxes])
+    zs = lo + (hi - lo) * np.random.default_rng(seed).random((samples, len(boxes)))
+    vals = np.array([fn(z) for z in zs])
+    finite = np.isfinite(vals).all(axis=1)
+    return bool(finite.any()) and not np.any(vals[finite] != 0.0)

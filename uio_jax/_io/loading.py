@@ -1,0 +1,118 @@
+"""``load_system(...)``: models loaded by path, not installed.
+
+Three kinds of model files:
+
+* ``path/to/file.py:NAME``: a Python file (executed) whose ``NAME`` is a System or a
+  function returning one (the model zoo);
+* ``path/to/model.toml`` / ``path/to/model.json``: a declarative model (data only, see
+  :mod:`uio_jax._model_file`);
+* ``path/to/model.py`` without ``:NAME``: a StrikePy / STRIKE-GOLDD model module, read
+  without executing it (see :mod:`uio_jax._strikepy_import`).
+"""
+
+import importlib.util
+import os
+import sys
+import traceback
+
+from .._errors import LoadError, UioJaxError
+from .._model.system import System
+
+
+def load_system(spec, *args, **kwargs) -> System:
+    """Load a System from ``"file.py:name"``, ``"model.toml"``/``"model.json"`` or a StrikePy module.
+
+    * ``"path/to/file.py:name"``: ``name`` is a function returning a System (called with
+      ``*args, **kwargs``) or a System object; the file is executed as a module named
+      after it.
+    * ``"path/to/model.toml"`` or ``.json``: a declarative model file
+      (:func:`uio_jax.load_model_file`).
+    * ``"path/to/model.py"`` (no ``:name``) that is a StrikePy model module
+      (:func:`uio_jax.load_strikepy`; read, never executed).
+
+    Raises:
+        LoadError: bad spec, missing file, file that fails to import, missing name,
+            or a name that does not give a System.
+        ModelError: a declarative model or StrikePy module with a bad entry.
+    """
+    if isinstance(spec, os.PathLike):
+        spec = os.fspath(spec)
+    if isinstance(spec, str):
+        suffix = os.path.splitext(spec)[1].lower()
+        if suffix in (".toml", ".json"):
+            if args or kwargs:
+                raise LoadError(f"{spec}: a model file takes no arguments")
+            from .model_file import load_model_file
+
+            return load_model_file(spec)
+        if suffix == ".py":
+            from .strikepy_import import is_strikepy_module, load_strikepy
+
+            if not os.path.isfile(spec):
+                raise LoadError(f"model file not found: {spec} (give a Python model as FILE.py:NAME, "
+                                "or the path of a StrikePy model module)")
+            if is_strikepy_module(spec):
+                if args or kwargs:
+                    raise LoadError(f"{spec}: a StrikePy model takes no arguments")
+                return load_strikepy(spec)
+            raise LoadError(f"{spec} is not a StrikePy model module (no sympy import or no top-level x, f, h): "
+                            "name the entry as FILE.py:NAME")
+    path, name = split_spec(spec)
+    module = load_module(path)
+    if not hasattr(module, name):
+        public = sorted(k for k in vars(module) if not k.startswith("_") and callable(vars(module)[k]))
+        raise LoadError(f"{path} has no {name!r} (it defines: {', '.join(public) or 'nothing'})")
+    obj = getattr(module, name)
+    if callable(obj) and not isinstance(obj, System):
+        try:
+            obj = obj(*args, **kwargs)
+        except UioJaxError as exc:
+            raise type(exc)(f"{spec}: {exc}") from None
+        except Exception as exc:
+            raise LoadError(f"{spec} raised {type(exc).__name__}: {_first_line(exc)}") from None
+    if not isinstance(obj, System):
+        raise LoadError(f"{spec} did not give a uio_jax.System (got {type(obj).__name__})")
+    if not obj.name:
+        object.__setattr__(obj, "name", f"{os.path.basename(path)}:{name}")
+    return obj
+
+
+def split_spec(spec: str) -> tuple[str, str]:
+    """``"a/b.py:fn"`` -> ``("a/b.py", "fn")``, with a LoadError for a malformed spec."""
+    if not isinstance(spec, str) or ":" not in spec:
+        raise LoadError(f"model must be given as FILE.py:NAME, MODEL.toml, MODEL.json or a StrikePy "
+                        f"MODEL.py, got {spec!r}")
+    path, name = spec.rsplit(":", 1)
+    if not path or not name.isidentifier():
+        raise LoadError(f"model must be given as FILE.py:NAME, MODEL.toml, MODEL.json or a StrikePy "
+                        f"MODEL.py, got {spec!r}")
+    return path, name
+
+
+def load_module(path: str):
+    """Execute a Python file as a module (cached in ``sys.modules`` by absolute path)."""
+    if not os.path.isfile(path):
+        raise LoadError(f"model file not found: {path}")
+    abspath = os.path.abspath(path)
+    modname = "uio_jax_model_" + "".join(c if c.isalnum() else "_" for c in abspath)
+    if modname in sys.modules:
+        return sys.modules[modname]
+    spec = importlib.util.spec_from_file_location(modname, abspath)
+    if spec is None or spec.loader is None:
+        raise LoadError(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = next((f" (line {f.lineno})" for f in reversed(tb) if f.filename == abspath), "")
+        raise LoadError(
+            f"model file {path} fails to load{where}: {type(exc).__name__}: {_first_line(exc)}"
+        ) from None
+    sys.modules[modname] = module
+    return module
+
+
+def _first_line(exc) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else ""

@@ -1,0 +1,397 @@
+"""The user's model: state names plus plain JAX callables.
+
+A :class:`System` describes
+
+    xdot = f0(x) + sum_i f_i(x) u_i + sum_j g_j(x) w_j,      y = h(x) in R^p,
+
+with ``u`` known inputs (free to choose, may jump) and ``w`` unknown inputs (smooth
+functions of time). Every callable takes the state vector ``x`` of shape ``(n,)``; a field
+returns shape ``(n,)`` and an output returns a scalar (shape ``()``).
+
+With unknown constant parameters ``theta`` (``params=``), every callable takes ``(x, p)``
+and the analyses run on the joint vector ``z = [x; theta]`` with ``theta' = 0``: a
+parameter is identifiable exactly when its coordinate is observable on ``z``.
+"""
+
+import contextlib
+import contextvars
+import keyword
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import ModelError
+
+Field = Callable[[jax.Array], jax.Array]
+Scalar = Callable[[jax.Array], jax.Array]
+
+#: Sampling box of a state that is not listed in ``System.domain`` (and not an angle).
+#: It stays away from 0, where many models have their singular set (1/r, atan2, norms);
+#: for analytic models the generic rank is the same on every open set of a connected domain.
+DEFAULT_BOX = (0.5, 1.5)
+#: Sampling box of a state listed in ``System.angles``.
+ANGLE_BOX = (-math.pi, math.pi)
+#: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
+_CHECK_SAMPLES = 64
+
+#: True while a System is built from the functions of an already validated one (the EORC's
+#: extended system): the traced checks (shapes, NaN at sampled states) are skipped.
+_DERIVED = contextvars.ContextVar("uio_jax_derived_system", default=False)
+
+
+@contextlib.contextmanager
+def derived_system():
+    """Build Systems whose functions are those of a validated System, reshaped by us.
+
+    Inside the block the traced checks of :class:`System` (output and field shapes,
+    finiteness at sampled states) are skipped: they cost a trace and a compile per
+    System, and the parts were checked when the user's System was built.
+    """
+    token = _DERIVED.set(True)
+    try:
+        yield
+    finally:
+        _DERIVED.reset(token)
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """A control-affine nonlinear system with known and unknown inputs.
+
+    Args:
+        states: state names, in the order of the state vector ``x`` (length n).
+        outputs: output name -> ``h(x)``, a scalar function of ``x`` (shape ``()``).
+        known: known-input name -> field ``f_i(x)`` of shape ``(n,)``.
+        unknown: unknown-input name -> field ``g_j(x)`` of shape ``(n,)``.
+        drift: optional drift ``f0(x)`` of shape ``(n,)``.
+        domain: state name -> ``(lo, hi)``, the box where states are sampled to certify
+            ranks. States not listed use ``DEFAULT_BOX`` = (0.5, 1.5), or ``[-pi, pi)``
+            when listed in ``angles``.
+        angles: names of states that are angles (sampled in ``[-pi, pi)``; innovations
+            and errors on them are wrapped by the Monte Carlo filter).
+        name: optional name shown in reports.
+        params: unknown constant parameters, name -> ``(lo, hi)`` sampling box (or a
+            sequence of names: ``DEFAULT_BOX`` each), in the order of the parameter
+            vector ``p``. When given, EVERY callable takes
+            ``(x, p)`` (``x`` of shape ``(n,)``, ``p`` of shape ``(len(params),)``) and
+            returns what it would without parameters. The analyses treat the parameters
+            as states with zero derivative (:meth:`joint`), so ``Report.identifiable``
+            answers identifiability.
+        source: the declarative model this System was built from (model file, sympy),
+            kept so that :func:`uio_jax.save_model` can write it back; ``None`` for
+            Systems built from Python callables.
+        notes: remarks carried into every Report of this System (e.g. how an importer
+            rewrote the model).
+
+    Raises:
+        ModelError: a one-line message naming the problem (wrong length, non-scalar
+            output, duplicate or unknown name, non-callable entry, empty or inverted
+            domain box, a function that is NaN/inf on the whole domain, no outputs).
+
+    Example:
+        >>> import jax.numpy as jnp, uio_jax as uj
+        >>> sys = uj.System(states=("x", "v"), outputs={"x": lambda s: s[0]},
+        ...                 known={"a": lambda s: jnp.array([0.0, 1.0])},
+        ...                 drift=lambda s: jnp.array([s[1], 0.0]))
+    """
+
+    states: tuple[str, ...]
+    outputs: Mapping[str, Scalar]
+    known: Mapping[str, Field] = field(default_factory=dict)
+    unknown: Mapping[str, Field] = field(default_factory=dict)
+    drift: Field | None = None
+    domain: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    angles: tuple[str, ...] = ()
+    name: str = ""
+    params: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    source: object = field(default=None, repr=False)
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        states = _as_names(self.states, "states")
+        if not states:
+            raise ModelError("a System needs at least one state")
+        object.__setattr__(self, "states", states)
+        angles = _as_names(self.angles, "angles")
+        for a in angles:
+            if a not in states:
+                raise ModelError(f"angle {a!r} is not a state (states: {', '.join(states)})")
+        object.__setattr__(self, "angles", angles)
+        for attr in ("outputs", "known", "unknown"):
+            object.__setattr__(self, attr, _as_callables(getattr(self, attr), attr))
+        if not self.outputs:
+            raise ModelError("a System needs at least one output")
+        both = set(self.known) & set(self.unknown)
+        if both:
+            raise ModelError(f"input {sorted(both)[0]!r} is declared both known and unknown")
+        if self.drift is not None and not callable(self.drift):
+            raise ModelError(f"drift must be callable, got {type(self.drift).__name__}")
+        object.__setattr__(self, "domain", _as_domain(self.domain, states, angles))
+        if not isinstance(self.name, str):
+            raise ModelError(f"name must be a string, got {type(self.name).__name__}")
+        params = _as_params(self.params, states)
+        object.__setattr__(self, "params", params)
+        notes = (self.notes,) if isinstance(self.notes, str) else tuple(self.notes or ())
+        if not all(isinstance(t, str) for t in notes):
+            raise ModelError("notes must be strings")
+        object.__setattr__(self, "notes", notes)
+        if not _DERIVED.get():
+            self._check_shapes()
+        if params:
+            object.__setattr__(self, "_joint", self._build_joint())  # validated there
+        elif not _DERIVED.get():
+            self._check_finite()
+
+    # ------------------------------------------------------------------ accessors
+    @property
+    def n(self) -> int:
+        """Dimension of the state."""
+        return len(self.states)
+
+    def fields(self) -> dict[str, Field]:
+        """Every vector field by its label: ``f0`` (drift, if any), known, then unknown."""
+        out = {}
+        if self.drift is not None:
+            out["f0"] = self.drift
+        out.update(self.known)
+        out.update(self.unknown)
+        return out
+
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners of the sampling box, each of shape ``(n,)``."""
+        lo = np.array([self.domain[s][0] for s in self.states], dtype=np.float64)
+        hi = np.array([self.domain[s][1] for s in self.states], dtype=np.float64)
+        return lo, hi
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the unknown constant parameters (order of ``p``)."""
+        return tuple(self.params)
+
+    @property
+    def joint_param_names(self) -> tuple[str, ...]:
+        """Coordinates of this System's state that are parameters of the user's model.
+
+        Empty for a user's System; set on the System returned by :meth:`joint`.
+        """
+        return getattr(self, "_as_params", ())
+
+    def joint(self) -> "System":
+        """The parameter-free System on ``z = [x; p]`` that the analyses run on.
+
+        States are ``states + params``, every field is padded with ``p' = 0`` and every
+        callable reads ``x = z[:n]``, ``p = z[n:]``; the parameter boxes become domains.
+        Returns ``self`` when there is no parameter.
+        """
+        return getattr(self, "_joint", self)
+
+    def with_known(self, names) -> "System":
+        """A copy where the unknown inputs ``names`` are treated as known inputs."""
+        names = tuple(names)
+        for nm in names:
+            if nm not in self.unknown:
+                raise ModelError(f"{nm!r} is not an unknown input of this system")
+        known = dict(self.known)
+        known.update({nm: self.unknown[nm] for nm in names})
+        unknown = {k: v for k, v in self.unknown.items() if k not in names}
+        with derived_system():  # the same (validated) functions
+            return System(self.states, dict(self.outputs), known, unknown, self.drift,
+                          dict(self.domain), self.angles, self.name, params=dict(self.params),
+                          notes=self.notes)
+
+    def __repr__(self) -> str:
+        parts = [f"states={self.states}", f"outputs={tuple(self.outputs)}"]
+        if self.known:
+            parts.append(f"known={tuple(self.known)}")
+        if self.unknown:
+            parts.append(f"unknown={tuple(self.unknown)}")
+        if self.drift is not None:
+            parts.append("drift")
+        if self.params:
+            parts.append(f"params={tuple(self.params)}")
+        label = f"{self.name!r}, " if self.name else ""
+        return f"System({label}{', '.join(parts)})"
+
+    # ------------------------------------------------------------------ validation
+    def _named_functions(self):
+        yield from ((f"output {k!r}", fn, ()) for k, fn in self.outputs.items())
+        yield from ((f"known field {k!r}", fn, (self.n,)) for k, fn in self.known.items())
+        yield from ((f"unknown field {k!r}", fn, (self.n,)) for k, fn in self.unknown.items())
+        if self.drift is not None:
+            yield ("drift", self.drift, (self.n,))
+
+    def _check_shapes(self):
+        args = [jax.ShapeDtypeStruct((self.n,), jnp.float64)]
+        on = f"a state vector of length {self.n}"
+        if self.params:
+            args.append(jax.ShapeDtypeStruct((len(self.params),), jnp.float64))
+            on = f"(x, p) of lengths ({self.n}, {len(self.params)})"
+        with jax.enable_x64(True):
+            for what, fn, expected in self._named_functions():
+                try:
+                    out = jax.eval_shape(fn, *args)
+                except Exception as exc:  # the user's function fails to trace
+                    msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                    if self.params and isinstance(exc, TypeError) and "argument" in msg:
+                        msg += " (with params, every function takes (x, p))"
+                    raise ModelError(
+                        f"{what} fails on {on}: {type(exc).__name__}: {msg}"
+                    ) from None
+                _check_indexing(what, fn, self.n, len(self.params) if self.params else None)
+                shape = getattr(out, "shape", None)
+                if shape is None:
+                    raise ModelError(f"{what} must return an array, got {type(out).__name__}")
+                if tuple(shape) != expected:
+                    want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
+                    raise ModelError(f"{what} returns shape {tuple(shape)}, expected {want}")
+
+    def _check_finite(self):
+        from .sampling import sample_states
+
+        named = list(self._named_functions())
+        fns = tuple(fn for _, fn, _ in named)
+        with jax.enable_x64(True):
+            xs = sample_states(self, _CHECK_SAMPLES, seed=12345)
+            values = jax.jit(lambda s: tuple(jax.vmap(fn)(s) for fn in fns))(xs)
+            for (what, _, _), vals in zip(named, values):
+                vals = np.asarray(vals).reshape(_CHECK_SAMPLES, -1)
+                if not np.isfinite(vals).all(axis=1).any():
+                    raise ModelError(
+                        f"{what} returns NaN/inf at every one of {_CHECK_SAMPLES} sampled "
+                        "states of the domain"
+                    )
+
+
+    def _build_joint(self) -> "System":
+        """The System on ``z = [x; p]`` (see :meth:`joint`); it validates itself."""
+        n, P = self.n, len(self.params)
+
+        def scalar(fn):
+            return lambda z: fn(z[:n], z[n:])
+
+        def vector(fn):
+            return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
+
+        joint = System(
+            self.states + tuple(self.params),
+            {k: scalar(fn) for k, fn in self.outputs.items()},
+            known={k: vector(fn) for k, fn in self.known.items()},
+            unknown={k: vector(fn) for k, fn in self.unknown.items()},
+            drift=None if self.drift is None else vector(self.drift),
+            domain={**self.domain, **self.params},
+            angles=self.angles,
+            name=self.name,
+            notes=self.notes,
+        )
+        object.__setattr__(joint, "_as_params", tuple(self.params))
+        return joint
+
+
+def _check_indexing(what, fn, n, n_params=None):
+    """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
+
+    The function is called once on a plain numpy vector, where out-of-range indexing raises
+    IndexError; any other failure is left to the traced checks.
+    """
+    args = (np.full(n, 0.75),) if n_params is None else (np.full(n, 0.75), np.full(n_params, 0.75))
+    try:
+        fn(*args)
+    except IndexError as exc:
+        where = f"the state vector of length {n}" if n_params is None else (
+            f"x (length {n}) or p (length {n_params})")
+        raise ModelError(
+            f"{what} indexes outside {where}: {exc}"
+        ) from None
+    except Exception:  # numpy input not supported by this function: traced checks decide
+        pass
+
+
+def _as_names(names, what) -> tuple[str, ...]:
+    if isinstance(names, str):
+        raise ModelError(f"{what} must be a sequence of names, got the string {names!r}")
+    try:
+        names = tuple(names)
+    except TypeError:
+        raise ModelError(f"{what} must be a sequence of names, got {type(names).__name__}") from None
+    seen = set()
+    for nm in names:
+        if not isinstance(nm, str) or not nm:
+            raise ModelError(f"{what} entries must be non-empty strings, got {nm!r}")
+        if nm in seen:
+            raise ModelError(f"duplicate name {nm!r} in {what}")
+        seen.add(nm)
+    return names
+
+
+def _as_callables(mapping, what) -> Mapping[str, Callable]:
+    if mapping is None:
+        mapping = {}
+    if not isinstance(mapping, Mapping):
+        raise ModelError(f"{what} must be a mapping name -> function, got {type(mapping).__name__}")
+    out = {}
+    for k, fn in mapping.items():
+        if not isinstance(k, str) or not k:
+            raise ModelError(f"{what} names must be non-empty strings, got {k!r}")
+        if keyword.iskeyword(k):
+            raise ModelError(f"{what} name {k!r} is a Python keyword")
+        if not callable(fn):
+            raise ModelError(f"{what} entry {k!r} is not callable (got {type(fn).__name__})")
+        out[k] = fn
+    return MappingProxyType(out)
+
+
+def _as_params(params, states) -> Mapping[str, tuple[float, float]]:
+    if params is None:
+        params = {}
+    if not isinstance(params, Mapping) and not isinstance(params, str):
+        try:  # a sequence of names: the default box
+            params = {k: DEFAULT_BOX for k in _as_names(params, "params")}
+        except ModelError:
+            pass
+    if not isinstance(params, Mapping):
+        raise ModelError(f"params must be a mapping name -> (lo, hi), got {type(params).__name__}")
+    out = {}
+    for k, box in params.items():
+        if not isinstance(k, str) or not k:
+            raise ModelError(f"parameter names must be non-empty strings, got {k!r}")
+        if k in states:
+            raise ModelError(f"parameter {k!r} has the name of a state")
+        try:
+            lo, hi = (float(v) for v in box)
+        except (TypeError, ValueError):
+            raise ModelError(f"box of parameter {k!r} must be a pair (lo, hi), got {box!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ModelError(f"box of parameter {k!r} must be finite, got ({lo}, {hi})")
+        if lo >= hi:
+            raise ModelError(f"box of parameter {k!r} is empty: lo={lo} >= hi={hi}")
+        out[k] = (lo, hi)
+    return MappingProxyType(out)
+
+
+def _as_domain(domain, states, angles) -> Mapping[str, tuple[float, float]]:
+    if domain is None:
+        domain = {}
+    if not isinstance(domain, Mapping):
+        raise ModelError(f"domain must be a mapping state -> (lo, hi), got {type(domain).__name__}")
+    out = {}
+    for k, box in domain.items():
+        if k not in states:
+            raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)})")
+        try:
+            lo, hi = (float(v) for v in box)
+        except (TypeError, ValueError):
+            raise ModelError(f"domain of {k!r} must be a pair (lo, hi), got {box!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ModelError(f"domain of {k!r} must be finite, got ({lo}, {hi})")
+        if lo >= hi:
+            raise ModelError(f"domain of {k!r} is empty: lo={lo} >= hi={hi}")
+        out[k] = (lo, hi)
+    for s in states:
+        if s not in out:
+            out[s] = ANGLE_BOX if s in angles else DEFAULT_BOX
+    return MappingProxyType(out)

@@ -1,0 +1,78 @@
+"""``uio-jax montecarlo MODEL:EXPERIMENT --trials N --seed S [--plot FILE] [--json FILE]``."""
+
+import json
+import os
+
+from .._errors import OptionError
+from .._io.experiment_loading import load_experiment
+
+
+def add_parser(subparsers):
+    """Add the ``montecarlo`` sub-command to an argparse ``subparsers`` object."""
+    p = subparsers.add_parser("montecarlo", help="Monte Carlo EKF of a zoo experiment")
+    p.add_argument("experiment", help="FILE.py:NAME, a function returning an Experiment "
+                                      "(NAME or NAME_experiment)")
+    p.add_argument("--trials", type=int, default=256, help="number of trials (default 256)")
+    p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
+    p.add_argument("--keep", type=int, default=4, help="full trajectories kept (default 4)")
+    p.add_argument("--plot", metavar="FILE", help="write the figure (PNG, PDF, ...)")
+    p.add_argument("--json", metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--no-analysis", action="store_true",
+                   help="skip the observability analysis shown beside the verdict")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+def split_host_devices():
+    """On a CPU, split the host into one JAX device per core (before the backend starts).
+
+    Returns the number of devices requested, or 0 when the backend was already running
+    (then the run uses the devices it has).
+    """
+    import jax
+
+    n = os.cpu_count() or 1
+    try:
+        jax.config.update("jax_num_cpu_devices", n)
+    except Exception:  # backend already initialised: keep its devices
+        return 0
+    return n
+
+
+def run(args) -> int:
+    """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
+    if args.trials <= 0:
+        raise OptionError(f"--trials must be a positive integer, got {args.trials}")
+    if args.seed < 0:
+        raise OptionError(f"--seed must be a non-negative integer, got {args.seed}")
+    if args.keep < 0:
+        raise OptionError(f"--keep must be a non-negative integer, got {args.keep}")
+    split_host_devices()
+    from .._filter.montecarlo import run_montecarlo
+
+    exp = load_experiment(args.experiment)
+    res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep,
+                         progress=False if args.no_progress else None)
+    comparison = None
+    if not args.no_analysis:
+        from .._analysis.analyze import analyze
+
+        comparison = res.compare(analyze(exp.analysis_system()))
+    print(res.summary(comparison))
+    if args.json:
+        d = res.to_dict()
+        if comparison is not None:
+            d["comparison"] = comparison
+        with open(args.json, "w") as fh:
+            json.dump(d, fh, indent=1)
+        print(f"summary written to {args.json}")
+    if args.plot:
+        from .._filter.plots import plot_montecarlo
+
+        fig, _ = plot_montecarlo(res)
+        fig.savefig(args.plot, dpi=80)
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        print(f"figure written to {args.plot}")
+    return 0
