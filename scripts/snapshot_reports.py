@@ -4,7 +4,10 @@ Used to check that a change which should not move any number (a refactor) leaves
 report bit for bit unchanged: run it before and after, then compare the two files
 (``tests/test_zoo_snapshot.py`` does this against ``tests/data/zoo_reports.json``).
 
-    python scripts/snapshot_reports.py OUT.json [--samples 256] [--only SUBSTRING]
+    python scripts/snapshot_reports.py OUT.json [--samples 256] [--only SUBSTRING] [--compare OLD.json]
+
+With ``--compare`` it prints every model whose report differs from OLD.json (the first
+differing key) and exits 1 when one does.
 """
 
 import argparse
@@ -24,15 +27,23 @@ def zoo_entries():
     return entries
 
 
+def snapshot_label(label: str) -> str:
+    """``FILE.py:NAME`` or ``MODEL.toml`` without the directory (the same on every checkout)."""
+    path, sep, name = label.rpartition(":") if label.count(":") and not label.endswith(
+        (".toml", ".json")) else (label, "", "")
+    return Path(path).name + sep + name
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
     ap.add_argument("--samples", type=int, default=256)
     ap.add_argument("--only", default="")
+    ap.add_argument("--compare", metavar="OLD.json", help="compare with an earlier snapshot")
     args = ap.parse_args(argv)
     out = {}
     for entry in zoo_entries():
-        label = Path(entry.label.split(":")[0]).name + ":" + entry.label.split(":")[-1]
+        label = snapshot_label(entry.label)
         if args.only not in label:
             continue
         if entry.system is None:
@@ -42,7 +53,44 @@ def main(argv=None):
         out[label] = rep.to_dict()
         print(label, rep.dims, file=sys.stderr, flush=True)
     Path(args.out).write_text(json.dumps(out, indent=1, sort_keys=True))
+    if args.compare:
+        return compare(json.loads(Path(args.compare).read_text()), json.loads(json.dumps(out)))
+    return 0
+
+
+def first_difference(a, b, path=""):
+    """The first key path where two JSON values differ, or None when they are equal."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if k not in a or k not in b:
+                return f"{path}/{k} (only in {'new' if k in b else 'old'})"
+            d = first_difference(a[k], b[k], f"{path}/{k}")
+            if d:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b)):
+            d = first_difference(x, y, f"{path}[{i}]")
+            if d:
+                return d
+        return None
+    return None if a == b else f"{path}: {a!r} -> {b!r}"
+
+
+def compare(old: dict, new: dict) -> int:
+    """Print the models whose reports differ; 1 when any does, else 0."""
+    bad = 0
+    for label in sorted(new):
+        if label not in old:
+            print(f"{label}: not in the old snapshot")
+            continue
+        d = first_difference(old[label], new[label])
+        if d:
+            bad += 1
+            print(f"{label}: {d}")
+    print(f"{len(new) - bad} of {len(new)} reports equal")
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

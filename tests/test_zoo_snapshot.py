@@ -1,0 +1,73 @@
+"""Every zoo report equals the stored snapshot (``tests/data/zoo_reports.json``).
+
+The snapshot was written by ``scripts/snapshot_reports.py`` (256 samples, seed 0) before
+the package was reorganised into layers; a change that should move no number (a refactor)
+must leave every report equal. Integers, booleans, strings and labels compare exactly;
+floats (singular-value margins of the certificate) to a relative 1e-9, so that a new
+XLA build's last-bit differences do not fail the test while any real change does.
+
+To refresh after a change that is meant to move numbers: rerun the script, read the diff
+(``--compare`` prints it), and commit the new file with the reason.
+
+The four visual-inertial models (12-15 states, the EORC to k = 10) take about ten minutes
+together; they are left to the script (``--only visual_inertial``).
+"""
+
+import importlib.util
+import json
+import math
+import os
+
+import pytest
+from conftest import ROOT
+
+import uio_jax as uj
+
+with open(os.path.join(ROOT, "tests", "data", "zoo_reports.json")) as _fh:
+    SNAPSHOT = json.load(_fh)
+HEAVY = ("visual_inertial.py",)
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location(
+        "snapshot_reports", os.path.join(ROOT, "scripts", "snapshot_reports.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _close(old, new, path=""):
+    """The first place where two JSON values differ beyond the float tolerance, or None."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        if set(old) != set(new):
+            return f"{path}: keys {sorted(set(old) ^ set(new))}"
+        return next((d for k in sorted(old) if (d := _close(old[k], new[k], f"{path}/{k}"))), None)
+    if isinstance(old, list) and isinstance(new, list):
+        if len(old) != len(new):
+            return f"{path}: length {len(old)} -> {len(new)}"
+        return next((d for i, (a, b) in enumerate(zip(old, new)) if (d := _close(a, b, f"{path}[{i}]"))),
+                    None)
+    if isinstance(old, float) and isinstance(new, float):
+        return None if math.isclose(old, new, rel_tol=1e-9, abs_tol=0.0) else f"{path}: {old!r} -> {new!r}"
+    return None if (type(old) is type(new) and old == new) else f"{path}: {old!r} -> {new!r}"
+
+
+@pytest.fixture(scope="module")
+def entries():
+    script = _script()
+    return {script.snapshot_label(e.label): e for e in script.zoo_entries()}
+
+
+def test_the_snapshot_covers_the_zoo(entries):
+    assert sorted(entries) == sorted(SNAPSHOT)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("label", [k for k in sorted(SNAPSHOT) if not k.startswith(HEAVY)])
+def test_report_equals_the_snapshot(entries, label):
+    entry = entries[label]
+    if "error" in SNAPSHOT[label]:
+        assert entry.system is None and entry.error == SNAPSHOT[label]["error"]
+        return
+    got = json.loads(json.dumps(uj.analyze(entry.system, samples=256, seed=0).to_dict()))
+    assert _close(SNAPSHOT[label], got) is None, _close(SNAPSHOT[label], got)
