@@ -18,11 +18,7 @@ comprehensions, keyword arguments, strings, comparisons, unknown names) raises
 :class:`ExpressionError` with one line naming the expression, the 1-based column of the
 offending token and what is allowed.
 
-The tree is compiled to a JAX function by walking it once into nested closures of ``jnp``
-operations (:func:`to_function`); integer powers use ``lax.integer_pow`` (exact, and
-clean derivatives for negative bases). The closures take their operations as an argument
-(:class:`Ops`), so the same compiled tree also runs on numpy arrays (no JAX dispatch for
-one-off evaluations) and on the second-order jets of :mod:`uio_jax._affine`.
+The tree is compiled to functions by :mod:`uio_jax._io.expression_functions`.
 :func:`to_text` prints a tree back with the fewest parentheses that parse into the same
 tree: ``parse(to_text(e)) == e``.
 """
@@ -31,10 +27,6 @@ import ast
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-
-import jax.numpy as jnp
-import numpy as np
-from jax import lax
 
 from .._errors import ExpressionError
 
@@ -48,7 +40,7 @@ MAX_DEPTH = 400
 #: named subexpressions: ``b = a*a; c = b*b; ...`` doubles the tree at each line).
 MAX_NODES = 200_000
 #: Integer exponents up to this size use ``lax.integer_pow``; larger ones ``jnp.power``.
-_MAX_INTEGER_POW = 64
+MAX_INTEGER_POW = 64
 #: Names of mathematical constants, usable in every expression unless a variable shadows them.
 CONSTANTS = {"pi": math.pi, "E": math.e}
 
@@ -97,7 +89,7 @@ Expr = Num | Name | Unary | Binary | Call
 
 
 #: Whitelisted functions: name -> number of arguments (``(k, None)``: at least k).
-#: Implementations: :data:`_JAX_OPS` (``jnp``) and :data:`_NUMPY_OPS`; aliases in :data:`_ALIASES`.
+#: Implementations: :data:`_JAX_OPS` (``jnp``) and :data:`_NUMPY_OPS`; aliases in :data:`ALIASES`.
 FUNCTIONS: dict[str, object] = {
     "sin": 1, "cos": 1, "tan": 1, "sec": 1, "csc": 1, "cot": 1,
     "asin": 1, "acos": 1, "atan": 1, "atan2": 2,
@@ -107,7 +99,7 @@ FUNCTIONS: dict[str, object] = {
     "pow": 2, "Pow": 2,
 }
 #: Functions that are another function's spelling.
-_ALIASES = {"Abs": "abs", "Min": "min", "Max": "max", "Pow": "pow"}
+ALIASES = {"Abs": "abs", "Min": "min", "Max": "max", "Pow": "pow"}
 
 
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
@@ -478,145 +470,3 @@ def to_text(expr: Expr) -> str:
                 right = f"({right})"
         return f"{left} {expr.op} {right}" if p == 1 else f"{left}{expr.op}{right}"
     raise TypeError(f"not an expression tree: {expr!r}")
-
-
-# ----------------------------------------------------------------------------- compiling
-class Ops:
-    """The arithmetic a compiled expression runs on: one instance per backend.
-
-    ``funcs`` maps every (unaliased) name of :data:`FUNCTIONS` but ``min``/``max``/``pow``
-    to a unary or binary function; ``ipow(a, k)`` is an integer power, ``power(a, b)`` a
-    general one, ``minimum``/``maximum`` binary. Backends: :data:`JAX_OPS`,
-    :data:`NUMPY_OPS` (used when a compiled function is called on a numpy array: no JAX
-    dispatch), and the second-order jets of :mod:`uio_jax._affine`.
-    """
-
-    def __init__(self, funcs, ipow, power, minimum, maximum, asarray):
-        self.funcs, self.ipow, self.power = funcs, ipow, power
-        self.minimum, self.maximum, self.asarray = minimum, maximum, asarray
-
-
-def trig_funcs(m):
-    return {
-        "sin": m.sin, "cos": m.cos, "tan": m.tan,
-        "sec": lambda a: 1.0 / m.cos(a), "csc": lambda a: 1.0 / m.sin(a), "cot": lambda a: 1.0 / m.tan(a),
-        "asin": m.arcsin, "acos": m.arccos, "atan": m.arctan, "atan2": m.arctan2,
-        "sinh": m.sinh, "cosh": m.cosh, "tanh": m.tanh,
-        "asinh": m.arcsinh, "acosh": m.arccosh, "atanh": m.arctanh,
-        "exp": m.exp, "log": m.log, "sqrt": m.sqrt, "abs": m.abs, "sign": m.sign,
-    }
-
-
-JAX_OPS = Ops(trig_funcs(jnp), lambda a, k: lax.integer_pow(jnp.asarray(a, dtype=float), k),
-              lambda a, b: jnp.power(jnp.asarray(a, dtype=float), b), jnp.minimum, jnp.maximum,
-              lambda a: jnp.asarray(a))
-NUMPY_OPS = Ops(trig_funcs(np), lambda a, k: np.asarray(a, dtype=np.float64) ** k,
-                lambda a, b: np.power(np.asarray(a, dtype=np.float64), b), np.minimum, np.maximum,
-                lambda a: np.asarray(a, dtype=np.float64))
-
-
-def to_function(expr: Expr, names: Sequence[str], constants: Mapping[str, float] | None = None):
-    """Compile a tree into ``fn(z) -> scalar`` built from ``jnp`` operations.
-
-    Args:
-        expr: the tree.
-        names: the meaning of the entries of ``z``: ``Name(names[i])`` reads ``z[i]``
-            (``z`` of shape ``(len(names),)``).
-        constants: known constants name -> value, folded in as Python floats; ``pi`` and
-            ``E`` are added unless ``names`` or ``constants`` define them.
-
-    Returns:
-        A function of one array ``z`` returning a scalar (shape ``()``); differentiable and
-        jit-able (JAX operations). Called on a plain numpy array it computes the same
-        value with numpy (no JAX dispatch; floating-point warnings silenced). No Python
-        evaluation of user text happens: the tree is walked once into nested closures.
-
-    Raises:
-        ExpressionError: a name that is neither in ``names`` nor a constant.
-    """
-    fn = compile_raw(expr, names, constants)
-
-    def f(z):
-        if isinstance(z, np.ndarray):
-            with np.errstate(all="ignore"):
-                return np.asarray(fn(z, NUMPY_OPS), dtype=np.float64)
-        return jnp.asarray(fn(z, JAX_OPS))
-
-    return f
-
-
-def compile_raw(expr: Expr, names: Sequence[str], constants: Mapping[str, float] | None = None):
-    """Compile a tree into ``fn(z, ops)``: ``z`` indexable by position, ``ops`` an :class:`Ops`.
-
-    The result may be a Python float when the expression is constant.
-    """
-    index = {nm: i for i, nm in enumerate(names)}
-    consts = dict(CONSTANTS)
-    consts.update(constants or {})
-    return _compile(expr, index, consts)
-
-
-def _compile(e: Expr, index, consts):
-    if isinstance(e, Num):
-        v = e.value
-        return lambda z, o: v
-    if isinstance(e, Name):
-        if e.id in index:
-            i = index[e.id]
-            return lambda z, o: z[i]
-        if e.id in consts:
-            v = float(consts[e.id])
-            return lambda z, o: v
-        raise ExpressionError(f"name {e.id!r} has no value")
-    if isinstance(e, Unary):
-        a = _compile(e.operand, index, consts)
-        return (lambda z, o: -a(z, o)) if e.op == "-" else a
-    if isinstance(e, Binary):
-        a, b = _compile(e.left, index, consts), _compile(e.right, index, consts)
-        if e.op == "+":
-            return lambda z, o: a(z, o) + b(z, o)
-        if e.op == "-":
-            return lambda z, o: a(z, o) - b(z, o)
-        if e.op == "*":
-            return lambda z, o: a(z, o) * b(z, o)
-        if e.op == "/":
-            return lambda z, o: o.asarray(a(z, o)) / b(z, o)
-        return _power(a, e.right, b)
-    if isinstance(e, Call):
-        args = [_compile(x, index, consts) for x in e.args]
-        func = _ALIASES.get(e.func, e.func)
-        if func in ("min", "max"):
-            def minmax(z, o, func=func):
-                op = o.minimum if func == "min" else o.maximum
-                out = o.asarray(args[0](z, o))
-                for f in args[1:]:
-                    out = op(out, f(z, o))
-                return out
-
-            return minmax
-        if func == "pow":
-            return _power(args[0], e.args[1], args[1])
-        if len(args) == 1:
-            (a,) = args
-            return lambda z, o: o.funcs[func](o.asarray(a(z, o)))
-        return lambda z, o: o.funcs[func](*(o.asarray(f(z, o)) for f in args))
-    raise TypeError(f"not an expression tree: {e!r}")
-
-
-def _exponent_value(e: Expr):
-    """The value of a constant exponent (``2``, ``-1``, ``(-2)``), or None."""
-    if isinstance(e, Num):
-        return e.value
-    if isinstance(e, Unary) and isinstance(e.operand, Num):
-        return -e.operand.value if e.op == "-" else e.operand.value
-    return None
-
-
-def _power(base, exponent_expr, exponent):
-    k = _exponent_value(exponent_expr)
-    if k is not None and k.is_integer() and abs(k) <= _MAX_INTEGER_POW:
-        k = int(k)
-        if k == 0:
-            return lambda z, o: o.ipow(base(z, o), 0)
-        return lambda z, o: o.ipow(base(z, o), k)
-    return lambda z, o: o.power(base(z, o), exponent(z, o))

@@ -5,9 +5,9 @@ Three kinds of model files:
 * ``path/to/file.py:NAME``: a Python file (executed) whose ``NAME`` is a System or a
   function returning one (the model zoo);
 * ``path/to/model.toml`` / ``path/to/model.json``: a declarative model (data only, see
-  :mod:`uio_jax._model_file`);
+  :mod:`uio_jax._io.model_file`);
 * ``path/to/model.py`` without ``:NAME``: a StrikePy / STRIKE-GOLDD model module, read
-  without executing it (see :mod:`uio_jax._strikepy_import`).
+  without executing it (see :mod:`uio_jax._io.strikepy_import`).
 """
 
 import importlib.util

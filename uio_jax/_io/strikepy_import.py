@@ -19,7 +19,7 @@ imports (the aliases of sympy are recorded, other imports ignored), docstrings,
 * ``sym.Symbol('a')`` / ``sym.symbols('a b, c')`` (or ``Symbol``/``symbols`` imported from
   sympy); keyword arguments such as ``real=True`` are ignored;
 * a list (or tuple) literal of such values;
-* an arithmetic expression under the whitelist of :mod:`uio_jax._expressions`, where
+* an arithmetic expression under the whitelist of :mod:`uio_jax._io.expressions`, where
   functions are called on the sympy alias (``sym.exp(x)``, ``sympy.sin(x)``), bare when
   imported from sympy, and ``sym.pi``, ``sym.E``, ``sym.Rational(1, 2)``,
   ``sym.Integer(2)``, ``sym.Float(0.5)`` are accepted. Names bound to expressions
@@ -29,7 +29,7 @@ Anything else raises a one-line :class:`uio_jax.LoadError` naming the file and l
 
 Meaning (StrikePy's): ``x`` states, ``p`` unknown constant parameters (sampled in
 ``DEFAULT_BOX`` = [0.5, 1.5]), ``u`` known inputs, ``w`` unknown inputs, ``f`` the
-dynamics (general form, split by :mod:`uio_jax._affine`; non-affine inputs are promoted
+dynamics (general form, split by :mod:`uio_jax._io.affine`; non-affine inputs are promoted
 to states), ``h`` the outputs (named after the state when an output is a single state,
 ``y1, y2, ...`` otherwise). Symbols used in ``f``/``h`` that are in none of ``x, p, u, w``
 are **known constants** for StrikePy; each gets the fixed generic value
@@ -85,7 +85,7 @@ def is_strikepy_module(path) -> bool:
 
 
 def read_strikepy(path):
-    """Parse a StrikePy model module into a :class:`uio_jax._model_file.ModelSpec` (general form).
+    """Parse a StrikePy model module into a :class:`uio_jax._io.model_spec.ModelSpec` (general form).
 
     Raises:
         LoadError: missing file, Python syntax error, or a statement / expression outside
@@ -93,7 +93,7 @@ def read_strikepy(path):
         ModelError: the lists are inconsistent (e.g. ``len(f) != len(x)``).
     """
     from .._model.system import DEFAULT_BOX
-    from .model_file import spec_from_dict
+    from .model_spec import spec_from_dict
 
     path = os.fspath(path)
     if not os.path.isfile(path):

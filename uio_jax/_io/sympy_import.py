@@ -1,7 +1,7 @@
 """Systems from sympy expressions: :func:`system_from_sympy` (also ``System.from_sympy``).
 
 Each expression is printed with sympy's ``str`` and read back by the whitelisted parser of
-:mod:`uio_jax._expressions`, so the functions accepted here are exactly those of model
+:mod:`uio_jax._io.expressions`, so the functions accepted here are exactly those of model
 files (a sympy function outside the whitelist, such as ``Piecewise`` or ``gamma(x)``, is
 refused with a one-line error). The resulting declarative spec is kept in
 ``System.source``: the System can be written with :func:`uio_jax.save_model`.
@@ -36,7 +36,7 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
                                    known={"omega": [0, 0, 1]},
                                    unknown={"v": [sympy.cos(th), sympy.sin(th), 0]})
 
-    General form ``x' = f(x, p, u, w)`` (split by :mod:`uio_jax._affine`; inputs entering
+    General form ``x' = f(x, p, u, w)`` (split by :mod:`uio_jax._io.affine`; inputs entering
     non-affinely become states, with a note)::
 
         sys = uj.System.from_sympy([x, y, th], [x, y],
@@ -69,7 +69,8 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
             (one line naming the entry).
     """
     sympy = _sympy()
-    from .model_file import build_system, spec_from_dict
+    from .model_file import build_system
+    from .model_spec import spec_from_dict
 
     conv = _Printer(sympy)
     st = [conv.name(s, "states") for s in _seq(states, "states")]
