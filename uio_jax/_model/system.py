@@ -361,16 +361,21 @@ def _as_params(params, states) -> Mapping[str, tuple[float, float]]:
             raise ModelError(f"parameter names must be non-empty strings, got {k!r}")
         if k in states:
             raise ModelError(f"parameter {k!r} has the name of a state")
-        try:
-            lo, hi = (float(v) for v in box)
-        except (TypeError, ValueError):
-            raise ModelError(f"box of parameter {k!r} must be a pair (lo, hi), got {box!r}") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)):
-            raise ModelError(f"box of parameter {k!r} must be finite, got ({lo}, {hi})")
-        if lo >= hi:
-            raise ModelError(f"box of parameter {k!r} is empty: lo={lo} >= hi={hi}")
-        out[k] = (lo, hi)
+        out[k] = _box(box, f"box of parameter {k!r}")
     return MappingProxyType(out)
+
+
+def _box(box, what: str) -> tuple[float, float]:
+    """A sampling box ``(lo, hi)``: two finite floats with ``lo < hi``; ``what`` names it in errors."""
+    try:
+        lo, hi = (float(v) for v in box)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what} must be a pair (lo, hi), got {box!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ModelError(f"{what} must be finite, got ({lo}, {hi})")
+    if lo >= hi:
+        raise ModelError(f"{what} is empty: lo={lo} >= hi={hi}")
+    return lo, hi
 
 
 def _as_domain(domain, states, angles) -> Mapping[str, tuple[float, float]]:
@@ -382,15 +387,7 @@ def _as_domain(domain, states, angles) -> Mapping[str, tuple[float, float]]:
     for k, box in domain.items():
         if k not in states:
             raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)})")
-        try:
-            lo, hi = (float(v) for v in box)
-        except (TypeError, ValueError):
-            raise ModelError(f"domain of {k!r} must be a pair (lo, hi), got {box!r}") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)):
-            raise ModelError(f"domain of {k!r} must be finite, got ({lo}, {hi})")
-        if lo >= hi:
-            raise ModelError(f"domain of {k!r} is empty: lo={lo} >= hi={hi}")
-        out[k] = (lo, hi)
+        out[k] = _box(box, f"domain of {k!r}")
     for s in states:
         if s not in out:
             out[s] = ANGLE_BOX if s in angles else DEFAULT_BOX
