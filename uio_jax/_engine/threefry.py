@@ -7,15 +7,9 @@ since JAX 0.5), which ``tests/test_threefry.py`` checks. Keys are raw ``uint32``
 shape ``(2,)`` (what ``jax.random.key_data`` returns), so they vmap like any array.
 
 Why not ``jax.random``: on a CPU, JAX lowers each threefry hash as a rolled ``while``
-loop (5 iterations of 4 rounds) to keep the program small. XLA compiles such a loop as
-separate kernels, and each hash costs 0.35-0.45 CPU-s of compile time; the Monte Carlo
-run has five of them (trial key, split, prior draw; epoch key, epoch draw). The unrolled
-hash below is about 100 integer operations that XLA fuses into the kernels that use the
-numbers (each such kernel computes its own share; where two kernels need the same words,
-both compute them: about twice per epoch in the Monte Carlo chunk). Measured on this
-2-core machine (4096 trials): a program of fold_in, split and 5 normals per trial
-compiles in 0.5 CPU-s instead of 2.0, and a draw of 301 normals per trial runs in 5.0 ms
-instead of 10.5.
+loop, which XLA compiles as separate kernels at a compile cost of a fraction of a CPU-second
+per hash; the unrolled hash below (about 100 integer operations) fuses into the kernels that
+use the numbers. The measurements are in ``docs/benchmarks/ekf.md`` (run 9).
 
 Threefry-2x32 with 20 rounds (Salmon et al., "Parallel random numbers: as easy as 1, 2,
 3", SC 2011): key ``(k0, k1)``, ``k2 = k0 ^ k1 ^ 0x1BD11BDA``; counter ``(x0, x1)``;
