@@ -86,14 +86,15 @@ def _dir_size(path) -> int:
 def _driver(paths, samples, k_max, cache_dir, method):
     """In this process: every model analysed twice (second pass = evaluation only)."""
     import uio_jax as uj
-    from uio_jax._batch.batch import _load, discover
+    from uio_jax._batch.discovery import discover
+    from uio_jax._batch.one_model import load_entry
 
     uj.enable_compile_cache(cache_dir)
     entries, _ = discover(paths)
     systems, labels = [], []
     for e in entries:
         try:
-            systems.append(_load(e))
+            systems.append(load_entry(e))
             labels.append(e.label)
         except Exception:  # failed models are rows of the CLI runs already
             pass
@@ -125,11 +126,11 @@ def main(argv=None):
         print(json.dumps(_driver(args.paths, args.samples, args.k_max, args.cache_dir, args.method)))
         return 0
 
-    from uio_jax._batch.batch import _expand
+    from uio_jax._batch.discovery import expand
 
     # the model files are listed once, so that every phase runs the same ones even if files
     # are added to a directory meanwhile
-    files = [f for path in args.paths for f in _expand(path)]
+    files = [f for path in args.paths for f in expand(path)]
     tmp = Path(tempfile.mkdtemp(prefix="uio_bench_batch_"))
     raw = {"paths": args.paths, "files": files, "samples": args.samples, "k_max": args.k_max,
            "method": args.method, "runs": [],

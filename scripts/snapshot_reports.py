@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def zoo_entries():
     """The zoo's models (``(label, System or None, error)``) by the batch's own discovery rule."""
-    from uio_jax._batch.batch import discover
+    from uio_jax._batch.discovery import discover
     entries, _skipped = discover([str(ROOT / "systems")])
     return entries
 

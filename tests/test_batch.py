@@ -14,8 +14,9 @@ from helpers import zoo_path
 
 import uio_jax as uj
 from uio_jax import cli
-from uio_jax._batch import batch as _batch
+from uio_jax._batch import discovery, pinning, run, timing
 from uio_jax._engine.compile_cache import compile_cache, default_cache_dir, disable_compile_cache
+from uio_jax._progress import CountProgress
 
 SAMPLES = 64
 
@@ -82,7 +83,7 @@ def _one_line_error(capsys):
 
 
 def test_zoo_file_discovery(zoo_file):
-    entries, skipped = _batch.discover(zoo_file)
+    entries, skipped = discovery.discover(zoo_file)
     names = [e.label.rpartition(":")[2] for e in entries]
     assert names == ["two_states", "blind", "broken", "CONSTANT"]  # definition order
     assert [e.error is not None for e in entries] == [False, False, True, False]
@@ -192,11 +193,11 @@ def test_directory_and_glob(tmp_path, zoo_file):
     sub.mkdir()
     _write(sub / "one.py", "import uio_jax as uj\ndef m():\n    return uj.System(('a',), {'y': lambda x: x[0]})\n")
     _write(tmp_path / "_ignored.py", "raise RuntimeError\n")
-    files = _batch._expand(str(tmp_path))
+    files = discovery.expand(str(tmp_path))
     assert [os.path.basename(f) for f in files] == ["tiny_zoo.py", "one.py"]  # files, then subdirectories
-    assert _batch._expand(str(tmp_path / "*.py")) == [zoo_file]
+    assert discovery.expand(str(tmp_path / "*.py")) == [zoo_file]
     with pytest.raises(uj.OptionError, match="no model file"):
-        _batch._expand(str(tmp_path / "*.toml"))
+        discovery.expand(str(tmp_path / "*.toml"))
 
 
 def test_progress_bar_only_when_asked():
@@ -204,19 +205,89 @@ def test_progress_bar_only_when_asked():
         def isatty(self):
             return True
 
-    quiet = _batch._BatchProgress(3, stream=io.StringIO(), delay=0.0)
+    quiet = CountProgress(3, stream=io.StringIO(), delay=0.0)
     quiet.start("m")
     assert quiet.stream.getvalue() == ""  # not a terminal
     stream = Tty()
-    bar = _batch._BatchProgress(2, stream=stream, delay=0.0)
+    bar = CountProgress(2, stream=stream, delay=0.0)
     bar.start("sys.py:a")
     bar.finish()
     bar.close()
     text = stream.getvalue()
     assert "batch [" in text and "1/2" in text and "running sys.py:a" in text
-    late = _batch._BatchProgress(2, stream=Tty(), delay=60.0)
+    late = CountProgress(2, stream=Tty(), delay=60.0)
     late.start("x")
     assert late.stream.getvalue() == ""  # quick batches print nothing
+    off = io.StringIO()  # not a terminal, asked for: one finished line per model, no redraws
+    bar = CountProgress(2, stream=off, enabled=True, delay=0.0)
+    for name in ("a.py:m", "b.py:n"):
+        bar.start(name)
+        bar.finish(name)
+    bar.close()
+    lines = off.getvalue().splitlines()
+    assert "\r" not in off.getvalue() and len(lines) == 2
+    assert "1/2" in lines[0] and "done a.py:m" in lines[0] and "2/2" in lines[1]
+
+
+def test_progress_is_one_mechanism():
+    """The Monte Carlo bar and the batch bar are the same mechanism: both appear after their
+    delay, redraw in place on a terminal, and write whole lines elsewhere."""
+    from uio_jax._progress import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    assert issubclass(CountProgress, Progress)
+    tty = Tty()
+    mc = Progress(100, stream=tty, delay=0.0, label="run")
+    mc.update(50)
+    mc.close()
+    assert tty.getvalue().startswith("\rrun [") and " 50.0%" in tty.getvalue() and tty.getvalue().endswith("\n")
+    log = io.StringIO()
+    mc = Progress(100, stream=log, delay=0.0, label="run")
+    mc.update(50)
+    mc.update(50)
+    mc.close()
+    assert "\r" not in log.getvalue() and len(log.getvalue().splitlines()) == 2
+    assert Progress(10, enabled=False, stream=log).enabled is False
+
+
+def test_toml_and_strikepy_files_are_models(tmp_path):
+    """A model file and a StrikePy module in a batch are one model each (loaded by
+    ``load_system``), as ``uio-jax analyze`` reads them."""
+    toml = tmp_path / "decay.toml"
+    toml.write_text('states = ["a", "b"]\n[outputs]\ny = "a"\n[dynamics]\na = "-a + b"\nb = "-b"\n')
+    strike = _write(tmp_path / "strike.py", """
+        import sympy as sym
+        x1, x2 = sym.symbols("x1 x2")
+        x = [[x1], [x2]]
+        h = [x1]
+        u = []
+        p = []
+        f = [[x2], [-x1]]
+        """)
+    entries, _ = discovery.discover([str(toml), strike])
+    assert [e.kind for e in entries] == ["file", "strikepy"]
+    res = uj.batch_analyze([str(toml), strike], samples=SAMPLES)
+    assert [r.ok for r in res] == [True, True], [r.error for r in res]
+    assert [(r.dim, r.n) for r in res] == [(2, 2), (2, 2)]
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(method="magic"), "unknown method 'magic'"),
+    (dict(samples=4), "samples must be an integer >= 8"),
+    (dict(seed=-1), "seed must be a non-negative integer"),
+    (dict(rtol=2.0), "rtol must be a number in (0, 1)"),
+    (dict(max_order=-1), "max_order must be a non-negative integer"),
+    (dict(k_max=0), "k_max must be a positive integer"),
+    (dict(sample=64), "unknown analysis option 'sample'"),
+])
+def test_batch_refuses_bad_options_before_any_model(kw, message):
+    """The analysis options are checked once, by the same function as ``analyze``'s."""
+    with pytest.raises(uj.OptionError) as err:
+        uj.batch_analyze(["no/such/dir"], **kw)  # the options first: the path is never looked at
+    assert message in str(err.value)
 
 
 # ----------------------------------------------------------------- persistent compilation cache
@@ -300,11 +371,11 @@ def test_a_worker_is_bound_to_the_cpu_of_its_slot():
     """Worker k runs on the k-th allowed CPU (cyclically); a lone worker (None) keeps all.
     Where the platform has no CPU affinity, binding does nothing (and raises nothing)."""
     if not hasattr(os, "sched_setaffinity"):
-        assert _batch._pin_to_one_cpu(0) is None
+        assert pinning.pin_to_one_cpu(0) is None
         return
     allowed = sorted(os.sched_getaffinity(0))
-    code = ("import os, sys; from uio_jax._batch.batch import _pin_to_one_cpu; "
-            "_pin_to_one_cpu(None if sys.argv[1] == 'None' else int(sys.argv[1])); "
+    code = ("import os, sys; from uio_jax._batch.pinning import pin_to_one_cpu; "
+            "pin_to_one_cpu(None if sys.argv[1] == 'None' else int(sys.argv[1])); "
             "print(sorted(os.sched_getaffinity(0)))")
     for slot, want in [(0, [allowed[0]]), (len(allowed) + 1, [allowed[1 % len(allowed)]]), (None, allowed)]:
         out = subprocess.run([sys.executable, "-c", code, str(slot)], capture_output=True, text=True, timeout=120)
@@ -360,27 +431,27 @@ def test_recorded_times_order_the_workers_longest_first(tmp_path, zoo_file, monk
     specs = [f"{zoo_file}:two_states", f"{zoo_file}:blind"]
     with compile_cache(tmp_path / "cc") as path:
         res = uj.batch_analyze(specs, samples=64)
-        with open(os.path.join(path, _batch._SECONDS_FILE)) as f:
+        with open(os.path.join(path, timing.SECONDS_FILE)) as f:
             recorded = json.load(f)
         assert len(recorded) == 2 and all(v > 0 for v in recorded.values())
         keys = [k for k in recorded if k.split("|")[1] == specs[1]]
         assert len(keys) == 1 and "samples=64" in keys[0]
         # pretend the first model was short and the second long; add a model never timed
         recorded = {k: (1.0 if k.split("|")[1] == specs[0] else 50.0) for k in recorded}
-        with open(os.path.join(path, _batch._SECONDS_FILE), "w") as f:
+        with open(os.path.join(path, timing.SECONDS_FILE), "w") as f:
             json.dump(recorded, f)
         sent = []
 
         def fake_workers(entries, todo, jobs, timeout, kw, bar, rows):
             sent.extend(entries[i].spec for i in todo)
             for i in todo:
-                rows[i] = _batch.BatchRow(entries[i].label, seconds=0.5)
+                rows[i] = uj.BatchRow(entries[i].label, seconds=0.5)
 
-        monkeypatch.setattr(_batch, "_run_in_workers", fake_workers)
+        monkeypatch.setattr(run, "run_in_workers", fake_workers)
         res = uj.batch_analyze(specs + [f"{zoo_file}:CONSTANT"], jobs=2, samples=64)
         assert sent == [f"{zoo_file}:CONSTANT", specs[1], specs[0]]
         assert [r.model for r in res] == specs + [f"{zoo_file}:CONSTANT"]
-        with open(os.path.join(path, _batch._SECONDS_FILE), "w") as f:
+        with open(os.path.join(path, timing.SECONDS_FILE), "w") as f:
             f.write("{broken")  # a broken file only loses the ordering
         sent.clear()
         uj.batch_analyze(specs, jobs=2, samples=64)

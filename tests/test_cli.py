@@ -144,3 +144,22 @@ def test_installed_script_smoke():
     proc = subprocess.run([sys.executable, "-m", "uio_jax", "analyze", "missing.py:f"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+
+
+def test_the_option_defaults_are_those_of_analyze():
+    """``analyze``, ``batch`` and the library take their defaults and checks from one place."""
+    import inspect
+
+    import numpy as np
+
+    import uio_jax as uj
+    from uio_jax._analysis.options import DEFAULTS, check_options
+
+    for command in (["analyze", GOOD], ["batch", GOOD]):
+        args = cli._build_parser().parse_args(command)
+        assert {k: getattr(args, k) for k in DEFAULTS} == DEFAULTS
+    params = inspect.signature(uj.analyze).parameters
+    assert {k: params[k].default for k in DEFAULTS} == DEFAULTS
+    opts = check_options(samples=np.int64(64), seed=np.uint32(3))
+    assert opts == {**DEFAULTS, "samples": 64, "seed": 3, "rtol": 1e-8}
+    assert type(opts["samples"]) is int and type(opts["seed"]) is int

@@ -42,9 +42,9 @@ from ._io.experiment_loading import load_experiment as load_experiment
 from ._io import sympy_import as _sympy_import  # noqa: F401  (installs System.from_sympy)
 
 # many models at once
-from ._batch.batch import batch_analyze as batch_analyze
-from ._batch.batch import BatchResult as BatchResult
-from ._batch.batch import BatchRow as BatchRow
+from ._batch.run import batch_analyze as batch_analyze
+from ._batch.rows import BatchResult as BatchResult
+from ._batch.rows import BatchRow as BatchRow
 
 # the compilation cache
 from ._engine.compile_cache import enable_compile_cache as enable_compile_cache

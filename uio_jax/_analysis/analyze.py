@@ -1,28 +1,28 @@
-"""``analyze``: option checks, choice of the analysis, and the float64 context."""
-
-import numbers
+"""``analyze``: choice of the analysis and the float64 context (the options are checked by
+:mod:`uio_jax._analysis.options`)."""
 
 import jax
 
 from .._errors import OptionError
 from .._model.system import System
 from .context import Context
+from .eorc import eorc_report
+from .options import DEFAULTS, check_options
 from .orc import run_orc
-from .rank import default_rtol
+from .series import check_applicable as series_applicable
+from .series import series_report
 from .single_ui import check_applicable, single_ui_report
-
-METHODS = ("auto", "orc", "single_ui", "eorc", "series", "fast")
 
 
 def analyze(
     system: System,
     *,
-    method: str = "auto",
-    samples: int = 4096,
-    seed: int = 0,
-    rtol: float | None = None,
-    max_order: int | None = None,
-    k_max: int | None = None,
+    method: str = DEFAULTS["method"],
+    samples: int = DEFAULTS["samples"],
+    seed: int = DEFAULTS["seed"],
+    rtol: float | None = DEFAULTS["rtol"],
+    max_order: int | None = DEFAULTS["max_order"],
+    k_max: int | None = DEFAULTS["k_max"],
 ):
     """Which states of ``system`` are observable: the observable codistribution.
 
@@ -37,7 +37,7 @@ def analyze(
             solution); otherwise ``"eorc"`` (extended observability rank criterion,
             sufficient only). ``"series"`` (every input known): rank of the output Taylor
             coefficients along a generic known input (STRIKE-GOLDD's test, see
-            :mod:`uio_jax._series`): the ORC's final verdict without nested brackets, much
+            :mod:`uio_jax._analysis.series`): the ORC's final verdict without nested brackets, much
             faster on large models, but per-order dims that are not the ORC's steps.
             ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
             ``Report.method`` records the choice.
@@ -64,54 +64,26 @@ def analyze(
     """
     if not isinstance(system, System):
         raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
-    if method not in METHODS:
-        raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 8:
-        raise OptionError(f"samples must be an integer >= 8, got {samples!r}")
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise OptionError(f"seed must be a non-negative integer, got {seed!r}")
-    if rtol is None:
-        rtol = default_rtol()
-    if not (isinstance(rtol, numbers.Real) and 0 < rtol < 1):
-        raise OptionError(f"rtol must be a number in (0, 1), got {rtol!r}")
-    if max_order is not None and (
-        isinstance(max_order, bool) or not isinstance(max_order, numbers.Integral) or max_order < 0
-    ):
-        raise OptionError(f"max_order must be a non-negative integer, got {max_order!r}")
-    if k_max is not None and (
-        isinstance(k_max, bool) or not isinstance(k_max, numbers.Integral) or k_max < 1
-    ):
-        raise OptionError(f"k_max must be a positive integer, got {k_max!r}")
+    opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
+                         max_order=max_order, k_max=k_max)
+    samples, seed, rtol = opts["samples"], opts["seed"], opts["rtol"]
 
     chosen, why = _choose(system, method)
     system = system.joint()  # parameters -> states with zero derivative
+    if chosen == "eorc":
+        return eorc_report(system, samples=samples, seed=seed, rtol=rtol,
+                           k_max=k_max, notes=[why] if why else [])
     with jax.enable_x64(True):
+        if chosen == "series":
+            series_applicable(system)
+        elif chosen == "single_ui":
+            check_applicable(system)
+        ctx = Context(system, samples, seed, rtol)
         if chosen == "orc":
-            ctx = Context(system, int(samples), int(seed), float(rtol))
             return _orc_report(ctx, why, max_order)
         if chosen == "series":
-            from .series import check_applicable as series_applicable
-            from .series import series_report
-
-            series_applicable(system)
-            ctx = Context(system, int(samples), int(seed), float(rtol))
-            return series_report(ctx, seed=int(seed), why=why, max_order=max_order)
-        if chosen == "single_ui":
-            check_applicable(system)
-            ctx = Context(system, int(samples), int(seed), float(rtol))
-            return single_ui_report(ctx, why=why, max_order=max_order)
-    if chosen == "eorc":
-        try:
-            from .eorc import eorc_report
-        except ImportError:
-            eorc_report = None
-        if eorc_report is not None:
-            return eorc_report(system, samples=int(samples), seed=int(seed), rtol=float(rtol),
-                               k_max=k_max, notes=[why] if why else [])
-    raise OptionError(
-            f"method {chosen!r} is not available yet in this version of uio_jax"
-            + (f" ({why})" if why else "")
-        )
+            return series_report(ctx, seed=seed, why=why, max_order=max_order)
+        return single_ui_report(ctx, why=why, max_order=max_order)
 
 
 def _choose(system, method):

@@ -15,6 +15,8 @@ import json
 import os
 import sys
 
+from .._analysis.options import DEFAULTS, METHODS
+from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
 from . import montecarlo
 
@@ -65,14 +67,15 @@ def _build_parser():
 
 
 def _analysis_options(p):
-    from .._analysis.analyze import METHODS
-
-    p.add_argument("--method", default="auto", choices=METHODS, help="analysis (default auto)")
-    p.add_argument("--samples", type=int, default=4096, help="sampled states (default 4096)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the samples (default 0)")
-    p.add_argument("--rtol", type=float, default=None, help="rank tolerance (default 1e-8)")
-    p.add_argument("--max-order", type=int, default=None, help="cap on the steps m (order k)")
-    p.add_argument("--k-max", type=int, default=None, help="highest order k of the EORC (default n + 2)")
+    """The options of :func:`uio_jax.analyze`, with its defaults (one place:
+    :mod:`uio_jax._analysis.options`)."""
+    d = DEFAULTS
+    p.add_argument("--method", default=d["method"], choices=METHODS, help=f"analysis (default {d['method']})")
+    p.add_argument("--samples", type=int, default=d["samples"], help=f"sampled states (default {d['samples']})")
+    p.add_argument("--seed", type=int, default=d["seed"], help=f"seed of the samples (default {d['seed']})")
+    p.add_argument("--rtol", type=float, default=d["rtol"], help=f"rank tolerance (default {default_rtol():g})")
+    p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k)")
+    p.add_argument("--k-max", type=int, default=d["k_max"], help="highest order k of the EORC (default n + 2)")
 
 
 def _cache_options(p):
@@ -159,7 +162,7 @@ def _analyze(args) -> int:
 
 
 def _batch(args) -> int:
-    from .._batch.batch import batch_analyze
+    from .._batch.run import batch_analyze
 
     if not args.paths:
         raise _UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")

@@ -1,0 +1,63 @@
+"""The analysis options, their defaults and their checks: one place for :func:`uio_jax.analyze`,
+:func:`uio_jax.batch_analyze` and the command line."""
+
+import numbers
+
+from .._errors import OptionError
+from .rank import default_rtol
+
+#: The analyses ``method`` may name (``analyze``'s docstring says what each one does).
+METHODS = ("auto", "orc", "single_ui", "eorc", "series", "fast")
+
+#: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.rank.default_rtol`;
+#: ``max_order`` None: no cap; ``k_max`` None: ``n + 2``).
+DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None}
+
+#: Smallest sample count: fewer random states cannot certify a rank.
+MIN_SAMPLES = 8
+
+
+def check_options(**options) -> dict:
+    """Check the analysis options and return them normalised.
+
+    Args:
+        **options: any of ``method``, ``samples``, ``seed``, ``rtol``, ``max_order``,
+            ``k_max`` (those not given take :data:`DEFAULTS`).
+
+    Returns:
+        dict of all six: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
+        (float; None resolved to :func:`~uio_jax._analysis.rank.default_rtol`),
+        ``max_order`` and ``k_max`` (int, or None).
+
+    Raises:
+        OptionError: an unknown option name, an unknown method, ``samples`` not an integer
+            >= 8, ``seed`` not a non-negative integer, ``rtol`` outside (0, 1),
+            ``max_order`` not a non-negative integer, ``k_max`` not a positive integer.
+    """
+    unknown = set(options) - set(DEFAULTS)
+    if unknown:
+        raise OptionError(f"unknown analysis option {sorted(unknown)[0]!r}")
+    opts = {**DEFAULTS, **options}
+    method, samples, seed, rtol = opts["method"], opts["samples"], opts["seed"], opts["rtol"]
+    if method not in METHODS:
+        raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if not _is_int(samples) or samples < MIN_SAMPLES:
+        raise OptionError(f"samples must be an integer >= {MIN_SAMPLES}, got {samples!r}")
+    if not _is_int(seed) or seed < 0:
+        raise OptionError(f"seed must be a non-negative integer, got {seed!r}")
+    if rtol is None:
+        rtol = default_rtol()
+    if not (isinstance(rtol, numbers.Real) and 0 < rtol < 1):
+        raise OptionError(f"rtol must be a number in (0, 1), got {rtol!r}")
+    max_order, k_max = opts["max_order"], opts["k_max"]
+    if max_order is not None and (not _is_int(max_order) or max_order < 0):
+        raise OptionError(f"max_order must be a non-negative integer, got {max_order!r}")
+    if k_max is not None and (not _is_int(k_max) or k_max < 1):
+        raise OptionError(f"k_max must be a positive integer, got {k_max!r}")
+    return {"method": method, "samples": int(samples), "seed": int(seed), "rtol": float(rtol),
+            "max_order": max_order, "k_max": k_max}
+
+
+def _is_int(x) -> bool:
+    """An integer that is not a bool."""
+    return isinstance(x, numbers.Integral) and not isinstance(x, bool)

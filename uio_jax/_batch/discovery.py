@@ -1,0 +1,281 @@
+"""Where the models of a batch are found: paths, globs, directories and zoo files expanded
+into :class:`Entry` objects, one per model.
+
+A path may be
+
+* ``FILE.py:NAME``: one model, loaded as by :func:`uio_jax.load_system`;
+* ``FILE.py``: a zoo file. Every public module-level function *defined in that file* (its
+  ``__module__`` is the file's; respects ``__all__`` when the file sets it) that takes no
+  required argument is **called** and kept when it returns a :class:`~uio_jax.System`
+  (public module-level ``System`` objects count too). Calling is the only way to know
+  what a zoo function builds, so a zoo file must keep its public no-argument functions
+  free of side effects. Functions are skipped without being called when their name ends
+  in ``_experiment`` (the zoo's convention for Monte Carlo experiments, see
+  :func:`uio_jax.load_experiment`) or their return annotation names another type.
+  A function that returns something else is skipped (listed in ``skipped``); one that
+  raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are called
+  in the worker process that analyses their model, not in the caller first. A StrikePy
+  model module (recognised by :func:`uio_jax._io.strikepy_import.is_strikepy_module`) is
+  one model;
+* ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
+* a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
+  names starting with ``_`` or ``.`` are ignored);
+* a glob (``systems/*.py``, ``models/**/*.toml``): every match, as above.
+"""
+
+import glob
+import inspect
+import os
+import time
+from dataclasses import dataclass, field, replace
+
+from .._errors import OptionError, UioJaxError
+from .._io.loading import load_module, split_spec
+from .._io.strikepy_import import is_strikepy_module
+from .._model.system import System
+from .rows import one_line
+
+#: Suffixes of model files collected from directories and globs.
+MODEL_SUFFIXES = (".py", ".toml", ".json")
+_GLOB_CHARS = "*?["
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A model to run: its row label, how a process loads it, or why it cannot be.
+
+    Attributes:
+        label: the row's model name.
+        spec: what a (worker) process loads; None: an in-memory System only.
+        kind: ``"spec"`` (``FILE.py:NAME``), ``"file"`` (.toml/.json), ``"strikepy"`` or
+            ``"system"`` (given as a System).
+        system: the System, when built already.
+        error: why the model cannot be run (then it is a failed row).
+        build_s: seconds spent building ``system`` during discovery (added to the row).
+        deferred: a zoo function not called yet: called where the model runs.
+    """
+
+    label: str
+    spec: str | None = None
+    kind: str = "spec"
+    system: System | None = field(default=None, repr=False)
+    error: str | None = None
+    build_s: float = 0.0
+    deferred: bool = False
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """In place of a row: a deferred zoo function ``spec`` that gave no System (``why``)."""
+
+    spec: str
+    why: str
+
+
+def discover(models, *, build: bool = True):
+    """Expand paths, globs, directories and zoo files into models.
+
+    Args:
+        models: a path, a System, or a sequence of them (see :func:`uio_jax.batch_analyze`).
+        build: call the zoo files' functions now (their Systems are then reused). False:
+            a function that must be called to know what it builds is an entry marked
+            ``deferred``, called where the model runs (a worker process); one that gives
+            no System then turns into a skipped function. A parallel batch would otherwise
+            build every System twice, here and in its worker (timings in
+            ``docs/benchmarks/batch.md``).
+
+    Returns:
+        ``(entries, skipped)``: the :class:`Entry` of every model in order, and
+        ``(name, reason)`` of zoo functions that gave no System.
+
+    Raises:
+        OptionError: nothing given, or a path that matches nothing.
+    """
+    if isinstance(models, (str, os.PathLike, System)):
+        models = [models]
+    models = list(models)
+    if not models:
+        raise OptionError("no model given: pass files, directories, globs or FILE.py:NAME")
+    entries, skipped = [], []
+    for i, item in enumerate(models):
+        if isinstance(item, System):
+            entries.append(Entry(item.name or f"system {i + 1}", None, "system", item))
+        elif isinstance(item, (str, os.PathLike)):
+            for path in expand(os.fspath(item)):
+                e, s = _entries_of(path, build)
+                entries += e
+                skipped += s
+        else:
+            raise OptionError(f"a model must be a path or a uio_jax.System, got {type(item).__name__}")
+    return entries, skipped
+
+
+def expand(item: str) -> list[str]:
+    """The files (or the one ``FILE.py:NAME`` spec) named by a path, directory or glob.
+
+    Raises:
+        OptionError: a missing file, an empty directory, a glob that matches no model file.
+    """
+    if _is_spec(item):
+        path = item.rpartition(":")[0]
+        if not os.path.isfile(path):
+            raise OptionError(f"model file not found: {path}")
+        return [item]
+    if any(c in item for c in _GLOB_CHARS) and not os.path.exists(item):
+        files = []
+        for m in sorted(glob.glob(item, recursive=True)):
+            files += _dir_files(m) if os.path.isdir(m) else [m] if _is_model_file(m) else []
+        if not files:
+            raise OptionError(f"no model file matches {item!r}")
+        return files
+    if os.path.isdir(item):
+        files = _dir_files(item)
+        if not files:
+            raise OptionError(f"no model file ({', '.join(MODEL_SUFFIXES)}) in directory {item}")
+        return files
+    if os.path.isfile(item):
+        return [item]
+    raise OptionError(f"no such file, directory or model: {item}")
+
+
+def _is_spec(item: str) -> bool:
+    """``FILE.py:NAME`` (an existing or missing file; NAME an identifier)."""
+    path, sep, name = item.rpartition(":")
+    return bool(sep) and bool(path) and name.isidentifier() and not os.path.exists(item)
+
+
+def _is_model_file(path: str) -> bool:
+    base = os.path.basename(path)
+    return os.path.isfile(path) and base.endswith(MODEL_SUFFIXES) and not base.startswith(("_", "."))
+
+
+def _dir_files(top: str) -> list[str]:
+    out = []
+    for root, dirs, files in os.walk(top):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(("_", ".")))
+        out += [os.path.join(root, f) for f in sorted(files) if _is_model_file(os.path.join(root, f))]
+    return out
+
+
+def _entries_of(path: str, build: bool = True):
+    """Entries (and skipped functions) of one file or ``FILE.py:NAME`` spec."""
+    if _is_spec(path):
+        return [Entry(path, path, "spec")], []
+    if path.endswith((".toml", ".json")):
+        return [Entry(path, path, "file")], []
+    if not path.endswith(".py"):
+        return [Entry(path, error=f"not a model file (expected {', '.join(MODEL_SUFFIXES)}): {path}")], []
+    try:
+        if is_strikepy_module(path):
+            return [Entry(path, path, "strikepy")], []
+    except Exception as exc:  # a broken file: report it as the zoo loader would
+        return [Entry(path, error=one_line(exc))], []
+    return _zoo_entries(path, build)
+
+
+def _zoo_entries(path: str, build: bool = True):
+    """Every System a zoo file's public no-argument functions build (calls them, or with
+    ``build`` False marks them deferred)."""
+    try:
+        module = load_module(path)
+    except UioJaxError as exc:
+        return [Entry(path, error=str(exc))], []
+    entries, skipped = [], []
+    for name, obj in _public_items(module):
+        spec = f"{path}:{name}"
+        if isinstance(obj, System):
+            entries.append(Entry(spec, spec, "spec", _named(obj, path, name)))
+        elif _is_zoo_function(obj, module):
+            why = _skip_without_calling(name, obj)
+            if why:
+                skipped.append((spec, why))
+            elif not build:
+                entries.append(Entry(spec, spec, "spec", deferred=True))
+            else:
+                _add_built(entries, skipped, spec, obj, path, name)
+    if not entries and not skipped:
+        return [Entry(path, error=f"{path} defines no public function that returns a uio_jax.System")], []
+    return entries, skipped
+
+
+def _public_items(module):
+    """``(name, object)`` of a module's public names (its ``__all__`` when it sets one)."""
+    names = getattr(module, "__all__", None)
+    items = [(k, getattr(module, k, None)) for k in names] if names is not None else list(vars(module).items())
+    return [(k, v) for k, v in items if not k.startswith("_")]
+
+
+def _is_zoo_function(obj, module) -> bool:
+    """A function defined in ``module`` that takes no required argument."""
+    return inspect.isfunction(obj) and obj.__module__ == module.__name__ and _no_required_args(obj)
+
+
+def _add_built(entries, skipped, spec, fn, path, name):
+    """Call a zoo function: its System (or its error) is an entry, anything else skipped."""
+    built, error, seconds = _call_zoo_function(spec, fn)
+    if error is not None:
+        entries.append(Entry(spec, spec, "spec", error=error, build_s=seconds))
+    elif isinstance(built, System):
+        entries.append(Entry(spec, spec, "spec", _named(built, path, name), build_s=seconds))
+    else:
+        skipped.append((spec, _no_system(built)))
+
+
+def _call_zoo_function(spec, fn):
+    """``(result, error, seconds)`` of calling a zoo function: its return value, or the
+    one-line error of what it raised (then the result is None)."""
+    t0 = time.perf_counter()
+    try:
+        return fn(), None, time.perf_counter() - t0
+    except UioJaxError as exc:
+        return None, f"{spec}: {exc}", time.perf_counter() - t0
+    except Exception as exc:
+        return None, f"{spec} raised {one_line(exc)}", time.perf_counter() - t0
+
+
+def _no_system(value) -> str:
+    return f"returns {type(value).__name__}"
+
+
+def build_deferred(entry: Entry):
+    """Call the zoo function of a deferred entry: the entry with its System (or with the
+    error), or a :class:`Skipped` when the function gives no System."""
+    path, name = split_spec(entry.spec)
+    try:
+        fn = getattr(load_module(path), name)
+    except (UioJaxError, AttributeError) as exc:
+        return replace(entry, error=one_line(exc, with_type=False), deferred=False)
+    built, error, seconds = _call_zoo_function(entry.spec, fn)
+    if error is not None:
+        return replace(entry, error=error, build_s=seconds, deferred=False)
+    if not isinstance(built, System):
+        return Skipped(entry.spec, _no_system(built))
+    return replace(entry, system=_named(built, path, name), build_s=seconds, deferred=False)
+
+
+def _no_required_args(fn) -> bool:
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return False
+    return all(p.default is not p.empty or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+               for p in sig.parameters.values())
+
+
+def _skip_without_calling(name, fn) -> str:
+    """Why a zoo function is known not to build a System without calling it ('' if unknown)."""
+    if name.endswith("_experiment"):
+        return "a Monte Carlo experiment (name ends in _experiment)"
+    ann = inspect.signature(fn).return_annotation
+    if ann is inspect.Signature.empty or ann is None:
+        return ""
+    text = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
+    if text and "System" not in text:
+        return f"annotated to return {text}"
+    return ""
+
+
+def _named(system, path, name):
+    if not system.name:
+        object.__setattr__(system, "name", f"{os.path.basename(path)}:{name}")
+    return system

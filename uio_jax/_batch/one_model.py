@@ -1,0 +1,45 @@
+"""One model of a batch: load it, analyse it, and turn every error into its row."""
+
+import time
+
+from .._analysis.analyze import analyze
+from .._errors import UioJaxError
+from .._io.loading import load_system
+from .._model.system import System
+from .discovery import Entry, Skipped, build_deferred
+from .rows import BatchRow, one_line, row_from_report
+
+
+def load_entry(entry: Entry) -> System:
+    """The System of an entry (built already, or loaded from its spec by ``load_system``).
+
+    Raises:
+        LoadError, ModelError: a spec that does not load.
+    """
+    if entry.system is not None:
+        return entry.system
+    return load_system(entry.spec)
+
+
+def run_entry(entry: Entry, analyze_kwargs, keep_report=True):
+    """Load and analyse one model with ``analyze(system, **analyze_kwargs)``.
+
+    Returns:
+        its :class:`BatchRow` (every error becomes the row's one-line error; ``seconds``
+        counts building, loading and analysing; the Report kept when ``keep_report``), or
+        a :class:`Skipped` for a deferred zoo function that gave no System.
+    """
+    if entry.deferred:
+        entry = build_deferred(entry)
+        if isinstance(entry, Skipped):
+            return entry
+    t0 = time.perf_counter() - entry.build_s
+    if entry.error is not None:
+        return BatchRow(entry.label, error=entry.error, seconds=entry.build_s)
+    try:
+        rep = analyze(load_entry(entry), **analyze_kwargs)
+    except UioJaxError as exc:
+        return BatchRow(entry.label, error=one_line(exc, with_type=False), seconds=time.perf_counter() - t0)
+    except Exception as exc:  # a bug or a model that breaks JAX: one row, the batch goes on
+        return BatchRow(entry.label, error=one_line(exc), seconds=time.perf_counter() - t0)
+    return row_from_report(entry.label, rep, time.perf_counter() - t0, rep if keep_report else None)

@@ -1,0 +1,229 @@
+"""The rows of a batch and its tables: :class:`BatchRow`, :class:`BatchResult` (JSON, CSV,
+Markdown, the terminal table), and the row of one analysed model."""
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class BatchRow:
+    """One model of a batch: its verdict, certificate and time, or its error.
+
+    Attributes:
+        model: the model's name (``FILE.py:NAME``, the model file, or the System's name).
+        method: analysis that ran (None when the model failed before it).
+        n: dimension of the analysed vector (states, plus parameters when there are any).
+        dim: generic dimension of the observable codistribution.
+        observable: names of the observable state components.
+        params: names of the unknown constant parameters (empty when none).
+        identifiable: names of the identifiable parameters.
+        fraction: fraction of the samples at the generic rank (``certificate.fraction``).
+        gap_decades: margin of the weakest rank decision, ``log10(sigma_r_min /
+            sigma_next_max)`` (``certificate.gap_decades``; inf when nothing was rejected).
+        seconds: wall time of building/loading plus analysing the model, in seconds.
+        error: the one-line error of a failed model, None when it passed.
+        report: the :class:`~uio_jax.Report` (None for a failed model, with
+            ``keep_reports=False``, or when the model ran in a worker process).
+    """
+
+    model: str
+    method: str | None = None
+    n: int | None = None
+    dim: int | None = None
+    observable: tuple[str, ...] = ()
+    params: tuple[str, ...] = ()
+    identifiable: tuple[str, ...] = ()
+    fraction: float | None = None
+    gap_decades: float | None = None
+    seconds: float = 0.0
+    error: str | None = None
+    report: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when the model was analysed."""
+        return self.error is None
+
+    @property
+    def unobservable(self) -> int | None:
+        """Number of unobservable directions, ``n - dim`` (None for a failed model)."""
+        return None if self.n is None or self.dim is None else self.n - self.dim
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary (no report; inf/NaN as strings)."""
+        d = {
+            "model": self.model, "ok": self.ok, "method": self.method, "n": self.n,
+            "dim": self.dim, "unobservable": self.unobservable,
+            "observable": list(self.observable), "params": list(self.params),
+            "identifiable": list(self.identifiable), "fraction": _num(self.fraction),
+            "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
+            "error": self.error,
+        }
+        return d
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Result of :func:`batch_analyze`: a sequence of :class:`BatchRow` (iterate, index, len).
+
+    Attributes:
+        rows: one row per model, in the order the models were given/found.
+        skipped: ``(name, reason)`` of the public functions of zoo files that gave no System.
+        seconds: wall time of the whole batch (s).
+        options: the analysis options used (method, samples, seed, ...).
+    """
+
+    rows: tuple[BatchRow, ...]
+    skipped: tuple[tuple[str, str], ...] = ()
+    seconds: float = 0.0
+    options: dict = field(default_factory=dict)
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __len__(self):
+        return len(self.rows)
+
+    def __getitem__(self, i):
+        return self.rows[i]
+
+    @property
+    def failed(self) -> tuple[BatchRow, ...]:
+        """Rows of the models that failed."""
+        return tuple(r for r in self.rows if not r.ok)
+
+    @property
+    def ok(self) -> bool:
+        """True when every model was analysed."""
+        return not self.failed
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary: ``models`` (rows), ``skipped``, ``options``, ``seconds``."""
+        return {
+            "models": [r.to_dict() for r in self.rows],
+            "failed": len(self.failed),
+            "skipped": [{"name": n, "reason": why} for n, why in self.skipped],
+            "options": dict(self.options),
+            "seconds": round(self.seconds, 3),
+        }
+
+    def to_json(self, **kw) -> str:
+        """``json.dumps(self.to_dict())``."""
+        return json.dumps(self.to_dict(), **kw)
+
+    def to_csv(self) -> str:
+        """CSV text, one line per model (lists joined by ``;``)."""
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        cols = ["model", "ok", "method", "n", "dim", "unobservable", "observable", "params",
+                "identifiable", "fraction", "gap_decades", "seconds", "error"]
+        writer.writerow(cols)
+        for r in self.rows:
+            d = r.to_dict()
+            writer.writerow(["" if d[c] is None else ";".join(d[c]) if isinstance(d[c], list) else d[c]
+                             for c in cols])
+        return buf.getvalue()
+
+    def to_markdown(self) -> str:
+        """A Markdown table (failed models carry their error in the last column)."""
+        headers, body = self._cells(markdown=True)
+        lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
+        return "\n".join(lines) + "\n"
+
+    def table(self) -> str:
+        """The table for a terminal: aligned columns, then one line per failed model's error."""
+        headers, body = self._cells(markdown=False)
+        widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
+                  for i, h in enumerate(headers)]
+        right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
+
+        def fmt(cells):
+            out = [c.rjust(w) if h in right else c.ljust(w) for c, w, h in zip(cells, widths, headers)]
+            return "  ".join(out).rstrip()
+
+        lines = [fmt(headers), fmt(["-" * w for w in widths])]
+        lines += [fmt(row) for row in body]
+        return "\n".join(lines)
+
+    def summary(self) -> str:
+        """One line: models passed / failed, total time, functions skipped."""
+        n_fail = len(self.failed)
+        text = (f"{len(self.rows) - n_fail} of {len(self.rows)} models analysed"
+                + (f", {n_fail} failed" if n_fail else "") + f" in {self.seconds:.1f} s")
+        if self.skipped:
+            text += (f"; {len(self.skipped)} function{'s' if len(self.skipped) != 1 else ''} "
+                     "giving no System skipped")
+        return text
+
+    def _cells(self, markdown):
+        has_params = any(r.params for r in self.rows)
+        headers = ["model", "method", "dim / n", "observable states"]
+        if has_params:
+            headers.append("identifiable params")
+        headers += ["unobs.", "fraction", "gap (dec.)", "time (s)", "error" if markdown else "status"]
+        body = []
+        for r in self.rows:
+            if not r.ok:
+                cells = [r.model, r.method or "-", "-", "-"] + (["-"] if has_params else [])
+                cells += ["-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
+            else:
+                cells = [r.model, r.method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
+                if has_params:
+                    cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
+                cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
+                          "" if markdown else "ok"]
+            body.append(cells)
+        return headers, body
+
+
+def row_from_report(label, rep, seconds, report=None) -> BatchRow:
+    """The row of an analysed model from its :class:`~uio_jax.Report` ``rep`` (``seconds``:
+    its wall time; ``report``: what the row keeps, None for nothing). A NaN certificate is
+    the row's error."""
+    params = tuple(getattr(rep, "params", ()) or ())
+    ident = getattr(rep, "identifiable", {}) or {}
+    cert = rep.certificate
+    fraction, gap = float(cert.fraction), float(cert.gap_decades)
+    error = None
+    if math.isnan(fraction) or math.isnan(gap):
+        error = "the certificate is NaN (no usable sample?)"
+    return BatchRow(
+        model=label, method=rep.method, n=rep.n, dim=rep.dim,
+        observable=tuple(s for s, ok in rep.observable.items() if ok),
+        params=params, identifiable=tuple(p for p in params if ident.get(p)),
+        fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
+    )
+
+
+def one_line(exc, with_type=True) -> str:
+    """The first line of an exception's message, after its type name unless ``with_type`` is
+    False (then the type name only when the message is empty)."""
+    text = str(exc).strip()
+    first = text.splitlines()[0] if text else ""
+    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
+
+
+def _names(names, total) -> str:
+    if total and len(names) == total:
+        return "all"
+    return ", ".join(names) if names else "none"
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.1f}%"
+
+
+def _gap(x) -> str:
+    if x is None:
+        return "-"
+    return "inf" if math.isinf(x) else f"{x:.1f}"
+
+
+def _num(x):
+    if x is None:
+        return None
+    return x if math.isfinite(x) else str(x)
