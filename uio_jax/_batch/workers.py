@@ -134,13 +134,16 @@ class _Worker:
         self.since = time.monotonic()
 
     def send(self, i, task):
+        """Hand the worker entry ``i`` (its ``task`` tuple); its clock starts now."""
         self.conn.send(task)
         self.task, self.since = i, time.monotonic()
 
     def elapsed(self) -> float:
+        """Seconds since the current model was sent (or since the worker was started)."""
         return time.monotonic() - self.since
 
     def receive(self):
+        """The worker's next message, or :attr:`DIED` when its pipe is closed."""
         try:
             return self.conn.recv()
         except (EOFError, OSError):
