@@ -39,9 +39,9 @@ def _load():
 
 def _eqns(jaxpr):
     """Jaxpr equations, counted recursively (the library's own counter)."""
-    from uio_jax._calculus.generators import _count_eqns
+    from uio_jax._calculus.generators import jaxpr_sizes
 
-    return _count_eqns(jaxpr)
+    return jaxpr_sizes(jaxpr)[0]
 
 
 def bench_jax(system_fn, k_max, samples, repeats, warm_ks=()):
@@ -63,11 +63,11 @@ def bench_jax(system_fn, k_max, samples, repeats, warm_ks=()):
                                  eqns=f"row {row} of the chain", compile_s=st["compile_s"],
                                  warm_s=0.0, load=_load()))
                 continue
-            block = run.cache["blocks"][(key[0], key[1], key[3])]  # (labels, mode, batch)
+            block = run.blocks.blocks[(key[0], key[2])]  # (program, batch)
             eqns = _eqns(jax.make_jaxpr(block)(xs).jaxpr)
             if row == 0:
                 eqns = f"{eqns} (chain of orders {st['k']}-{st['k'] + key[0][2] - 1})"
-            compiled = run.cache["compiled"][key]
+            compiled = run.blocks.compiled[key]
             times = []
             for _ in range(repeats):
                 t = time.perf_counter()

@@ -63,3 +63,22 @@ def test_second_analysis_of_the_same_system_compiles_nothing():
     uj.analyze(s, samples=128, seed=1)
     assert len(builder_for(s).stats) == compiled
     assert all(st.eqns > 0 and st.compile_s >= 0 for st in builder_for(s).stats)
+
+
+def test_power_nodes_of_the_graph():
+    """``Builder.power``: ``L_v^j base`` one node (label ``L_v^j base``), equal to ``j`` nested
+    Lie derivatives; ``power_of`` finds ``(base, j)``, also through ``Builder.lie``, whose
+    repeated derivatives go through the same power policy."""
+    b = builder_for(uj.System(("a", "b"), {"h": h}, known={"f": f}))
+    hn, fn = b.scalar("h", h), b.field("f", f)
+    p3 = b.power(fn, hn, 3)
+    assert p3.label == "L_f^3 h" and b.power(fn, hn, 1).label == "L_f h"
+    assert b.power(fn, hn, 3) is p3 and b.power(fn, hn, 0) is hn
+    assert b.power_of(p3, fn) == (hn, 3) and b.power_of(hn, fn) == (hn, 0)
+    nested = b.lie(fn, b.lie(fn, b.lie(fn, hn)))
+    assert nested.label == "L_f L_f L_f h" and b.power_of(nested, fn) == (hn, 3)
+    want = _lie.lie_derivative(_lie.lie_derivative(_lie.lie_derivative(h, f), f), f)
+    with jax.enable_x64(True):
+        x = jnp.asarray(X, dtype=jnp.float64)
+        for node in (p3, nested):
+            np.testing.assert_allclose(node.fn(x), want(x), rtol=1e-12)

@@ -130,3 +130,24 @@ def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     # absorbing e_1..e_3 from the one test raises the rank by exactly 1 (span is 2 of 3)
     added = codist.absorb([Node(f"e{i}", None, "scalar") for i in range(3)], None, fast.first(3))
     assert len(added) == 1 and codist.rank == 3
+
+
+def test_copy_is_independent_and_starts_without_decisions():
+    """``Codistribution.copy``: the same span, absorbing into the copy leaves the original
+    unchanged, and the copy's decision lists hold only its own decisions."""
+    from uio_jax._analysis.rank import Codistribution
+    from uio_jax._calculus.generators import Node
+
+    rng = np.random.default_rng(2)
+    S, n = 200, 4
+    codist = Codistribution(n, S, np.ones(n), default_rtol())
+    codist.absorb([Node(f"g{i}", None, "scalar") for i in range(2)], rng.normal(size=(S, 2, n)))
+    before = (codist.grads.copy(), codist.basis.copy(), list(codist.nodes), len(codist.acceptances))
+    fork = codist.copy()
+    assert fork.rank == 2 and fork.acceptances == [] and fork.rejections == []
+    np.testing.assert_array_equal(fork.basis, codist.basis)
+    fork.absorb([Node("e", None, "scalar")], rng.normal(size=(S, 1, n)))
+    assert fork.rank == 3 and len(fork.acceptances) == 1
+    np.testing.assert_array_equal(codist.grads, before[0])
+    np.testing.assert_array_equal(codist.basis, before[1])
+    assert codist.nodes == before[2] and len(codist.acceptances) == before[3]

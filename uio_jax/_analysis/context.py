@@ -202,37 +202,85 @@ class Context:
 
 
 class SampledSpace:
-    """The final codistribution of a Context, queried by a Report."""
+    """The final codistribution of a Context, queried by a Report about the original state.
 
-    def __init__(self, ctx: Context):
+    The one implementation of a Report's queries (``unobservable_directions``,
+    ``is_observable``, ``sample_singular_values``). The codistribution lives on the
+    ``N`` coordinates of ``ctx.system``; the Report's state is its first ``n`` (``n = N``
+    for the ORC and the single-input analysis; for the EORC the extended state
+    ``[x; xi]``, whose extra coordinates are set to ``fill`` where a state is given).
+
+    Args:
+        ctx: the finished analysis.
+        n: coordinates of the original state (default: all of ``ctx.system``'s).
+        dim: dimension of the span intersected with ``span{dx_1..dx_n}`` (default: the
+            rank, the whole span when ``n = N``).
+        fill: value of the extra coordinates ``x_{n+1}..x_N`` in
+            :meth:`unobservable_directions`.
+    """
+
+    def __init__(self, ctx: Context, n=None, dim=None, fill=1.0):
         self._ctx = ctx
         self._nodes = tuple(ctx.codist.nodes)
+        self._N = ctx.system.n
+        self._n = self._N if n is None else int(n)
+        self._dim = len(self._nodes) if dim is None else int(dim)
+        self._fill = float(fill)
 
     def unobservable_directions(self, x) -> np.ndarray:
-        n = self._ctx.system.n
+        """Annihilator in R^n of the span intersected with ``span{dx_1..dx_n}`` at ``x``.
+
+        With ``G (r, N)`` the row-normalized gradients of the kept generators at
+        ``[x; fill]``: for ``n = N`` the null space of ``G`` (its right singular vectors past
+        ``r``). Otherwise, with ``Q`` an orthonormal basis of the row space of ``G`` and
+        ``P = I - Q^T Q``, a covector ``[a; 0]`` lies in the span iff ``P[:, :n] a = 0``; the
+        right singular vectors of ``P[:, :n]`` for its ``n - dim`` largest singular values
+        span the annihilator of the intersection.
+
+        Args:
+            x: original state, ``(n,)``.
+
+        Returns:
+            ``(n, n - dim)``, orthonormal columns.
+        """
+        n, N = self._n, self._N
         x = np.asarray(x, dtype=np.float64)
         if x.shape != (n,):
             raise ModelError(f"state must have shape ({n},), got {x.shape}")
         if not np.isfinite(x).all():
             raise ModelError("state contains NaN/inf")
         r = len(self._nodes)
+        if N > n and self._dim == n:
+            return np.zeros((n, 0))
         if r == 0:
             return np.eye(n)
+        X = np.concatenate([x, np.full(N - n, self._fill)])
         with jax.enable_x64(True):
-            g = self._ctx.builder.gradients(self._nodes, jnp.asarray(x)[None])[0]
+            g = self._ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
         if not np.isfinite(g).all():
             raise ModelError("the codistribution is not defined at this state (NaN/inf)")
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
         _, _, vt = np.linalg.svd(g)
-        return vt[r:].T.copy()
+        if N == n:
+            return vt[r:].T.copy()
+        q = vt[:r]
+        P = np.eye(N) - q.T @ q
+        _, _, wt = np.linalg.svd(P[:, :n])
+        return wt[: n - self._dim].T.copy()
 
     def sample_singular_values(self) -> np.ndarray:
+        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators at the valid samples."""
         return self._ctx.codist.sample_ratios()
 
     def is_observable(self, fn) -> bool:
+        """Whether ``d fn`` (padded with zeros to ``N``) lies in the span at the samples.
+
+        Args:
+            fn: callable ``x (n,) -> ()`` of the original state.
+        """
         if not callable(fn):
             raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
-        n = self._ctx.system.n
+        n = self._n
         with jax.enable_x64(True):
             try:
                 out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
@@ -241,7 +289,8 @@ class SampledSpace:
                                  f"{type(exc).__name__}") from None
         if getattr(out, "shape", None) != ():
             raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
-        node = Node(getattr(fn, "__name__", "fn"), fn, "scalar")
-        grads = self._ctx.gradients([node])  # (S, 1, n)
+        of_state = fn if n == self._N else (lambda X: fn(X[:n]))
+        node = Node(getattr(fn, "__name__", "fn"), of_state, "scalar")
+        grads = self._ctx.gradients([node])  # (S, 1, N), zero past n
         member, _ = self._ctx.codist.contains(np.moveaxis(grads, 1, 0))[0]
         return bool(member)

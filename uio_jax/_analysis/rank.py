@@ -232,6 +232,23 @@ class Codistribution:
     def rank(self) -> int:
         return len(self.nodes)
 
+    def copy(self) -> "Codistribution":
+        """An independent copy of the span, with no decisions yet.
+
+        The arrays (``valid (S,)``, ``grads (S, r, n)``, ``basis (S, n, n)``, ``ref (S,)``)
+        and the list of kept nodes are copied, so absorbing into the copy leaves this one
+        unchanged; ``acceptances`` and ``rejections`` start empty, so they hold the copy's
+        own decisions.
+        """
+        c = Codistribution.__new__(Codistribution)
+        c.n, c.col_scale, c.rtol = self.n, self.col_scale, self.rtol
+        c.valid, c.grads = self.valid.copy(), self.grads.copy()
+        c.basis, c.ref = self.basis.copy(), self.ref.copy()
+        c.nodes = list(self.nodes)
+        c.rejections, c.acceptances = [], []
+        c._decided = self._decided
+        return c
+
     def _scaled(self, cands):
         """Column-scale ``(C, S, n)`` covectors; non-finite -> 0, plus the finite mask (S,)."""
         cands = np.asarray(cands, dtype=np.float64)

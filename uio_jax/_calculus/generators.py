@@ -18,6 +18,7 @@ import numpy as np
 
 from .._engine import program_cache as _program_cache
 from . import lie as _lie
+from .powers import lie_power
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,27 +77,51 @@ class Builder:
     def lie(self, v: Node, phi: Node) -> Node:
         """``L_v phi``.
 
-        Repeated derivatives along the same field, ``L_v^j base`` with ``j >=
-        TAYLOR_FROM``, are built as one Taylor pass along the flow of ``v``
-        (:func:`uio_jax._taylor.lie_powers`) instead of ``j`` nested ``jvp``: the traced
-        graph grows linearly in ``j`` instead of geometrically (a 35-state model needs
-        ``j`` ~ 15). A model using a primitive without a Taylor rule keeps the nested form.
+        Repeated derivatives along the same field, ``L_v^j base``, are evaluated by the one
+        power policy (:func:`uio_jax._calculus.powers.lie_power` with ``taylor_from =``
+        :data:`TAYLOR_FROM`): from ``j = TAYLOR_FROM`` on one Taylor pass along the flow of
+        ``v`` instead of ``j`` nested ``jvp`` (the traced graph grows linearly in ``j``
+        instead of geometrically: a 35-state model needs ``j`` ~ 15).
         """
         key = ("lie", v.label, phi.label)
         node = self._nodes.get(key)
         if node is not None:
             return node
-        base, j = self._powers.get((phi, v.label), (phi, 0))
-        fn = None
+        base, j = self.power_of(phi, v)
         if j + 1 >= TAYLOR_FROM:
-            fn = _taylor_power(base.fn, v.fn, j + 1, phi.fn)
-        if fn is None:
+            fn = lie_power(base.fn, v.fn, j + 1, taylor_from=TAYLOR_FROM)
+        else:
             fn = _lie.lie_derivative(phi.fn, v.fn)
         node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
                     _sig("lie", v.sig, phi.sig))
         self._nodes[key] = node
         self._powers[(node, v.label)] = (base, j + 1)
         return node
+
+    def power(self, v: Node, base: Node, j: int, depth=None) -> Node:
+        """The power node ``L_v^j base`` (label ``L_v^j base``, ``L_v base`` for ``j = 1``).
+
+        One node of the graph whatever ``j``, evaluated by the one power policy
+        (:func:`uio_jax._calculus.powers.lie_power`, Taylor from ``j = 1``): ``L_v`` of it
+        is the power ``j + 1`` of the same base, never a nested word. ``depth`` defaults to
+        ``base.depth + j``.
+        """
+        if j == 0:
+            return base
+        key = ("power", v.label, base.label, j)
+        node = self._nodes.get(key)
+        if node is None:
+            label = f"L_{_wrap(v.label)}{'' if j == 1 else f'^{j}'} {base.label}"
+            node = Node(label, lie_power(base.fn, v.fn, j), "scalar",
+                        base.depth + j if depth is None else depth,
+                        _sig("power", v.sig, base.sig, str(j)))
+            self._nodes[key] = node
+            self._powers[(node, v.label)] = (base, j)
+        return node
+
+    def power_of(self, phi: Node, v: Node) -> tuple:
+        """``(base, j)`` with ``phi = L_v^j base`` in this graph (``(phi, 0)``: not a power of v)."""
+        return self._powers.get((phi, v.label), (phi, 0))
 
     def bracket(self, a: Node, b: Node) -> Node:
         """``[a, b]``."""
@@ -235,31 +260,6 @@ LARGE_GRAPH = 20000
 TAYLOR_FROM = 3
 
 
-def _taylor_power(psi, v, j, nested):
-    """``x -> L_v^j psi (x)`` by one Taylor pass, or None when a primitive has no rule.
-
-    The Taylor form is traced once on a dummy state (shape of ``nested``'s argument is
-    unknown here, so the check happens on first call through a fallback wrapper).
-    """
-    from .._engine.taylor import lie_powers
-
-    powers = lie_powers(psi, v, j)
-    state = {"fn": None}
-
-    def power(x):
-        fn = state["fn"]
-        if fn is None:
-            try:
-                jax.eval_shape(powers, jax.ShapeDtypeStruct(x.shape, x.dtype))
-                fn = lambda y: powers(y)[j]  # noqa: E731
-            except (NotImplementedError, KeyError, TypeError, ValueError):  # no Taylor rule
-                fn = _lie.lie_derivative(nested, v)
-            state["fn"] = fn
-        return fn(x)
-
-    return power
-
-
 @dataclass(frozen=True)
 class CompileStat:
     """Trace size and compile cost of one jitted evaluation (for benchmarks).
@@ -275,26 +275,13 @@ class CompileStat:
 
 
 #: Samples per call of a streamed program (compiled for this many, run batch after batch).
-#: Series Jacobians, 4096 samples, per sample, batches of 128 -> 32 (2 cores, interleaved
-#: runs): Arabidopsis (n = 35, K = 21) 11.9-12.2 -> 9.2-10.1 ms, JAKSTAT (n = 32, K = 5)
-#: 0.59-0.61 -> 0.42-0.45 ms, SIWR (n = 11, K = 8) 0.052-0.054 -> 0.033-0.035 ms, p53
-#: 0.22-0.24 -> 0.19-0.21 ms; 64 lies between. The smaller batch keeps more of each
-#: intermediate ``(batch, n tangents, K + 1, ...)`` in the caches. With the recurrence's
-#: linear operations on order k only (2026-11-27), batches of 32 -> 8, four rounds of 256
-#: samples in one process: Arabidopsis (K = 21) 5.0-5.7 -> 3.1-4.7 ms, JAKSTAT (K = 12)
-#: 0.94-1.28 -> 0.65-0.92 ms, p53 (K = 10) 0.26-0.40 -> 0.14-0.18 ms; SIWR (K = 8)
-#: 0.02 -> 0.03-0.05 ms (512 calls per 4096 samples: about 0.1 s of dispatch).
+#: A smaller batch keeps more of each intermediate ``(batch, n tangents, K + 1, ...)`` in
+#: the caches; measured on the series Jacobians (``docs/benchmarks/eorc.md``).
 STREAM_BATCH = 8
 
-#: XLA options of a streamed program (compile about 25 % faster here, same run time).
+#: XLA options of a streamed program (compile about 25 % faster, same run time; the
+#: measurements in ``docs/benchmarks/eorc.md``).
 STREAM_OPTIONS = _program_cache.FAST_COMPILE
-# Measured on the series Jacobians (4096 samples, 2 cores; evaluation / compile / XLA
-# temporaries): JAKSTAT (n = 32, K = 5) all at once 2.75 s / 8.8 s / 1.4 GB, streamed
-# 2.02 s / 6.7 s / 42 MB; p53 (n = 28) 1.22 s / 4.9 s / 723 MB -> 0.81 s / 3.8 s / 21 MB;
-# Arabidopsis (n = 35, K = 17) in halves (over the memory budget, compiled twice) 31.3 s /
-# 2 x 15 s / 3.8 GB -> 25.9 s / 18 s / 114 MB in batches of 64. The intermediates,
-# ``(batch, n tangents, K + 1, ...)`` each, stay in the caches instead of streaming through
-# memory.
 
 
 def _in_batches(compiled, xs, batch):
