@@ -1,4 +1,4 @@
-"""Vectorizable float64 sin / cos (``_fast_trig``) against mpmath at 40 digits."""
+"""Vectorizable float64 sin / cos (``uio_jax._engine.fast_trig``) against mpmath at 40 digits."""
 
 import jax
 import jax.numpy as jnp

@@ -1,4 +1,4 @@
-"""Structural Jacobian patterns (``_sparsity``).
+"""Structural Jacobian patterns (``uio_jax._engine.sparsity``).
 
 Oracle: the Jacobian by ``jax.jacfwd`` at random points (a pattern must cover every
 non-zero it finds, and is exact for element-wise model code).
@@ -82,7 +82,7 @@ def test_an_unreadable_jaxpr_gives_the_dense_pattern(monkeypatch):
     def broken(*args):
         raise ValueError("a rule that fails")
 
-    monkeypatch.setattr(_sparsity, "_rule", broken)
+    monkeypatch.setitem(_sparsity._RULES, "mul", broken)
     assert jacobian_pattern(lambda x: x * 2.0, np.zeros(3)).all()
 
 

@@ -1,4 +1,4 @@
-"""The coefficient-recurrence flow (``_taylor_flow``) against the stacked passes and autodiff."""
+"""The coefficient-recurrence flow (``uio_jax._engine.taylor_flow``) against the stacked passes and autodiff."""
 
 import math
 
@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from uio_jax._engine.interpreter import NoTaylorRule
 from uio_jax._engine.taylor import flow_series
 from uio_jax._engine.taylor_flow import flow_coefficients
 
@@ -77,8 +78,10 @@ def test_known_series_enters_as_given_coefficients():
 
 
 def test_operation_without_a_rule_is_named():
-    with pytest.raises(NotImplementedError, match="atan2"):
+    with pytest.raises(NoTaylorRule, match="atan2"):
         flow_coefficients(lambda x: jnp.arctan2(x, 2.0 + x), jnp.array([0.3, 0.4]), 3)
+    with pytest.raises(NoTaylorRule, match="atan2"):  # inside a call too
+        flow_coefficients(jax.jit(lambda x: jnp.arctan2(x, 2.0 + x)), jnp.array([0.3, 0.4]), 3)
 
 
 def _field_with_parameters(z):

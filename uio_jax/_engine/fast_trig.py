@@ -1,9 +1,9 @@
 """Vectorizable float64 sine and cosine for the Monte Carlo filter.
 
-XLA's CPU backend evaluates float64 ``sin`` and ``cos`` one element at a time (10-15 ns
-each on this machine, against about 1 ns for a multiply-add in a vectorized loop), and the
-unicycle's filter needs four of them per trial-step (the truth's and the estimate's
-heading). Here they are written with ordinary arithmetic, which XLA vectorizes:
+XLA's CPU backend evaluates float64 ``sin`` and ``cos`` one element at a time, many times
+slower than a multiply-add in a vectorized loop, and the unicycle's filter needs four of
+them per trial-step (the truth's and the estimate's heading). Here they are written with
+ordinary arithmetic, which XLA vectorizes:
 
 * **Reduction** (Cody-Waite, as fdlibm's ``__ieee754_rem_pio2`` for medium arguments):
   ``k = round(x 2/pi)``, ``r = (((x - k P1) - k P2) - k P3) - k P4`` with ``pi/2`` split
@@ -22,9 +22,11 @@ million radians has diverged long before). The derivatives are the functions' ow
 (``d sin = cos dx`` by the same kernels), not those of the polynomials.
 
 :func:`with_vectorized_trig` applies them to a model function: it traces the function to a
-jaxpr and evaluates it with ``sin`` / ``cos`` of float64 operands replaced. In the 003
-Monte Carlo run (4096 trials, 2 CPU devices) this took the 5-state filter from 7.1 to
-8.6 M trial-steps/s (medians of six interleaved runs; 6.7 -> 9.2 M/s in the benchmark).
+jaxpr and evaluates it by :func:`uio_jax._engine.interpreter.interpret` with this module's
+rule table (float64 ``sin`` / ``cos`` replaced, calls inline, every other primitive as it
+is, each repeated equation once). It is there for the Monte Carlo filter's speed; the
+measurements (element-wise cost of XLA's trig, trial-steps/s with and without) are in
+``docs/benchmarks/analysis.md`` (section "Engine: the jaxpr interpreter").
 """
 
 import functools
@@ -34,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .taylor import CALLS, call_body, interpret
+from .interpreter import Rules, bind, inline, interpret
 
 # fdlibm's __kernel_sin and __kernel_cos coefficients (|r| <= pi/4)
 _S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
@@ -81,7 +83,13 @@ def _quadrant(q, a, b):
 
 @jax.custom_jvp
 def sincos(x):
-    """``(sin(x), cos(x))`` for float64 ``x`` of any shape, from one reduction (module doc)."""
+    """``(sin(x), cos(x))`` for float64 ``x`` of any shape (two arrays of that shape).
+
+    One reduction ``x = r + k pi/2`` (``|r| <= pi/4``, Cody-Waite, module doc), the fdlibm
+    kernels ``s = sin r``, ``c = cos r``, and the quadrant ``q = k mod 4``: ``sin x`` is
+    ``s, c, -s, -c`` and ``cos x`` is ``c, -s, -c, s`` for ``q = 0, 1, 2, 3``. Derivatives
+    ``d sin = cos dx``, ``d cos = -sin dx`` by the same kernels.
+    """
     r, q = _reduce(x)
     s, c = _kernel_sin(r), _kernel_cos(r)
     return _quadrant(q, s, c), _quadrant(q, c, -s)
@@ -94,57 +102,75 @@ def _sincos_jvp(primals, tangents):
 
 
 def sin(x):
-    """``sin(x)`` for float64 ``x``, by vectorizable arithmetic (see :func:`sincos`)."""
+    """``sin(x)`` for float64 ``x`` of any shape (same shape), by vectorizable arithmetic
+    (:func:`sincos`)."""
     return sincos(x)[0]
 
 
 def cos(x):
-    """``cos(x)`` for float64 ``x``, by vectorizable arithmetic (see :func:`sincos`)."""
+    """``cos(x)`` for float64 ``x`` of any shape (same shape), by vectorizable arithmetic
+    (:func:`sincos`)."""
     return sincos(x)[1]
 
 
-def _interpreter():
-    """An equation rule for :func:`~uio_jax._taylor.interpret` that replaces float64 ``sin``
-    and ``cos`` by :func:`sincos`, one evaluation per operand (``sin x`` and ``cos x`` share
-    it), and evaluates each repeated equation once.
+class _Shared:
+    """The state of one evaluation: ``trig``, ``id(operand) -> (operand, (sin, cos))``;
+    ``seen``, ``(primitive, params, operand ids) -> (operands, outputs)`` (the operands
+    kept: their ids stay theirs)."""
 
-    The second point matters because a model writes ``cos(x[2])`` and ``sin(x[2])``: two
-    slices, so two operands, so two reductions and four kernels, unless the second slice is
-    recognised as the first (common-subexpression elimination on the equation, its
-    parameters and the identities of its operands). XLA would merge the copies too, but
-    only after tracing, lowering and part of its compile have paid for them. ``sin`` and
-    ``cos`` of a constant (``cos(gamma)`` of a known angle) are numpy's, computed here.
-    In the 003 Monte Carlo run these took the traced equations of one filter epoch from
-    5191 to 1835 and the chunk program's trace and lowering from 0.9 to 0.6 s.
+    __slots__ = ("trig", "seen")
+
+    def __init__(self):
+        self.trig, self.seen = {}, {}
+
+
+def _trig(state, i, eqn, ins):
+    """``sin`` / ``cos``: of a float64 tracer by :func:`sincos` (one per operand), of a
+    float64 constant numpy's, else the primitive."""
+    x = ins[0]
+    if jnp.result_type(x) != jnp.float64:
+        return bind(eqn, ins)
+    name = eqn.primitive.name
+    if not isinstance(x, jax.core.Tracer):  # a constant (cos(gamma)): numpy's
+        return [(np.sin if name == "sin" else np.cos)(np.asarray(x))]
+    trig = state.trig
+    if id(x) not in trig:
+        trig[id(x)] = (x, sincos(x))  # the operand kept: its id stays its own
+    return [trig[id(x)][1][0 if name == "sin" else 1]]
+
+
+def _call(state, i, eqn, ins):
+    """Sub-functions inline (as the Taylor interpreters do), their sin / cos replaced too."""
+    out = inline(_RULES, state, eqn, ins)
+    return out if out is not None else bind(eqn, ins)
+
+
+def _shared(rule):
+    """``rule`` evaluated once per repeated equation (same primitive, parameters and
+    operand objects): common-subexpression elimination on the equations.
+
+    It matters because a model writes ``cos(x[2])`` and ``sin(x[2])``: two slices, so two
+    operands, so two reductions and four kernels, unless the second slice is recognised as
+    the first. XLA would merge the copies too, but only after tracing, lowering and part
+    of its compile have paid for them (the traced equations of one filter epoch and the
+    chunk program's trace time, before and after: ``docs/benchmarks/analysis.md``).
     """
-    trig = {}  # id(operand) -> (operand, (sin, cos))
-    seen = {}  # (primitive, params, operand ids) -> (operands, outputs)
-
-    def evaluate(eqn, ins):
-        prim, params = eqn.primitive, eqn.params
-        if prim.name in ("sin", "cos") and jnp.result_type(ins[0]) == jnp.float64:
-            x = ins[0]
-            if not isinstance(x, jax.core.Tracer):  # a constant (cos(gamma)): numpy's
-                return [(np.sin if prim.name == "sin" else np.cos)(np.asarray(x))]
-            if id(x) not in trig:
-                trig[id(x)] = (x, sincos(x))  # the operand kept: its id stays its own
-            return [trig[id(x)][1][0 if prim.name == "sin" else 1]]
-        if prim.name in CALLS:  # sub-functions inline (as the Taylor interpreters do)
-            body = call_body(params)
-            if body is not None:
-                return interpret(*body, ins, apply)
-        out = prim.bind(*ins, **params)
-        return out if prim.multiple_results else [out]
-
-    def apply(i, eqn, ins):
+    def apply(state, i, eqn, ins):
         key = _equation_key(eqn, ins)
         if key is None:
-            return evaluate(eqn, ins)
+            return rule(state, i, eqn, ins)
+        seen = state.seen
         if key not in seen:
-            seen[key] = (ins, evaluate(eqn, ins))  # the operands kept: their ids stay theirs
+            seen[key] = (ins, rule(state, i, eqn, ins))  # the operands kept: their ids stay theirs
         return seen[key][1]
 
     return apply
+
+
+#: The rule table: float64 ``sin`` and ``cos`` by :func:`sincos`, calls inline, every
+#: other primitive as it is; each equation once (:func:`_shared`).
+_RULES = Rules({"sin": _shared(_trig), "cos": _shared(_trig)},
+               default=_shared(lambda state, i, eqn, ins: bind(eqn, ins)), calls=_shared(_call))
 
 
 def _equation_key(eqn, ins):
@@ -162,17 +188,20 @@ def _equation_key(eqn, ins):
 def with_vectorized_trig(fn):
     """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sincos`.
 
-    ``fn`` takes and returns arrays (or pytrees of them); it is traced once per call (at
+    ``fn`` takes and returns arrays (or pytrees of them); the result takes and returns the
+    same shapes, equal to ``fn``'s values within the kernels' accuracy (1 ulp for
+    ``|x| <= 1e3``, 2 ulp below :data:`ACCURATE_BELOW`). It is traced once per call (at
     the caller's trace time under ``jit``, so at no run-time cost). Sub-functions (``jit``,
     custom derivative rules) are evaluated inline, their ``sin`` / ``cos`` replaced too;
-    every other operation runs unchanged.
+    float32 ones are left as they are, so is every other operation (evaluated once per
+    repeated equation).
     """
 
     @functools.wraps(fn)
     def wrapped(*args):
         closed, out_shape = jax.make_jaxpr(fn, return_shape=True)(*args)
         flat = jax.tree.leaves(args)
-        out = interpret(closed.jaxpr, closed.consts, flat, _interpreter())
+        out = interpret(closed.jaxpr, closed.consts, flat, _RULES, _Shared())
         return jax.tree.unflatten(jax.tree.structure(out_shape), out)
 
     return wrapped

@@ -27,9 +27,8 @@ derivative is finite.
 
 import jax
 import numpy as np
-from jax.extend.core import Literal
 
-from .taylor import CALLS, call_body
+from .interpreter import Rules, call_body, interpret
 
 #: Primitives whose output element ``e`` depends on operand elements ``e`` only.
 _ELEMENTWISE = frozenset("""
@@ -91,7 +90,7 @@ def _output_states(fn, x):
     state_in = np.zeros(x.shape + (q + 1,), bool)
     state_in[..., :q] = np.eye(q, dtype=bool).reshape(x.shape + (q,))
     try:
-        (out,) = _propagate(closed.jaxpr, closed.consts, [state_in], q)
+        (out,) = interpret(closed.jaxpr, closed.consts, [state_in], _RULES, q)
     except Exception:
         return None, q
     return out, q
@@ -105,25 +104,6 @@ def _known(value, q):
     state = np.zeros(value.shape + (q + 1,), bool)
     state[..., q] = value == 0
     return state
-
-
-def _propagate(jaxpr, consts, states_in, q):
-    env = {}
-
-    def read(v):
-        if isinstance(v, Literal):
-            return _known(v.val, q)
-        return env[v]
-
-    for v, c in zip(jaxpr.constvars, consts):
-        env[v] = _known(c, q)
-    for v, st in zip(jaxpr.invars, states_in):
-        env[v] = st
-    for eqn in jaxpr.eqns:
-        outs = _rule(eqn, [read(v) for v in eqn.invars], q)
-        for v, st in zip(eqn.outvars, outs):
-            env[v] = st
-    return [read(v) for v in jaxpr.outvars]
 
 
 def _shape(v):
@@ -151,46 +131,79 @@ def _elementwise(name, ins, shape, q):
     return out
 
 
-def _rule(eqn, ins, q):
-    name = eqn.primitive.name
-    outs = [_shape(v) for v in eqn.outvars]
-    p = eqn.params
-    if name in _ELEMENTWISE and len(outs) == 1 and all(
-            st.shape[:-1] in ((), outs[0]) for st in ins):
-        if name == "integer_pow" and p.get("y", 1) <= 0:
-            name = "pow"                                   # x**-k: 0 is not kept
-        return [_elementwise(name, ins, outs[0], q)]
-    if name == "squeeze" or (name == "reshape" and p.get("dimensions") is None):
-        return [ins[0].reshape(outs[0] + (q + 1,))]
-    if name == "broadcast_in_dim":
-        shape, src = outs[0], ins[0]
-        kept = [1] * len(shape)
-        for axis, d in enumerate(p["broadcast_dimensions"]):
-            kept[d] = src.shape[axis]              # 1 where a size-1 axis is broadcast
-        return [np.broadcast_to(src.reshape(tuple(kept) + (q + 1,)), shape + (q + 1,)).copy()]
-    if name == "slice":
-        idx = tuple(slice(s, e, st) for s, e, st in zip(
-            p["start_indices"], p["limit_indices"], p["strides"] or (1,) * len(outs[0])))
-        return [ins[0][idx]]
-    if name == "concatenate":
-        return [np.concatenate(ins, axis=p["dimension"])]
-    if name == "stack":
-        axis = p["axis"]
-        part = outs[0][:axis] + outs[0][axis + 1:] + (q + 1,)
-        return [np.stack([np.broadcast_to(st, part) for st in ins], axis=axis)]
-    if name == "split":
-        return list(np.split(ins[0], np.cumsum(p["sizes"])[:-1], axis=p["axis"]))
-    if name == "rev":
-        return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
-    if name == "transpose":
-        return [np.transpose(ins[0], tuple(p["permutation"]) + (len(outs[0]),))]
-    body = call_body(p) if name in CALLS else None
-    if body is not None and len(body[0].invars) == len(ins):
-        res = _propagate(*body, ins, q)
-        if [st.shape[:-1] for st in res] == outs:
-            return res
-    # safe default: every output element depends on everything any operand depends on
+# -- the rule table (state: q) --------------------------------------------------------------
+# A rule is ``rule(q, i, eqn, ins) -> output states`` (see :class:`~.interpreter.Rules`).
+
+def _dense(q, i, eqn, ins):
+    """The safe default: every output element depends on everything any operand depends on."""
     union = np.zeros(q + 1, bool)
     for st in ins:
         union[:q] |= np.any(st[..., :q].reshape(-1, q), axis=0)
-    return [np.broadcast_to(union, s + (q + 1,)).copy() for s in outs]
+    return [np.broadcast_to(union, _shape(v) + (q + 1,)).copy() for v in eqn.outvars]
+
+
+def _pointwise(q, i, eqn, ins):
+    """An element-wise primitive (:data:`_ELEMENTWISE`) whose operands have its output's
+    shape or are scalars; else :func:`_dense`."""
+    if len(eqn.outvars) != 1:
+        return _dense(q, i, eqn, ins)
+    out = _shape(eqn.outvars[0])
+    if not all(st.shape[:-1] in ((), out) for st in ins):
+        return _dense(q, i, eqn, ins)
+    name = eqn.primitive.name
+    if name == "integer_pow" and eqn.params.get("y", 1) <= 0:
+        name = "pow"                                       # x**-k: 0 is not kept
+    return [_elementwise(name, ins, out, q)]
+
+
+def _reshape(q, i, eqn, ins):
+    if eqn.primitive.name == "reshape" and eqn.params.get("dimensions") is not None:
+        return _dense(q, i, eqn, ins)
+    return [ins[0].reshape(_shape(eqn.outvars[0]) + (q + 1,))]
+
+
+def _broadcast_in_dim(q, i, eqn, ins):
+    shape, src = _shape(eqn.outvars[0]), ins[0]
+    kept = [1] * len(shape)
+    for axis, d in enumerate(eqn.params["broadcast_dimensions"]):
+        kept[d] = src.shape[axis]                  # 1 where a size-1 axis is broadcast
+    return [np.broadcast_to(src.reshape(tuple(kept) + (q + 1,)), shape + (q + 1,)).copy()]
+
+
+def _slice(q, i, eqn, ins):
+    p = eqn.params
+    idx = tuple(slice(s, e, st) for s, e, st in zip(
+        p["start_indices"], p["limit_indices"], p["strides"] or (1,) * len(_shape(eqn.outvars[0]))))
+    return [ins[0][idx]]
+
+
+def _stack(q, i, eqn, ins):
+    axis, out = eqn.params["axis"], _shape(eqn.outvars[0])
+    part = out[:axis] + out[axis + 1:] + (q + 1,)
+    return [np.stack([np.broadcast_to(st, part) for st in ins], axis=axis)]
+
+
+def _call(q, i, eqn, ins):
+    """A call: its sub-jaxpr, recursively (when its arguments and outputs match)."""
+    body = call_body(eqn.params)
+    if body is not None and len(body[0].invars) == len(ins):
+        res = interpret(body[0], body[1], ins, _RULES, q)
+        if [st.shape[:-1] for st in res] == [_shape(v) for v in eqn.outvars]:
+            return res
+    return _dense(q, i, eqn, ins)
+
+
+_RULES = Rules({
+    **{name: _pointwise for name in _ELEMENTWISE},
+    "squeeze": _reshape,
+    "reshape": _reshape,
+    "broadcast_in_dim": _broadcast_in_dim,
+    "slice": _slice,
+    "concatenate": lambda q, i, eqn, ins: [np.concatenate(ins, axis=eqn.params["dimension"])],
+    "stack": _stack,
+    "split": lambda q, i, eqn, ins: list(np.split(ins[0], np.cumsum(eqn.params["sizes"])[:-1],
+                                                  axis=eqn.params["axis"])),
+    "rev": lambda q, i, eqn, ins: [np.flip(ins[0], axis=tuple(eqn.params["dimensions"]))],
+    "transpose": lambda q, i, eqn, ins: [np.transpose(ins[0], tuple(eqn.params["permutation"])
+                                                      + (len(_shape(eqn.outvars[0])),))],
+}, default=_dense, calls=_call, literal=lambda q, value: _known(value, q))

@@ -18,8 +18,11 @@ stack at once:
   Python loop over k would trace ``O(K^2)`` of them). Integer powers: repeated squaring.
 
 Comparisons and other non-smooth primitives act on the order-0 coefficient only (their
-outputs are constant along t for a generic state). A primitive without a rule raises
-``NotImplementedError``; callers fall back to ``jax.experimental.jet`` or nested jvp.
+outputs are constant along t for a generic state). The walk over the jaxpr is
+:func:`uio_jax._engine.interpreter.interpret` with this module's rule table (one rule per
+primitive, its state the order K); a primitive without a rule raises
+:class:`~uio_jax._engine.interpreter.NoTaylorRule` (a ``NotImplementedError``), which
+callers with another route (``jax.experimental.jet``, nested jvp) catch.
 
 Lie derivatives along a field F (``L_F^j psi (x) = d^j/dt^j psi(x(t))``, ``x' = F(x)``):
 :func:`flow_series` builds the coefficients of the flow order by order,
@@ -30,37 +33,8 @@ import math
 
 import jax
 import jax.numpy as jnp
-from jax.extend import core as jcore
 
-LINEAR = {
-    "neg", "slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "transpose",
-    "convert_element_type", "reduce_sum", "copy", "copy_p", "expand_dims", "rev", "pad",
-    "add", "sub", "add_any", "dynamic_slice", "gather", "real", "imag", "cumsum",
-    "select_n", "dynamic_update_slice", "reduce_precision", "stack", "split",
-    "scatter", "scatter-add", "scatter_add", "tile", "repeat", "reduce_and_broadcast",
-}
-BILINEAR = {"mul", "dot_general"}
-#: indexing primitives: their data operands (the others are indices, constant along t)
-DATA_OPERANDS = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
-                 "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
-#: call-like primitives: their sub-jaxpr is evaluated inline
-CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
-         "custom_vjp_call", "custom_vjp_call_jaxpr")
-
-
-def call_body(params):
-    """``(jaxpr, consts)`` of the sub-jaxpr of a call-like primitive (:data:`CALLS`), or
-    None when its parameters hold none."""
-    sub = params.get("jaxpr") or params.get("call_jaxpr") or params.get("fun_jaxpr")
-    if sub is None:
-        return None
-    return (sub.jaxpr, sub.consts) if hasattr(sub, "consts") else (sub, ())
-
-
-CONSTANT = {  # outputs treated as constant along t (evaluated on order 0)
-    "lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not", "sign", "floor", "ceil",
-    "round", "is_finite", "stop_gradient", "iota", "argmax", "argmin",
-}
+from .interpreter import CONSTANT, DATA_OPERANDS, LINEAR, NoTaylorRule, Rules, inline, interpret
 
 
 class _S:
@@ -201,100 +175,133 @@ def _ipow(a, p, K):
     return out
 
 
-def _apply(prim, params, ins, K):
-    name = prim.name
-    if name in CALLS:
-        body = call_body(params)
-        if body is None:
-            raise NotImplementedError(f"no Taylor rule for {name}")
-        return _eval(*body, ins, K)
-    if not any(isinstance(v, _S) for v in ins) or name in CONSTANT:
-        vals = [v.c[0] if isinstance(v, _S) else v for v in ins]
-        out = prim.bind(*vals, **params)
-        return out if prim.multiple_results else [out]
-    if name in LINEAR:
-        if name == "select_n":  # predicate constant along t
-            pred = ins[0].c[0] if isinstance(ins[0], _S) else ins[0]
-            cases = [_series(v, K).c for v in ins[1:]]
-            return [_S(jax.vmap(lambda *cs: prim.bind(pred, *cs, **params))(*cases))]
-        # indexing: indices constant along t, linear in the data operands
-        data = DATA_OPERANDS.get(name)
-        if data is not None:
-            if any(isinstance(v, _S) for i, v in enumerate(ins) if i not in data):
-                raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
-            args = [_series(v, K).c if i in data else v for i, v in enumerate(ins)]
-            axes = [0 if i in data else None for i in range(len(ins))]
-            out = jax.vmap(lambda *a: prim.bind(*a, **params), in_axes=axes)(*args)
-            return [_S(out)]
-        cs = [_series(v, K).c for v in ins]
-        out = jax.vmap(lambda *c: prim.bind(*c, **params))(*cs)
-        return [_S(o) for o in out] if prim.multiple_results else [_S(out)]
-    if name in BILINEAR:
-        a, b = ins
-        if not isinstance(a, _S) or not isinstance(b, _S):  # linear in the series
-            fixed, ser, first = (b, a, True) if isinstance(a, _S) else (a, b, False)
-            f = (lambda c: prim.bind(c, fixed, **params)) if first else (
-                lambda c: prim.bind(fixed, c, **params))
-            return [_S(jax.vmap(f)(ser.c))]
-        if name == "mul":
-            return [_mul_series(a, b, K)]
-        pair = jax.vmap(jax.vmap(lambda x, y: prim.bind(x, y, **params), (None, 0)), (0, None))
-        return [_S(_antidiagonal(pair(a.c, b.c)))]
-    a = ins[0] if isinstance(ins[0], _S) else _series(ins[0], K)
-    if name == "div":
-        if not isinstance(ins[1], _S):  # linear in the numerator
-            return [_S(jax.vmap(lambda c: prim.bind(c, ins[1], **params))(ins[0].c))]
-        return [_recip_div(_series(ins[0], K), ins[1], K)]
-    if name == "integer_pow":
-        return [_ipow(a, params["y"], K)]
-    if name == "square":
-        return [_mul_series(a, a, K)]
-    if name == "sin":
-        return [_sincos(a, K)[0]]
-    if name == "cos":
-        return [_sincos(a, K)[1]]
-    if name == "tan":
-        s, c = _sincos(a, K)
-        return [_recip_div(s, c, K)]
-    if name == "exp":
-        return [_exp(a, K)]
-    if name == "log":
-        return [_log(a, K)]
-    if name == "sqrt":
-        return [_sqrt(a, K)]
-    if name == "rsqrt":
-        return [_exp(_S(-0.5 * _log(a, K).c), K)]
-    if name == "pow":  # a ** b = exp(b log a), base and exponent either constant or moving
-        return [_exp(_mul_series(_log(_series(ins[0], K), K), _series(ins[1], K), K), K)]
-    if name == "abs":
-        return [_S(jnp.sign(a.c[0]) * a.c)]
-    if name in ("max", "min"):
-        a, b = _align(a, _series(ins[1], K))
-        pick = (a.c[0] >= b.c[0]) if name == "max" else (a.c[0] <= b.c[0])
-        return [_S(jnp.where(pick, a.c, b.c))]
-    raise NotImplementedError(f"no Taylor rule for {name}")
+# -- the rule table (state: K) -------------------------------------------------------------
+# A rule of the table is ``rule(K, i, eqn, ins)`` (see :class:`~.interpreter.Rules`); the
+# Taylor rules proper are ``rule(prim, params, ins, K)``, applied by :func:`_on_series`
+# when an operand is a series.
+
+def _plain(K, i, eqn, ins):
+    """Constant along t (no series operand, or a piecewise constant primitive): the
+    primitive on the order-0 values."""
+    prim = eqn.primitive
+    out = prim.bind(*[v.c[0] if isinstance(v, _S) else v for v in ins], **eqn.params)
+    return out if prim.multiple_results else [out]
 
 
-def interpret(jaxpr, consts, args, apply):
-    """Run a jaxpr with ``apply(i, eqn, input values) -> output values`` per equation ``i``."""
-    env = {}
+def _on_series(rule):
+    """The table rule of a Taylor rule: ``rule`` when an operand is a series, else
+    :func:`_plain`."""
+    def apply(K, i, eqn, ins):
+        for v in ins:
+            if isinstance(v, _S):
+                return rule(eqn.primitive, eqn.params, ins, K)
+        return _plain(K, i, eqn, ins)
 
-    def read(v):
-        return v.val if isinstance(v, jcore.Literal) else env[v]
-
-    for v, c in zip(jaxpr.constvars, consts):
-        env[v] = c
-    for v, a in zip(jaxpr.invars, args):
-        env[v] = a
-    for i, eqn in enumerate(jaxpr.eqns):
-        outs = apply(i, eqn, [read(v) for v in eqn.invars])
-        for v, o in zip(eqn.outvars, outs):
-            env[v] = o
-    return [read(v) for v in jaxpr.outvars]
+    return apply
 
 
-def _eval(jaxpr, consts, args, K):
-    return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(eqn.primitive, eqn.params, ins, K))
+def _call(K, i, eqn, ins):
+    """A call primitive: its sub-jaxpr, inline."""
+    out = inline(_RULES, K, eqn, ins)
+    if out is None:
+        raise NoTaylorRule(eqn.primitive.name)
+    return out
+
+
+def _missing(prim, params, ins, K):
+    raise NoTaylorRule(prim.name)
+
+
+def _linear(prim, params, ins, K):
+    """Linear and structural primitives: vmapped over the coefficient axis."""
+    cs = [_series(v, K).c for v in ins]
+    out = jax.vmap(lambda *c: prim.bind(*c, **params))(*cs)
+    return [_S(o) for o in out] if prim.multiple_results else [_S(out)]
+
+
+def _select(prim, params, ins, K):
+    """``select_n``: the predicate constant along t, linear in the cases."""
+    pred = ins[0].c[0] if isinstance(ins[0], _S) else ins[0]
+    cases = [_series(v, K).c for v in ins[1:]]
+    return [_S(jax.vmap(lambda *cs: prim.bind(pred, *cs, **params))(*cases))]
+
+
+def _indexing(prim, params, ins, K):
+    """Indexing: indices constant along t, linear in the data operands."""
+    data = DATA_OPERANDS[prim.name]
+    if any(isinstance(v, _S) for i, v in enumerate(ins) if i not in data):
+        raise NoTaylorRule(prim.name, " with moving indices")
+    args = [_series(v, K).c if i in data else v for i, v in enumerate(ins)]
+    axes = [0 if i in data else None for i in range(len(ins))]
+    out = jax.vmap(lambda *a: prim.bind(*a, **params), in_axes=axes)(*args)
+    return [_S(out)]
+
+
+def _bilinear(prim, params, ins, K):
+    """``mul``, ``dot_general``: linear with a constant operand, else a Cauchy product."""
+    a, b = ins
+    if not isinstance(a, _S) or not isinstance(b, _S):  # linear in the series
+        fixed, ser, first = (b, a, True) if isinstance(a, _S) else (a, b, False)
+        f = (lambda c: prim.bind(c, fixed, **params)) if first else (
+            lambda c: prim.bind(fixed, c, **params))
+        return [_S(jax.vmap(f)(ser.c))]
+    if prim.name == "mul":
+        return [_mul_series(a, b, K)]
+    pair = jax.vmap(jax.vmap(lambda x, y: prim.bind(x, y, **params), (None, 0)), (0, None))
+    return [_S(_antidiagonal(pair(a.c, b.c)))]
+
+
+def _div(prim, params, ins, K):
+    _series(ins[0], K)  # staged as before the rule table (the jaxpr unchanged)
+    if not isinstance(ins[1], _S):  # linear in the numerator
+        return [_S(jax.vmap(lambda c: prim.bind(c, ins[1], **params))(ins[0].c))]
+    return [_recip_div(_series(ins[0], K), ins[1], K)]
+
+
+def _pow(prim, params, ins, K):
+    """``a ** b = exp(b log a)``, base and exponent either constant or moving."""
+    _series(ins[0], K)  # staged as before the rule table (the jaxpr unchanged)
+    return [_exp(_mul_series(_log(_series(ins[0], K), K), _series(ins[1], K), K), K)]
+
+
+def _max_min(prim, params, ins, K):
+    a, b = _align(_series(ins[0], K), _series(ins[1], K))
+    pick = (a.c[0] >= b.c[0]) if prim.name == "max" else (a.c[0] <= b.c[0])
+    return [_S(jnp.where(pick, a.c, b.c))]
+
+
+def _tan(a, K):
+    s, c = _sincos(a, K)
+    return _recip_div(s, c, K)
+
+
+def _unary(f):
+    """A rule from ``f(a, K) -> series`` of the first operand's series ``a``."""
+    return lambda prim, params, ins, K: [f(_series(ins[0], K), K)]
+
+
+_RULES = Rules({
+    **{name: _on_series(_linear) for name in LINEAR},
+    "select_n": _on_series(_select),
+    **{name: _on_series(_indexing) for name in DATA_OPERANDS},
+    **{name: _plain for name in CONSTANT},
+    "mul": _on_series(_bilinear),
+    "dot_general": _on_series(_bilinear),
+    "div": _on_series(_div),
+    "pow": _on_series(_pow),
+    "max": _on_series(_max_min),
+    "min": _on_series(_max_min),
+    "integer_pow": _on_series(lambda prim, params, ins, K: [_ipow(_series(ins[0], K), params["y"], K)]),
+    "square": _on_series(_unary(lambda a, K: _mul_series(a, a, K))),
+    "sin": _on_series(_unary(lambda a, K: _sincos(a, K)[0])),
+    "cos": _on_series(_unary(lambda a, K: _sincos(a, K)[1])),
+    "tan": _on_series(_unary(_tan)),
+    "exp": _on_series(_unary(_exp)),
+    "log": _on_series(_unary(_log)),
+    "sqrt": _on_series(_unary(_sqrt)),
+    "rsqrt": _on_series(_unary(lambda a, K: _exp(_S(-0.5 * _log(a, K).c), K))),
+    "abs": _on_series(_unary(lambda a, K: _S(jnp.sign(a.c[0]) * a.c))),
+}, default=_on_series(_missing), calls=_call)
 
 
 def taylor(fn, x, coeffs):
@@ -311,15 +318,21 @@ def taylor(fn, x, coeffs):
     K = coeffs.shape[0]
     closed = jax.make_jaxpr(fn)(x)
     series = _S(jnp.concatenate([x[None], coeffs]))
-    (out,) = _eval(closed.jaxpr, closed.consts, [series], K)
+    (out,) = interpret(closed.jaxpr, closed.consts, [series], _RULES, K)
     return _series(out, K).c
 
 
 def flow_series(F, x, K):
     """Normalized coefficients ``(K, N)`` of orders 1..K of the flow of ``F`` from ``x``.
 
-    ``x[k+1] = F(x(t))[k] / (k + 1)``: pass k runs F on the series truncated at order k
-    (all that ``F(x(t))[k]`` depends on).
+    The solution of ``x' = F(x)``, ``x(0) = x`` is ``x(t) = sum_k x[k] t^k`` with
+    ``x[k+1] = F(x(t))[k] / (k + 1)``: pass k runs :func:`taylor` of F on the series
+    truncated at order k (all that ``F(x(t))[k]`` depends on), ``K`` passes in all.
+
+    Args:
+        F: ``(N,) -> (N,)`` traceable vector field.
+        x: ``(N,)`` initial state.
+        K: highest order (an int >= 1).
     """
     coeffs = []
     for k in range(K):
@@ -329,7 +342,20 @@ def flow_series(F, x, K):
 
 
 def lie_powers(psi, F, j):
-    """``x -> [L_F^0 psi, ..., L_F^j psi](x)`` (shape ``(j + 1,)``) in one Taylor pass."""
+    """``x -> [L_F^0 psi, ..., L_F^j psi](x)``, the Lie derivatives in one Taylor pass.
+
+    ``L_F^i psi (x) = d^i/dt^i psi(x(t))`` at ``t = 0`` along ``x' = F(x)``, ``x(0) = x``:
+    ``i!`` times the order-i coefficient of :func:`taylor` of ``psi`` on the flow's
+    coefficients (:func:`flow_series`).
+
+    Args:
+        psi: ``(N,) -> out_shape`` traceable function.
+        F: ``(N,) -> (N,)`` traceable vector field.
+        j: highest order (an int >= 0).
+
+    Returns:
+        a function ``(N,) -> (j + 1, *out_shape)``.
+    """
 
     def powers(x):
         c = taylor(psi, x, flow_series(F, x, j))
@@ -339,4 +365,4 @@ def lie_powers(psi, F, j):
     return powers
 
 
-__all__ = ["taylor", "flow_series", "lie_powers"]
+__all__ = ["taylor", "flow_series", "lie_powers", "NoTaylorRule"]

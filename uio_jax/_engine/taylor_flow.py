@@ -1,6 +1,6 @@
 """Taylor coefficients of an ODE flow by the coefficient recurrence: ``O(K^2)`` per operation.
 
-:func:`uio_jax._taylor.flow_series` finds the coefficients of ``x' = F(x)`` by running
+:func:`uio_jax._engine.taylor.flow_series` finds the coefficients of ``x' = F(x)`` by running
 F's whole series graph ``K`` times (pass k reads order k of ``F(x(t))``): every product
 costs ``O(K^2)`` per pass, ``O(K^3)`` in all. The classical automatic Taylor method (Moore;
 Griewank & Walther, "Evaluating Derivatives", 2nd ed., section 13.2; the "Taylor
@@ -23,14 +23,16 @@ The stacks of the nonlinear results are the ``fori_loop`` carry (one array
 results that a nonlinear rule (or an order-0 decision) reads: a linear result is its
 order-k coefficient only, its stack made on demand. F's graph is traced once, and the
 whole flow costs ``O(K^2)`` per nonlinear operation and ``O(K)`` per linear one, instead
-of ``O(K^3)``. Known series can enter F
-as extra arguments (e.g. the coefficients of a known input ``u(t)``): their stacks are
-given in full from the start, and causality (order k of a result reads orders ``<= k`` of
-its arguments only) keeps every rule exact.
+of ``O(K^3)``. Known series can enter F as extra arguments (e.g. the coefficients of a
+known input ``u(t)``): their stacks are given in full from the start, and causality (order
+k of a result reads orders ``<= k`` of its arguments only) keeps every rule exact.
 
 Comparisons and other non-smooth operations act on the order-0 coefficients (constant
-along t at a generic state), as in :mod:`uio_jax._taylor`; an operation without a rule
-raises ``NotImplementedError``.
+along t at a generic state), as in :mod:`uio_jax._engine.taylor`. The walk over F's jaxpr is
+:func:`uio_jax._engine.interpreter.interpret` with this module's rule table, its state the
+pass and the key prefix of the enclosing calls (the carried stacks are named by the path of
+their equation); an operation without a rule raises
+:class:`~uio_jax._engine.interpreter.NoTaylorRule` (a ``NotImplementedError``).
 
 Constant states. A state whose derivative is a structural zero of F (a parameter joined
 as a state with ``p' = 0``, see :meth:`uio_jax.System.joint`) keeps its order-0 value along
@@ -46,17 +48,14 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .interpreter import BILINEAR, CONSTANT, DATA_OPERANDS, LINEAR, NoTaylorRule, Rules, bind, call_body, interpret
 from .sparsity import structural_zeros
-from .taylor import BILINEAR, CALLS, CONSTANT, DATA_OPERANDS, LINEAR, call_body, interpret
 
 #: indexing and reshaping primitives that move elements without combining them: a mask of
 #: constant elements moves with them (operands other than the data, e.g. gather indices,
 #: must be concrete)
 _MOVING = {"slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "transpose", "rev",
            "copy", "copy_p", "expand_dims", "dynamic_slice", "gather", "convert_element_type"}
-
-#: operations with a rule of their own here (their order-k coefficient needs lower orders)
-_NONLINEAR = {"integer_pow", "square", "sin", "cos", "tan", "exp", "log", "sqrt", "rsqrt", "pow"}
 
 
 class _T:
@@ -124,7 +123,7 @@ def _linear(ps, key, prim, params, ins):
     elif name in DATA_OPERANDS:  # indices constant along t, not lifted
         data = DATA_OPERANDS[name]
         if any(isinstance(v, _T) for i, v in enumerate(ins) if i not in data):
-            raise NotImplementedError(f"no Taylor rule for {name} with moving indices")
+            raise NoTaylorRule(name, " with moving indices")
         args = [ps.at(v) if i in data else v for i, v in enumerate(ins)]
     elif name in BILINEAR or name == "div":  # one series operand, the other a constant factor
         args = [v.ck if isinstance(v, _T) else v for v in ins]
@@ -266,80 +265,151 @@ class _Pass:
         return out
 
 
-def _apply(ps, key, eqn, ins):
+# -- the rule table (state: the pass and the key prefix of the enclosing calls) -------------
+# A rule of the table is ``rule((ps, prefix), i, eqn, ins)`` (see
+# :class:`~.interpreter.Rules`); the rules proper are ``rule(ps, key, eqn, ins)``, with
+# ``key = prefix + (i,)`` naming the carried stacks of the equation, applied by
+# :func:`_on_series` when an operand is a series.
+
+def _on_series(rule):
+    """The table rule of a recurrence rule: ``rule`` when an operand is a series, else the
+    primitive on the plain values (constant along t)."""
+    def apply(scope, i, eqn, ins):
+        for v in ins:
+            if isinstance(v, _T):
+                return rule(scope[0], scope[1] + (i,), eqn, ins)
+        return bind(eqn, ins)
+
+    return apply
+
+
+def _constant(scope, i, eqn, ins):
+    """A piecewise constant primitive: on the order-0 values."""
+    ps = scope[0]
+    return bind(eqn, [ps.order0(v) for v in ins])
+
+
+def _call(scope, i, eqn, ins):
+    """A call primitive: its sub-jaxpr inline, its stacks named under the call's key."""
+    body = call_body(eqn.params)
+    if body is None:
+        raise NoTaylorRule(eqn.primitive.name)
+    return interpret(body[0], body[1], ins, _RULES, (scope[0], scope[1] + (i,)))
+
+
+def _missing(ps, key, eqn, ins):
+    raise NoTaylorRule(eqn.primitive.name)
+
+
+def _lin(ps, key, eqn, ins):
+    return _linear(ps, key, eqn.primitive, eqn.params, ins)
+
+
+def _move(ps, key, eqn, ins):
+    out = _moved(ps, key, eqn.primitive, eqn.params, ins)
+    return out if out is not None else _linear(ps, key, eqn.primitive, eqn.params, ins)
+
+
+def _aval(eqn):
+    out = eqn.outvars[0].aval
+    return out.shape, out.dtype
+
+
+def _abs(ps, key, eqn, ins):
+    return [_T(jnp.sign(ps.order0(ins[0])) * ins[0].ck, key=key + (0,))]
+
+
+def _max_min(ps, key, eqn, ins):
+    a0, b0 = ps.order0(ins[0]), ps.order0(ins[1])
+    pick = (a0 >= b0) if eqn.primitive.name == "max" else (a0 <= b0)
+    return [_T(jnp.where(pick, ps.at(ins[0]), ps.at(ins[1])), key=key + (0,))]
+
+
+def _mul(ps, key, eqn, ins):
+    if not (isinstance(ins[0], _T) and isinstance(ins[1], _T)):  # a constant factor
+        return _lin(ps, key, eqn, ins)
+    shape, dtype = _aval(eqn)
+    return [ps.series(ps.mul(key, ps.stack(ins[0]), ps.stack(ins[1]), shape, dtype))]
+
+
+def _dot(ps, key, eqn, ins):
+    if not (isinstance(ins[0], _T) and isinstance(ins[1], _T)):  # a constant factor
+        return _lin(ps, key, eqn, ins)
     prim, params = eqn.primitive, eqn.params
-    name = prim.name
-    out_aval = eqn.outvars[0].aval
-    shape, dtype = out_aval.shape, out_aval.dtype
-    if name in CALLS:
-        body = call_body(params)
-        if body is None:
-            raise NotImplementedError(f"no Taylor rule for {name}")
-        return _eval(ps, key, *body, ins)
-    series = [isinstance(v, _T) for v in ins]
-    if name in _MOVING:
-        out = _moved(ps, key, prim, params, ins)
-        if out is not None:
-            return out
-    if not any(series) or name in CONSTANT:  # constant along t: on the order-0 values
-        out = prim.bind(*[ps.order0(v) for v in ins], **params)
-        return list(out) if prim.multiple_results else [out]
-    moving = name in BILINEAR and all(series) or (name == "div" and series[1])
-    if name in LINEAR or (name in BILINEAR or name == "div") and not moving:
-        return _linear(ps, key, prim, params, ins)
-    if name == "abs":
-        return [_T(jnp.sign(ps.order0(ins[0])) * ins[0].ck, key=key + (0,))]
-    if name in ("max", "min"):
-        a0, b0 = ps.order0(ins[0]), ps.order0(ins[1])
-        pick = (a0 >= b0) if name == "max" else (a0 <= b0)
-        return [_T(jnp.where(pick, ps.at(ins[0]), ps.at(ins[1])), key=key + (0,))]
-    if name not in _NONLINEAR and name not in BILINEAR and name != "div":
-        raise NotImplementedError(f"no Taylor rule for {name}")
-    if name == "mul":
-        return [ps.series(ps.mul(key, ps.stack(ins[0]), ps.stack(ins[1]), shape, dtype))]
-    if name == "dot_general":
-        a, b = ps.stack(ins[0]), ps.stack(ins[1])
+    a, b = ps.stack(ins[0]), ps.stack(ins[1])
 
-        def coef(own):  # sum_i dot(a[i], b[k - i])
-            return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a, ps.window(b)), axis=0)
+    def coef(own):  # sum_i dot(a[i], b[k - i])
+        return jnp.sum(jax.vmap(lambda x, y: prim.bind(x, y, **params))(a, ps.window(b)), axis=0)
 
-        return [ps.series(ps.slot(key, coef, shape, dtype))]
-    if name == "div":
-        return [ps.series(ps.div(key, ps.lift(ins[0]), ps.stack(ins[1]), shape, dtype))]
-    if name == "pow":  # a ** b = exp(b log a), base and exponent either constant or moving
-        lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
-        if isinstance(ins[1], _T):
-            arg = ps.mul(key + ("m",), lg, ps.stack(ins[1]), shape, dtype)
-        else:  # constant exponent: linear in the series of log a
-            arg = lg * jnp.asarray(ins[1], lg.dtype)
-        return [ps.series(ps.exp(key, arg, shape, dtype))]
-    a = ps.stack(ins[0])
-    if name == "integer_pow":
-        return [ps.series(ps.ipow(key, a, params["y"], shape, dtype))]
-    if name == "square":
-        return [ps.series(ps.mul(key, a, a, shape, dtype))]
-    if name in ("sin", "cos", "tan"):
-        cdt = jnp.result_type(dtype, jnp.complex64)
-        z = ps.exp(key + ("z",), 1j * a.astype(cdt), shape, cdt)
-        s, c = jnp.imag(z), jnp.real(z)
-        if name == "sin":
-            return [ps.series(s)]
-        if name == "cos":
-            return [ps.series(c)]
-        return [ps.series(ps.div(key, s, c, shape, dtype))]
-    if name == "exp":
-        return [ps.series(ps.exp(key, a, shape, dtype))]
-    if name == "log":
-        return [ps.series(ps.log(key, a, shape, dtype))]
-    if name == "sqrt":
-        return [ps.series(ps.sqrt(key, a, shape, dtype))]
-    # rsqrt
+    return [ps.series(ps.slot(key, coef, *_aval(eqn)))]
+
+
+def _div(ps, key, eqn, ins):
+    if not isinstance(ins[1], _T):  # a constant divisor
+        return _lin(ps, key, eqn, ins)
+    return [ps.series(ps.div(key, ps.lift(ins[0]), ps.stack(ins[1]), *_aval(eqn)))]
+
+
+def _pow(ps, key, eqn, ins):
+    """``a ** b = exp(b log a)``, base and exponent either constant or moving."""
+    shape, dtype = _aval(eqn)
+    lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
+    if isinstance(ins[1], _T):
+        arg = ps.mul(key + ("m",), lg, ps.stack(ins[1]), shape, dtype)
+    else:  # constant exponent: linear in the series of log a
+        arg = lg * jnp.asarray(ins[1], lg.dtype)
+    return [ps.series(ps.exp(key, arg, shape, dtype))]
+
+
+def _unary(f):
+    """A rule from ``f(ps, key, eqn, a, shape, dtype) -> stack`` of the first operand's
+    stack ``a``."""
+    def rule(ps, key, eqn, ins):
+        a = ps.stack(ins[0])
+        return [ps.series(f(ps, key, eqn, a, *_aval(eqn)))]
+
+    return rule
+
+
+def _trig(ps, key, eqn, a, shape, dtype):
+    """sin, cos, tan through ``exp(i a)``."""
+    cdt = jnp.result_type(dtype, jnp.complex64)
+    z = ps.exp(key + ("z",), 1j * a.astype(cdt), shape, cdt)
+    s, c = jnp.imag(z), jnp.real(z)
+    name = eqn.primitive.name
+    if name == "sin":
+        return s
+    if name == "cos":
+        return c
+    return ps.div(key, s, c, shape, dtype)
+
+
+def _rsqrt(ps, key, eqn, a, shape, dtype):
     r = ps.sqrt(key + ("r",), a, shape, dtype)
-    return [ps.series(ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype))]
+    return ps.div(key, ps.lift(jnp.ones(shape, dtype)), r, shape, dtype)
 
 
-def _eval(ps, prefix, jaxpr, consts, args):
-    return interpret(jaxpr, consts, args, lambda i, eqn, ins: _apply(ps, prefix + (i,), eqn, ins))
+_RULES = Rules({
+    **{name: _on_series(_lin) for name in LINEAR},
+    **{name: _on_series(_move) for name in _MOVING},
+    **{name: _constant for name in CONSTANT},
+    "mul": _on_series(_mul),
+    "dot_general": _on_series(_dot),
+    "div": _on_series(_div),
+    "abs": _on_series(_abs),
+    "max": _on_series(_max_min),
+    "min": _on_series(_max_min),
+    "pow": _on_series(_pow),
+    "integer_pow": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.ipow(key, a, eqn.params["y"], s, d))),
+    "square": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.mul(key, a, a, s, d))),
+    "sin": _on_series(_unary(_trig)),
+    "cos": _on_series(_unary(_trig)),
+    "tan": _on_series(_unary(_trig)),
+    "exp": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.exp(key, a, s, d))),
+    "log": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.log(key, a, s, d))),
+    "sqrt": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.sqrt(key, a, s, d))),
+    "rsqrt": _on_series(_unary(_rsqrt)),
+}, default=_on_series(_missing), calls=_call)
 
 
 def flow_coefficients(F, x, K, known=(), constants=True):
@@ -356,7 +426,7 @@ def flow_coefficients(F, x, K, known=(), constants=True):
 
     Returns:
         ``(K, N)``: ``x[k] = x^(k)(0) / k!`` for ``k = 1..K`` (equal to
-        :func:`uio_jax._taylor.flow_series` up to round-off).
+        :func:`uio_jax._engine.taylor.flow_series` up to round-off).
     """
     known = tuple(jnp.asarray(s) for s in known)
     closed = jax.make_jaxpr(F)(x, *[s[0] for s in known])
@@ -366,7 +436,8 @@ def flow_coefficients(F, x, K, known=(), constants=True):
     def run(k, xs, state):
         ps = _Pass(k, K, state)
         root = _T(ps.at_k(xs), stack=xs, const=const if const.any() else None, c0=xs[0])
-        (out,) = _eval(ps, (), closed.jaxpr, closed.consts, [root] + [_T(ps.at_k(s), stack=s) for s in known])
+        args = [root] + [_T(ps.at_k(s), stack=s) for s in known]
+        (out,) = interpret(closed.jaxpr, closed.consts, args, _RULES, (ps, ()))
         fk = ps.at(out)
         fk = jnp.broadcast_to(jnp.asarray(fk, xs.dtype), (N,))
         nxt = fk / jnp.asarray(k + 1, xs.dtype)

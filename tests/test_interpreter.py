@@ -1,0 +1,125 @@
+"""The one jaxpr interpreter (``uio_jax._engine.interpreter``): the walk, its rule tables,
+calls, literals, and the error of a primitive without a Taylor rule."""
+
+import ast
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from uio_jax._engine import interpreter
+from uio_jax._engine.interpreter import CALLS, NoTaylorRule, Rules, bind, call_body, inline, interpret
+from uio_jax._engine.taylor import taylor
+from uio_jax._engine.taylor_flow import flow_coefficients
+
+ENGINE = Path(interpreter.__file__).parent
+
+
+@jax.jit
+def _inner(x):
+    return jnp.sin(x[0]) * x[1] + 2.0
+
+
+def _fn(x):
+    return jnp.stack([_inner(x), x[2] ** 2 - 1.5, jnp.cos(x[0])])
+
+
+def _plain(state, i, eqn, ins):
+    return bind(eqn, ins)
+
+
+def _call(state, i, eqn, ins):
+    return inline(state["rules"], state, eqn, ins)
+
+
+def test_a_table_of_plain_rules_evaluates_the_function():
+    """Default: the primitive; calls: their sub-jaxpr inline. Same values, no call left."""
+    rules = Rules({}, default=_plain, calls=_call)
+    x = jnp.array([0.3, -1.2, 2.0])
+    closed = jax.make_jaxpr(_fn)(x)
+    assert any(e.primitive.name in CALLS for e in closed.jaxpr.eqns)
+    (out,) = interpret(closed.jaxpr, closed.consts, [x], rules, {"rules": rules})
+    np.testing.assert_array_equal(out, _fn(x))
+    walked = jax.make_jaxpr(lambda y: interpret(closed.jaxpr, closed.consts, [y], rules, {"rules": rules}))(x)
+    assert not any(e.primitive.name in CALLS for e in walked.jaxpr.eqns)
+
+
+def test_rules_are_looked_up_by_primitive_with_the_equation_position():
+    seen = []
+
+    def sin_rule(state, i, eqn, ins):
+        seen.append((state, i, eqn.primitive.name))
+        return [jnp.zeros_like(ins[0])]
+
+    rules = Rules({"sin": sin_rule}, default=_plain)  # calls not inlined: the default binds them
+    assert rules["sin"] is sin_rule and rules["cos"] is _plain and rules["jit"] is _plain
+    closed = jax.make_jaxpr(lambda x: jnp.sin(x) + jnp.cos(x))(1.0)
+    (out,) = interpret(closed.jaxpr, closed.consts, [0.5], rules, "state")
+    assert float(out) == float(jnp.cos(0.5))
+    assert seen == [("state", 0, "sin")]
+
+
+def test_table_entries_take_precedence_over_the_call_rule():
+    marker = []
+    closed = jax.make_jaxpr(_fn)(jnp.ones(3))
+    (name,) = {e.primitive.name for e in closed.jaxpr.eqns} & set(CALLS)  # "jit" or "pjit"
+    rules = Rules({name: lambda s, i, eqn, ins: marker.append(1) or bind(eqn, ins)}, default=_plain,
+                  calls=lambda *a: pytest.fail("the call rule"))
+    interpret(closed.jaxpr, closed.consts, [jnp.ones(3)], rules)
+    assert marker == [1]
+
+
+def test_literals_and_constants_go_through_the_literal_conversion():
+    const = np.array([1.0, 0.0, 3.0])
+
+    def fn(x):
+        return x * const + 2.0
+
+    closed = jax.make_jaxpr(fn)(jnp.ones(3))
+    converted = []
+
+    def literal(state, value):
+        converted.append(np.asarray(value).shape)
+        return value
+
+    rules = Rules({}, default=_plain, literal=literal)
+    (out,) = interpret(closed.jaxpr, closed.consts, [jnp.ones(3)], rules)
+    np.testing.assert_array_equal(out, fn(jnp.ones(3)))
+    assert len(converted) == len(closed.consts) + sum(
+        isinstance(v, jax.extend.core.Literal) for e in closed.jaxpr.eqns for v in e.invars)
+    assert (3,) in converted or not closed.consts
+
+
+def test_call_body_reads_the_sub_jaxpr():
+    closed = jax.make_jaxpr(_fn)(jnp.ones(3))
+    (call,) = [e for e in closed.jaxpr.eqns if e.primitive.name in CALLS]
+    body, consts = call_body(call.params)
+    assert len(body.invars) == len(call.invars)
+    assert call_body({}) is None
+
+
+@pytest.mark.parametrize("route", ["taylor", "flow"])
+def test_a_primitive_without_a_taylor_rule_raises_no_taylor_rule(route):
+    fn = lambda x: jnp.arctan2(x, 2.0 + x)  # noqa: E731
+    x = jnp.array([0.3, 0.4])
+    with pytest.raises(NoTaylorRule, match="atan2") as info:
+        if route == "taylor":
+            taylor(fn, x, jnp.ones((2, 2)))
+        else:
+            flow_coefficients(fn, x, 3)
+    assert info.value.primitive == "atan2"
+    assert isinstance(info.value, NotImplementedError)  # older callers still catch it
+
+
+def test_the_uses_import_the_interpreter_not_each_other():
+    """taylor_flow, sparsity and fast_trig walk jaxprs through the interpreter module only
+    (none imports the Taylor module's walk or tables); no other engine module walks."""
+    for name in ("taylor.py", "taylor_flow.py", "sparsity.py", "fast_trig.py"):
+        tree = ast.parse((ENGINE / name).read_text())
+        sources = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+        assert "interpreter" in sources, name
+        assert "taylor" not in sources, name
+        assert not any(isinstance(n, ast.FunctionDef) and n.name in ("interpret", "_eval", "_propagate")
+                       for n in tree.body), name
