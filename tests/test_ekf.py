@@ -4,7 +4,7 @@ Oracle: filterpy's ``ExtendedKalmanFilter`` (numpy, Joseph-form update, ``residu
 for angles) fed with the very readings and outputs our simulation drew, with the
 Jacobians, process noise and measurement Jacobian written out by hand for the unicycle
 of 003 section 5. Tolerance 1e-10: the two differ only by floating-point round-off
-(notes/ekf.md measured <= 9e-14 in the states).
+(measured earlier: at most 9e-14 in the states).
 """
 
 import math

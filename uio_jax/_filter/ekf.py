@@ -13,14 +13,12 @@ trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
 
 * **Predict** ``P <- J P J^T + Q(xa, u)``, ``J = d xa+ / d xa``, using its structure: the
   augmented rows are ``I + dt * shift`` by construction, and ``D = d f / d(x, w)`` (the only
-  dense part) has the structural zeros that :func:`~uio_jax._sparsity.jacobian_pattern`
+  dense part) has the structural zeros that :func:`~uio_jax._engine.sparsity.jacobian_pattern`
   reads from the model's jaxpr. Only the columns of ``D`` that can be non-zero are
   computed (one JVP tangent each, the step's value from the same pass), and the products
   are element-wise sums over the non-zeros, never ``@``: XLA's CPU dot on a batch of 5x5
   matrices runs one matrix at a time, the sums fuse into element-wise loops over the
-  batch. Measured in the full Monte Carlo run (4096 trials, 2 devices, trial-steps/s):
-  dense ``jacfwd`` + ``J P J^T`` as broadcast sums 3.9 M (5 states) / 2.8 M (6 states);
-  the block structure 4.2 / 3.2 M; the structural zeros of ``D`` too 5.1 / 4.2 M.
+  batch (the gain of each step is measured in ``docs/benchmarks/ekf.md``, runs 4 and 5).
 * **Process noise**, state- and input-dependent::
 
       Q = dt^2 sum_i std_i(u)^2 f_i(x) f_i(x)^T      (known-input reading noise)
@@ -35,6 +33,9 @@ trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
 
   Outputs not read at this epoch (``mask`` false) get a zero row in ``H``, a zero
   innovation and unit variance: their gain column is exactly zero.
+
+:mod:`uio_jax._filter.reference_ekf` is the same filter written as the plain matrix
+equations (``jacfwd``, ``@``, ``solve``); ``tests/test_ekf_reference.py`` holds the two equal.
 """
 
 import math
@@ -68,7 +69,7 @@ class Model(NamedTuple):
         sigma: ``(n_out,)`` measurement noise std. angle_out: ``(n_out,)`` bool.
         period: ``(n_out,)`` int, each output's period in epochs.
         pattern: ``(n, n + p)`` bool, where ``d dynamics / d(x, w)`` may be non-zero (read
-            from the jaxpr by :func:`~uio_jax._sparsity.jacobian_pattern`).
+            from the jaxpr by :func:`~uio_jax._engine.sparsity.jacobian_pattern`).
     """
 
     n: int
@@ -86,17 +87,23 @@ class Model(NamedTuple):
     pattern: np.ndarray
 
 
-def make_model(exp) -> Model:
-    """Build the one-trial :class:`Model` of an :class:`~uio_jax.Experiment`."""
+def make_model(exp, fast_trig: bool = True) -> Model:
+    """Build the one-trial :class:`Model` of an :class:`~uio_jax.Experiment`.
+
+    ``fast_trig``: the model's functions evaluate float64 ``sin`` / ``cos`` by
+    :func:`~uio_jax._engine.fast_trig.with_vectorized_trig` (XLA's CPU backend runs the
+    library calls one element at a time); ``False`` keeps ``jnp.sin`` / ``jnp.cos`` (the
+    reference filter). ``pattern`` is read from the plain functions either way.
+    """
     sys_ = exp.system
     n, p, order = sys_.n, len(sys_.unknown), exp.order
     N = n + p * order
     dt = float(exp.dt)
-    # float64 sin / cos by vectorizable arithmetic (XLA's CPU runs them one element at a
-    # time): the 5-state 003 filter 7.1 -> 8.6 M trial-steps/s (see _fast_trig)
-    known = tuple(with_vectorized_trig(f) for f in sys_.known.values())
-    unknown = tuple(with_vectorized_trig(g) for g in sys_.unknown.values())
-    drift = with_vectorized_trig(sys_.drift) if sys_.drift is not None else None
+    # float64 sin / cos by vectorizable arithmetic (measured: docs/benchmarks/ekf.md, run 7)
+    trig = with_vectorized_trig if fast_trig else (lambda fn: fn)
+    known = tuple(trig(f) for f in sys_.known.values())
+    unknown = tuple(trig(g) for g in sys_.unknown.values())
+    drift = trig(sys_.drift) if sys_.drift is not None else None
     w_white = np.asarray(exp.w_white_std, np.float64)
     q_aug = np.asarray(exp.q_aug, np.float64) * dt
     known_std = exp.known_std
@@ -119,7 +126,7 @@ def make_model(exp) -> Model:
         return Q
 
     meas = exp.measurements
-    fns = tuple(with_vectorized_trig(m.fn) for m in meas)
+    fns = tuple(trig(m.fn) for m in meas)
 
     def h_true(x):
         return jnp.stack([fn(x) for fn in fns])
@@ -234,9 +241,8 @@ def mahalanobis_squared(e, P):
 
     Symmetric Gaussian elimination written out element by element (``P = L D L^T``, then
     ``sum_i y_i^2 / D_i`` with ``L y = e``): about ``d^3 / 6`` multiply-adds that XLA fuses
-    over a batch, where ``jnp.linalg.solve`` is a batched LU call (measured in the Monte
-    Carlo run, 4096 trials, NEES over 3 states every 50 steps: 5.1 -> 5.5 M trial-steps/s
-    and 1 s less compile). No pivoting: exact for SPD ``P`` (all pivots positive, as
+    over a batch, where ``jnp.linalg.solve`` is a batched LU call (faster to run and to
+    compile: ``docs/benchmarks/ekf.md``, run 5). No pivoting: exact for SPD ``P`` (all pivots positive, as
     stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as
     long as no leading minor is singular.
     """

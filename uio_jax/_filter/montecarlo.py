@@ -1,13 +1,13 @@
 """Vectorised Monte Carlo EKF: ``lax.scan`` over time, ``vmap`` over trials, sharded.
 
-Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
+Layout of one run (the measurements behind its choices: ``docs/benchmarks/ekf.md``):
 
 * trial ``i`` uses the key ``fold_in(key(seed), i)`` (split once into an initial and a run
   key); epoch ``j`` draws ONE block of normals ``normal(fold_in(run_key, j), ...)`` for all
   its Euler sub-steps and its outputs (float32 normals, see :func:`_trial_functions`). So every
   trial's numbers depend only on ``(seed, i)``: not on the batch size, the chunking or
   the sharding. The numbers are JAX's default threefry ones, bit for bit, drawn by
-  :mod:`uio_jax._threefry` (unrolled hash: faster to compile and to run on a CPU).
+  :mod:`uio_jax._engine.threefry` (unrolled hash: faster to compile and to run on a CPU).
 * nested scan: chunks (a Python loop, which drives the progress bar) -> records
   (statistics kept every ``record_every`` epochs) -> epochs (one output update) -> Euler
   sub-steps (truth, readings, EKF predict; ``UNROLL`` below).
@@ -17,6 +17,10 @@ Layout of one run (see DESIGN.md section 5 and notes/ekf.md):
 * per trial and record only ``2 N + 2 d + 1`` float32 numbers are kept (errors, filter
   sigmas, errors and sigmas along the named quantities, NEES); full trajectories (truth,
   dead reckoning, EKF) only for the first ``keep`` trials, recomputed in float64.
+* the filter: the fast kernels of :mod:`uio_jax._filter.ekf` (``filter="fast"``, the
+  default) or the plain equations of :mod:`uio_jax._filter.reference_ekf`
+  (``filter="reference"``, their oracle). The simulation (truth, readings, outputs) is the
+  same code either way, so the two runs see the very same data.
 """
 
 import numbers
@@ -36,25 +40,49 @@ from .._engine import threefry
 from .._errors import ModelError, OptionError
 from .._model.experiment import Experiment
 from .._progress import Progress
+from . import reference_ekf
 from .ekf import mahalanobis_squared, make_model, output_mask, predict, update, wrap_angle
 from .result import MonteCarloResult
 
 #: Trial-steps per chunk between two progress-bar updates (about 1-3 s on 2 CPU cores).
 CHUNK_TRIAL_STEPS = 1.5e7
-#: Inner-scan unroll of the Euler sub-steps. notes/ekf.md found 5 best at B = 1 and neutral
-#: at large B; measured here at 512 trials per device, 5 costs 2x the CPU time of 1.
+#: Inner-scan unroll of the Euler sub-steps: 1, as larger unrolls ran slower at large batches
+#: (docs/benchmarks/ekf.md, "Reading").
 UNROLL = 1
+#: The values of ``run_montecarlo(filter=...)``.
+FILTERS = ("fast", "reference")
 
 _CACHE: "weakref.WeakKeyDictionary[Experiment, dict]" = weakref.WeakKeyDictionary()
 
 
 # ---------------------------------------------------------------------- one trial
-def _trial_functions(exp: Experiment, traj: bool):
+def _filter_kernels(exp: Experiment, model, filter: str):
+    """``(model, predict, update, mahalanobis_squared)`` of the filter named ``filter``.
+
+    ``"fast"``: ``model`` itself and the kernels of :mod:`uio_jax._filter.ekf` (looked up
+    at each call, so that ``scripts/bench_ekf.py`` can swap them out); ``"reference"``: the
+    plain equations of :mod:`uio_jax._filter.reference_ekf` with their own model.
+    """
+    if filter == "fast":
+        return model, predict, update, mahalanobis_squared
+    return (reference_ekf.make_model(exp), reference_ekf.predict, reference_ekf.update,
+            reference_ekf.mahalanobis_squared)
+
+
+def _check_filter(filter):
+    if not (isinstance(filter, str) and filter in FILTERS):
+        raise OptionError(f"filter must be one of {', '.join(map(repr, FILTERS))}, got {filter!r}")
+    return filter
+
+
+def _trial_functions(exp: Experiment, traj: bool, filter: str = "fast"):
     """``init(trial_id, root) -> carry``, ``epoch(carry, j)``, ``stats(carry)``.
 
-    ``carry = (run_key, x, istate, w_last, xa, P[, x_dr])`` for one trial.
+    ``carry = (run_key, x, istate, w_last, xa, P[, x_dr])`` for one trial; ``filter``: see
+    :func:`_filter_kernels` (the simulation uses the fast model either way).
     """
     model = make_model(exp)
+    fmodel, f_predict, f_update, f_nees = _filter_kernels(exp, model, filter)
     n, p, N = model.n, model.p, model.N
     K = exp.epoch_steps
     ni = exp.n_input_normals
@@ -92,10 +120,9 @@ def _trial_functions(exp: Experiment, traj: bool):
     def epoch(carry, j):
         key, x, istate, w_last, xa, Pm = carry[:6]
         # float32 normals, used in float64: half the threefry bits of float64 ones and a
-        # cheap inverse error function. The simulation alone (truth, readings, RNG; 4096
-        # trials) ran at 10.5-11 M trial-steps/s instead of 7.5 with jax.random. The cost:
-        # they resolve 2^-24 and reach about 5.3 sigma (1e-7 beyond) where float64 ones
-        # reach about 8; noise levels of a few percent do not see the difference.
+        # cheap inverse error function (the simulation's gain: docs/benchmarks/ekf.md, run
+        # 5). The cost: they resolve 2^-24 and reach about 5.3 sigma (1e-7 beyond) where
+        # float64 ones reach about 8; noise levels of a few percent do not see the difference.
         z = threefry.normal(threefry.fold_in(key, j), K * (ni + m) + n_out).astype(jnp.float64)
         zs = z[:K * (ni + m)].reshape(K, ni + m)
         zy = z[K * (ni + m):]
@@ -107,7 +134,7 @@ def _trial_functions(exp: Experiment, traj: bool):
             w = jnp.asarray(w, jnp.float64).reshape(p)
             u_read = u + known_std(u) * zk[ni:]
             x = x + dt * model.dynamics(x, u, w)
-            xa, Pm = predict(model, xa, Pm, u_read)
+            xa, Pm = f_predict(fmodel, xa, Pm, u_read)
             w_ref = w if w_reference is None else jnp.asarray(
                 w_reference(istate, w), jnp.float64).reshape(p)
             out = (x, istate, w_ref, xa, Pm)
@@ -123,7 +150,7 @@ def _trial_functions(exp: Experiment, traj: bool):
         y = model.h_true(x) + sig_out * zy
         if model.angle_out.any():
             y = jnp.where(model.angle_out, wrap_angle(y), y)
-        xa, Pm = update(model, xa, Pm, y, output_mask(model, j))
+        xa, Pm = f_update(fmodel, xa, Pm, y, output_mask(model, j))
         new = (key, x, istate, w_last, xa, Pm) + ((c[5],) if traj else ())
         if traj:
             return new, (x, xa, jnp.sqrt(jnp.diag(Pm)), c[5], y, u_reads, Pm)
@@ -144,7 +171,7 @@ def _trial_functions(exp: Experiment, traj: bool):
             qs.append(jnp.sqrt(jnp.sum(g[:, None] * Pm[:n, :n] * g[None, :])))
         es = err[nees_idx]
         Ps = Pm[np.ix_(nees_idx, nees_idx)]
-        nees = jnp.asarray(mahalanobis_squared(es, Ps))
+        nees = jnp.asarray(f_nees(es, Ps))
         parts = [err, sig, jnp.stack(qe) if qe else jnp.zeros(0),
                  jnp.stack(qs) if qs else jnp.zeros(0), nees[None]]
         return jnp.concatenate(parts).astype(jnp.float32)
@@ -157,13 +184,13 @@ def _mesh(devices):
     return Mesh(np.array(devices), ("trials",))
 
 
-def _compiled(exp, devices, per_dev, n_rec_chunk):
-    """Jitted, sharded init and chunk functions (cached per experiment and shape)."""
-    key = (tuple(d.id for d in devices), per_dev, n_rec_chunk)
+def _compiled(exp, devices, per_dev, n_rec_chunk, filter="fast"):
+    """Jitted, sharded init and chunk functions (cached per experiment, shape and filter)."""
+    key = (tuple(d.id for d in devices), per_dev, n_rec_chunk, filter)
     cache = _CACHE.setdefault(exp, {})
     if key in cache:
         return cache[key]
-    init, epoch, stats = _trial_functions(exp, traj=False)
+    init, epoch, stats = _trial_functions(exp, traj=False, filter=filter)
     R = exp.record_every
     mesh = _mesh(devices)
     spec = P("trials")
@@ -250,11 +277,11 @@ def _check_model(exp):
 
 
 def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, keep: int = 4,
-                   devices=None, progress=None) -> MonteCarloResult:
+                   devices=None, progress=None, filter: str = "fast") -> MonteCarloResult:
     """Run ``trials`` independent simulations of an experiment, each filtered by the EKF.
 
     Every trial: truth by Euler at ``experiment.dt``; known inputs read with noise every
-    step; outputs read at their own periods; the EKF of :mod:`uio_jax._ekf` on the state
+    step; outputs read at their own periods; the EKF of :mod:`uio_jax._filter.ekf` on the state
     augmented by the unknown inputs and their derivatives, started at
     ``truth + N(0, diag(prior_std^2))``. Statistics per trial are recorded every
     ``record_every`` output epochs (and at t = 0); the result computes RMSE, filter sigma,
@@ -270,13 +297,17 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         devices: JAX devices to shard the trials over (default: all of them).
         progress: ``True``/``False`` forces the stderr progress bar on/off; ``None``
             (default) shows it when the run lasts more than a few seconds.
+        filter: ``"fast"`` (default): the EKF's fast kernels; ``"reference"``: the same
+            filter as plain matrix equations (:mod:`uio_jax._filter.reference_ekf`; equal
+            to round-off, several times slower), to check a result against.
 
     Returns:
         :class:`MonteCarloResult` (host numpy arrays; ``errors`` has shape
         ``(trials, n_records + 1, N)`` in float32).
 
     Raises:
-        OptionError: trials <= 0, seed outside ``[0, 2**64)``, negative keep.
+        OptionError: trials <= 0, seed outside ``[0, 2**64)``, negative keep, an unknown
+            filter.
         ModelError: the model is NaN at the start, or the filter became NaN/inf.
     """
     if not isinstance(experiment, Experiment):
@@ -285,6 +316,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
     B = _check_int(trials, "trials", 1)
     seed = _check_seed(seed)
     keep = min(_check_int(keep, "keep", 0), B)
+    filter = _check_filter(filter)
     exp = experiment
     with jax.enable_x64(True):
         t0 = time.perf_counter()  # compile_s: from here to both programs compiled
@@ -295,12 +327,12 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         per_dev = -(-B // nd)
         Bp = per_dev * nd
         n_rec_chunk, n_rec = _chunk_records(exp, Bp)
-        init_j, chunk_j, sharding = _compiled(exp, devices, per_dev, n_rec_chunk)
+        init_j, chunk_j, sharding = _compiled(exp, devices, per_dev, n_rec_chunk, filter)
         root = threefry.seed_key(seed)
         ids = jax.device_put(np.arange(Bp, dtype=np.uint32), sharding)  # host arrays: no
         j0 = np.asarray(0, np.int32)                                     # dispatch, no compile
         # the chunk program compiles in a thread while init compiles and runs (XLA's
-        # compiler releases the GIL): 5.2 -> 4.5-4.9 s of compile on 2 cores, 003 5-state
+        # compiler releases the GIL; the compile time saved: docs/benchmarks/ekf.md, run 7)
         replicated = NamedSharding(sharding.mesh, P())  # what JAX gives empty arrays
         shapes = jax.tree.map(
             lambda a: jax.ShapeDtypeStruct(a.shape, a.dtype, sharding=sharding if a.size else replicated),
@@ -330,7 +362,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         bar.close()
         stats = np.concatenate(records, axis=1)  # (B, n_rec + 1, S)
         _check_finite(exp, stats)
-        traj = trajectories(exp, range(keep), seed=seed) if keep else None
+        traj = trajectories(exp, range(keep), seed=seed, filter=filter) if keep else None
     timings = {
         "compile_s": compile_s, "run_s": run_s, "process_s": run_p,
         "setup_process_s": p1 - p0, "trial_steps": B * exp.n_steps,
@@ -353,7 +385,7 @@ def _check_finite(exp, stats):
 
 
 # ---------------------------------------------------------------------- full trajectories
-def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
+def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0, filter: str = "fast") -> dict:
     """Full float64 trajectories of some trials, at every output epoch.
 
     The same trials as in :func:`run_montecarlo` with the same seed (trial ``i`` depends
@@ -363,6 +395,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
         experiment: the experiment.
         trial_ids: iterable of trial indices.
         seed: the run's seed, an integer in ``[0, 2**64)``.
+        filter: ``"fast"`` or ``"reference"``, as in :func:`run_montecarlo`.
 
     Returns:
         dict of numpy arrays (``k`` trials, ``E`` epochs, index 0 is t = 0):
@@ -374,7 +407,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
     exp = experiment
     ids = np.asarray(list(trial_ids), np.uint32)
     with jax.enable_x64(True):
-        fn = _traj_fn(exp)
+        fn = _traj_fn(exp, _check_filter(filter))
         out = fn(jnp.asarray(ids), threefry.seed_key(_check_seed(seed)))
         out = jax.tree.map(np.asarray, out)
     (x_t0, xa0, sig0, xdr0, P0), (x_t, xa, sig, xdr, y, u_reads, Ps) = out
@@ -394,11 +427,11 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0) -> dict:
     return res
 
 
-def _traj_fn(exp):
+def _traj_fn(exp, filter="fast"):
     cache = _CACHE.setdefault(exp, {})
-    if "traj" in cache:
-        return cache["traj"]
-    init, epoch, _ = _trial_functions(exp, traj=True)
+    if ("traj", filter) in cache:
+        return cache[("traj", filter)]
+    init, epoch, _ = _trial_functions(exp, traj=True, filter=filter)
 
     def one(i, root):
         c = init(i, root)
@@ -406,5 +439,5 @@ def _traj_fn(exp):
         _, outs = lax.scan(epoch, c, jnp.arange(exp.n_epochs))
         return c0, outs
 
-    cache["traj"] = jax.jit(jax.vmap(one, in_axes=(0, None)))
-    return cache["traj"]
+    cache[("traj", filter)] = jax.jit(jax.vmap(one, in_axes=(0, None)))
+    return cache[("traj", filter)]

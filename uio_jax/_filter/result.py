@@ -5,6 +5,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._errors import OptionError
+
 #: A quantity "converges" when its RMSE at the end and its RMS filter sigma at the end are
 #: both at most this fraction of the prior std (the expected RMSE at t = 0).
 CONVERGED_RATIO = 0.6
@@ -21,6 +23,21 @@ OVERCONFIDENT = 2.0
 DIVERGED_PRIOR_SIGMAS = 3.0
 
 
+def _record(index: int, doc: str) -> property:
+    """A read-only property: part ``index`` of ``MonteCarloResult._split()`` in float64."""
+    return property(lambda self: self._split()[index].astype(np.float64), doc=doc)
+
+
+def _rms_over_trials(attribute: str, doc: str):
+    """A method ``(self) -> (T, k)``: ``sqrt(mean_b a^2)`` of ``a = self.<attribute>`` ``(B, T, k)``."""
+
+    def rms(self) -> np.ndarray:
+        return np.sqrt(np.mean(getattr(self, attribute) ** 2, axis=0))
+
+    rms.__doc__ = doc
+    return rms
+
+
 @dataclass(frozen=True, eq=False)
 class MonteCarloResult:
     """Statistics of a Monte Carlo run (host numpy arrays).
@@ -33,7 +50,7 @@ class MonteCarloResult:
             wrapped), filter sigmas (N), errors and sigmas along the d named quantities,
             NEES over ``experiment.nees_states``.
         trajectories: full trajectories of the first ``keep`` trials (see
-            :func:`~uio_jax._montecarlo.trajectories`) or ``None``.
+            :func:`~uio_jax.trajectories`) or ``None``.
         timings: compile and run seconds, trial-steps/s, devices, load average.
     """
 
@@ -63,47 +80,21 @@ class MonteCarloResult:
         return (s[..., :N], s[..., N:2 * N], s[..., 2 * N:2 * N + d],
                 s[..., 2 * N + d:2 * N + 2 * d], s[..., -1])
 
-    @property
-    def errors(self) -> np.ndarray:
-        """``(B, T, N)`` estimate minus truth (angles wrapped)."""
-        return self._split()[0].astype(np.float64)
-
-    @property
-    def sigmas(self) -> np.ndarray:
-        """``(B, T, N)`` filter standard deviations ``sqrt(diag P)``."""
-        return self._split()[1].astype(np.float64)
-
-    @property
-    def quantity_errors(self) -> np.ndarray:
-        """``(B, T, d)`` errors along the named quantities."""
-        return self._split()[2].astype(np.float64)
-
-    @property
-    def quantity_sigmas(self) -> np.ndarray:
-        """``(B, T, d)`` filter sigma of the named quantities, ``sqrt(grad q P grad q^T)``."""
-        return self._split()[3].astype(np.float64)
-
-    @property
-    def nees(self) -> np.ndarray:
-        """``(B, T)`` normalised estimation error squared over ``experiment.nees_states``."""
-        return self._split()[4].astype(np.float64)
+    errors = _record(0, "``(B, T, N)`` estimate minus truth (angles wrapped), float64.")
+    sigmas = _record(1, "``(B, T, N)`` filter standard deviations ``sqrt(diag P)``, float64.")
+    quantity_errors = _record(2, "``(B, T, d)`` errors along the named quantities, float64.")
+    quantity_sigmas = _record(3, "``(B, T, d)`` filter sigma of the named quantities, "
+                                 "``sqrt(grad q P grad q^T)``, float64.")
+    nees = _record(4, "``(B, T)`` normalised estimation error squared over "
+                      "``experiment.nees_states``, float64.")
 
     # ------------------------------------------------------------------ statistics
-    def rmse(self) -> np.ndarray:
-        """``(T, N)`` RMSE over trials per state: ``sqrt(mean_b e^2)``."""
-        return np.sqrt(np.mean(self.errors**2, axis=0))
-
-    def sigma_rms(self) -> np.ndarray:
-        """``(T, N)`` RMS over trials of the filter sigma (equals the RMSE if consistent)."""
-        return np.sqrt(np.mean(self.sigmas**2, axis=0))
-
-    def quantity_rmse(self) -> np.ndarray:
-        """``(T, d)`` RMSE along the named quantities."""
-        return np.sqrt(np.mean(self.quantity_errors**2, axis=0))
-
-    def quantity_sigma_rms(self) -> np.ndarray:
-        """``(T, d)`` RMS filter sigma along the named quantities."""
-        return np.sqrt(np.mean(self.quantity_sigmas**2, axis=0))
+    rmse = _rms_over_trials("errors", "``(T, N)`` RMSE over trials per state: ``sqrt(mean_b e^2)``.")
+    sigma_rms = _rms_over_trials("sigmas", "``(T, N)`` RMS over trials of the filter sigma "
+                                           "(equals the RMSE if consistent).")
+    quantity_rmse = _rms_over_trials("quantity_errors", "``(T, d)`` RMSE along the named quantities.")
+    quantity_sigma_rms = _rms_over_trials("quantity_sigmas",
+                                          "``(T, d)`` RMS filter sigma along the named quantities.")
 
     def nees_dof(self) -> int:
         """Degrees of freedom of the NEES (its expected value when consistent)."""
@@ -135,8 +126,8 @@ class MonteCarloResult:
           sigma is no evidence);
         * ``None`` (undecided) otherwise.
 
-        These are heuristics on finite runs (notes/ekf.md: the verdict depends on the
-        prior and the horizon; the 003 range case needs the full 10 s to halve the error).
+        These are heuristics on finite runs: the verdict depends on the prior and the
+        horizon (the 003 range case needs the full 10 s to halve its error).
         Also: mean and median NEES at the end, their expected value (dof) and the
         fraction of divergent trials (see :meth:`divergent`).
 
@@ -195,6 +186,9 @@ class MonteCarloResult:
                 ``None``: no analysis, the quantities keep the experiment's labels and the
                 states are undecided. The filter layer never runs an analysis itself.
 
+        Raises:
+            OptionError: a report of other states than the experiment's system.
+
         Returns:
             ``{"analysis": method | None, "note": str, "states": {name: row},
             "quantities": {name: row}, "agree": bool | None}`` with ``row = {"observable":
@@ -202,19 +196,20 @@ class MonteCarloResult:
             ``None`` when either side is undecided, and the overall ``agree`` is ``False``
             if any row disagrees, else ``None`` if any row is undecided, else ``True``.
         """
+        states = tuple(self.experiment.system.states)
+        if report is not None and tuple(report.states) != states:
+            raise OptionError(f"compare needs a report of the experiment's states {states}, "
+                              f"got one of {tuple(report.states)}")
         note = "" if report is not None else "no analysis given"
         v = self.verdict()
         rows_s, rows_q = {}, {}
-        for s in self.experiment.system.states:
-            obs = None if report is None else bool(report.observable.get(s))
+        for s in states:
+            obs = None if report is None else bool(report.observable[s])
             rows_s[s] = _row(obs, v["states"][s]["converges"])
         for q in self.experiment.quantities:
-            obs = q.observable
-            if report is not None:
-                try:
-                    obs = bool(report.is_observable(q.fn))
-                except Exception:  # noqa: BLE001 - keep the experiment's label
-                    pass
+            # on the report's own states a quantity evaluates as in the run (which computed
+            # its errors): nothing is left to fail but a bug, which propagates
+            obs = q.observable if report is None else bool(report.is_observable(q.fn))
             rows_q[q.name] = _row(obs, v["quantities"][q.name]["converges"])
         agrees = [r["agree"] for r in list(rows_s.values()) + list(rows_q.values())]
         agree = False if False in agrees else (None if None in agrees else True)
