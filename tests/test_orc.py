@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 from helpers import observable_set, published, zoo_module, zoo_report
 
+from uio_jax._analysis.driver import StopReason
+
 ORC_CASES = [
     ("vehicle_wind", "no_wind"),
     ("unicycle_polar", "range_known"),
@@ -33,6 +35,7 @@ def test_002_vehicle_without_wind_steps_and_generators():
     """002 section III-B: Omega_0 dim 3, Omega_1 = Omega_0 + d L_{f4} h_u (dim 4), Omega_2 = Omega_1."""
     rep = zoo_report("vehicle_wind", "no_wind")
     assert list(rep.dims) == [3, 4, 4]
+    assert StopReason.parse(rep.stop_reason) == StopReason.CONVERGED.stop(m=2, prev=1)
     assert rep.generators[:3] == ("h_u", "h_v", "h_const")
     assert rep.generators[3] == "L_V_x h_u"  # f4 is the V_x field
     assert not any(rep.observable.values())

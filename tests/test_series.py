@@ -13,6 +13,7 @@ import uio_jax as uj
 from uio_jax import cli
 from uio_jax._analysis import series as _series
 from uio_jax._analysis.context import Context
+from uio_jax._analysis.driver import StopReason
 from uio_jax._calculus import generators as _generators
 
 SAMPLES = 512
@@ -92,7 +93,7 @@ def test_unobservable_span_closes_and_stops():
     )
     rep = uj.analyze(system, method="series", samples=SAMPLES)
     assert rep.dim == 2 and not any(rep.observable.values()) and rep.identifiable == {"s": False, "k": True}
-    assert "adds nothing" in rep.stop_reason
+    assert StopReason.SPAN_CLOSED.matches(rep.stop_reason)
     assert rep.unobservable_directions([1.0, 1.0, 1.0]).shape == (3, 1)
 
 
@@ -118,7 +119,8 @@ def test_seed_reproducible_and_orders_capped():
     b = uj.analyze(_oscillator(), method="series", samples=64, seed=3)
     assert a.dims == b.dims and a.certificate == b.certificate
     capped = uj.analyze(_oscillator(), method="series", samples=64, max_order=1)
-    assert capped.dims == (1, 2) and "max_order=1" in capped.stop_reason
+    assert capped.dims == (1, 2)
+    assert capped.stop_reason == StopReason.MAX_ORDER.stop(max_order=1).message
 
 
 @functools.cache

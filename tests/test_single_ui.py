@@ -6,6 +6,7 @@ import pytest
 from helpers import SAMPLES, observable_set, published, zoo_module, zoo_report
 
 import uio_jax as uj
+from uio_jax._analysis.driver import StopReason
 
 POLAR = ["range_v_unknown", "range_omega_unknown", "bearing_v_unknown",
          "bearing_omega_unknown", "phi_v_unknown", "phi_omega_unknown"]
@@ -135,6 +136,7 @@ def test_stopping_rule_correction_on_the_counterexample():
     assert rep.details["m_star"] >= 1
     assert rep.dims[0] == 1 and rep.dims[1] == 1
     assert rep.dim == 2
+    assert StopReason.parse(rep.stop_reason) == StopReason.CONVERGED_AFTER_M_PRIME.stop(m=3, prev=2)
     assert any("corrected rule" in note for note in rep.notes)
     # x0 x2 / x1 = L_{phi_1} h is observable; [0, x1, x2] is a symmetry
     assert rep.is_observable(lambda x: x[0] * x[2] / x[1])

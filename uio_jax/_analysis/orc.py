@@ -12,6 +12,47 @@ Only Lie derivatives of the generators kept at the previous step are formed: if
 """
 
 from .context import Context
+from .driver import Recursion, StopReason, iterate, quiet_step
+
+
+class Orc(Recursion):
+    """The ORC as a :class:`~uio_jax._analysis.driver.Recursion`.
+
+    ``frontier``: the generators kept at the last step (the only ones whose Lie derivatives
+    can add to the span).
+
+    Args:
+        ctx: the analysis context (samples, builder, codistribution on ``R^n``).
+        field_nodes: the fields ``v`` (Nodes of ``x -> (n,)``) of the recursion.
+        start: scalar Nodes whose differentials generate Omega_0.
+        max_steps: optional cap on m.
+    """
+
+    def __init__(self, ctx: Context, field_nodes, start, max_steps=None):
+        self.ctx, self.fields, self.start = ctx, list(field_nodes), list(start)
+        self.max_steps = max_steps
+        self.frontier = []
+
+    def init(self):
+        """Omega_0 = span{d start}."""
+        self.frontier = self.ctx.absorb(self.start)
+        return quiet_step(self.ctx, 0, self.frontier)
+
+    def step(self, m):
+        """Omega_m = Omega_{m-1} + sum_v span{d L_v c : c in frontier}."""
+        self.frontier = self.ctx.absorb_lie(self.frontier, self.fields)
+        return quiet_step(self.ctx, m, self.frontier)
+
+    def terminate(self, m, history):
+        """Converged (the last step added nothing), else full rank ``n``, else the cap."""
+        n = self.ctx.system.n
+        if m > 0 and not self.frontier:
+            return StopReason.CONVERGED.stop(m=m, prev=m - 1)
+        if self.ctx.dim >= n:
+            return StopReason.FULL_RANK.stop(n=n, m=m)
+        if self.max_steps is not None and m >= self.max_steps:
+            return StopReason.MAX_ORDER.stop(max_order=self.max_steps)
+        return None
 
 
 def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
@@ -25,21 +66,10 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
         start_nodes: generators of Omega_0 (default: the outputs).
 
     Returns:
-        ``(history, stop_reason)``.
+        ``(history, stop_reason)``: one Step per m = 0..M (``Step.dim = dim Omega_m``) and
+        the Report's text of the :class:`~uio_jax._analysis.driver.StopReason`.
     """
     fields = [ctx.field_node(lbl) for lbl in field_labels]
     start = ctx.output_nodes() if start_nodes is None else list(start_nodes)
-    frontier = ctx.absorb(start)
-    history = [ctx.step(0, frontier)]
-    m = 0
-    n = ctx.system.n
-    while True:
-        if ctx.dim >= n:
-            return history, f"full rank {n} at m={m}"
-        if max_steps is not None and m >= max_steps:
-            return history, f"max_order={max_steps} reached before convergence"
-        m += 1
-        frontier = ctx.absorb_lie(frontier, fields)
-        history.append(ctx.step(m, frontier))
-        if not frontier:
-            return history, f"Omega_{m} = Omega_{m - 1}"
+    out = iterate(Orc(ctx, fields, start, max_steps))
+    return out.history, out.stop.message

@@ -24,7 +24,7 @@ the output filtration), so the first order that adds nothing closes the span; ot
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
 Cost: all coefficients up to order K come from one univariate Taylor pass
-(the coefficient recurrence of :mod:`uio_jax._taylor_flow`, ``O(K^2)`` work per operation
+(the coefficient recurrence of :mod:`uio_jax._engine.taylor_flow`, ``O(K^2)`` work per operation
 of the model, F's graph traced once) and one forward-mode Jacobian: no nested
 differentiation, so models whose ORC graphs grow geometrically with the step (tens of
 states and parameters, several fields) take seconds.
@@ -43,6 +43,7 @@ from .._engine.taylor_flow import flow_coefficients
 from .._errors import OptionError
 from .._progress import step_listener
 from .context import Context
+from .driver import Recursion, StopReason, iterate, quiet_step
 
 
 def check_applicable(system) -> None:
@@ -71,9 +72,9 @@ def output_series(system, a, K):
     """``x -> (K + 1, p)``: normalized Taylor coefficients ``y_k(x)`` of the outputs.
 
     The flow's coefficients come from the coefficient recurrence of
-    :func:`uio_jax._taylor_flow.flow_coefficients` (``O(K^2)`` per operation of the model),
+    :func:`uio_jax._engine.taylor_flow.flow_coefficients` (``O(K^2)`` per operation of the model),
     with the generic input entering as a known series; the outputs from one stacked Taylor
-    pass (:func:`uio_jax._taylor.taylor`).
+    pass (:func:`uio_jax._engine.taylor.taylor`).
 
     Args:
         system: a System without unknown inputs (states only; parameters already joint).
@@ -163,15 +164,82 @@ def _coefficient(system, a, k, i):
     return lambda x: coefficients(x)[k, i]
 
 
-def run_series(ctx: Context, *, seed: int, max_order=None):
-    """Absorb ``dy_k`` order by order; returns ``(history, stop_reason, k_reached)``.
+class SeriesOrders(Recursion):
+    """The orders ``k = 0, 1, ...`` of the series test as a
+    :class:`~uio_jax._analysis.driver.Recursion`: step k absorbs ``dy_k`` (``p`` rows
+    ``(S, p, n)``), ``Omega_k = span{dy_0 .. dy_k}``.
 
-    Orders are evaluated in blocks (one Taylor pass from order 0 each). How many orders a
-    model needs is known only at the end; with many samples, a first run on the first
-    :data:`EXPLORE_SAMPLES` samples finds it, so the run on all samples evaluates one
-    program reaching that order (the largest one the exploring run made) instead of a
-    first guess and its continuation. Every rank decision of the result is still taken on
-    all samples, in the same order, so the result is the same as without the exploration.
+    Orders are evaluated in blocks (one Taylor pass from order 0 each, see
+    :meth:`_Series.gradients`): the first block reaches ``first`` (None: the fewest orders
+    that could reach rank n, ``ceil(n / p) - 1``), a later one the fewest more orders that
+    could reach rank n if every order added what the last one did (2 at least).
+
+    Args:
+        ctx: the analysis context.
+        series: the nodes and programs of the ``y_k``.
+        cap: the highest order.
+        first: the highest order of the first block (None: see above).
+    """
+
+    def __init__(self, ctx: Context, series: "_Series", cap: int, first=None):
+        self.ctx, self.series, self.cap = ctx, series, cap
+        n, p = ctx.system.n, len(ctx.system.outputs)
+        self.chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
+        self.computed, self.by_order, self.added = -1, {}, None
+
+    def _order(self, k):
+        """Nodes and gradients ``(S, p, n)`` of ``y_k``, evaluating the block from k on if
+        it is not evaluated yet."""
+        if k > self.computed:
+            n, p = self.ctx.system.n, len(self.ctx.system.outputs)
+            if self.added is not None:
+                # an order adds at most what the last one added (non-increasing increments):
+                # reaching rank n needs at least this many more orders; 2 at least, since
+                # every block re-runs the Taylor pass from order 0
+                self.chunk = max(2, math.ceil((n - self.ctx.dim) / len(self.added)))
+            hi = min(self.cap, max(k + self.chunk - 1, k))
+            nodes, grads = self.series.gradients(self.ctx, k, hi)
+            for j in range(k, hi + 1):
+                sl = slice((j - k) * p, (j - k + 1) * p)
+                self.by_order[j] = (nodes[sl], grads[:, sl])
+            self.computed = hi
+        return self.by_order.pop(k)
+
+    def init(self):
+        """Omega_0 = span{dy_0} = span{dh}."""
+        return self.step(0)
+
+    def step(self, k):
+        """Omega_k = Omega_{k-1} + span{dy_k}."""
+        nodes, grads = self._order(k)
+        self.added = self.ctx.absorb(list(nodes), grads)
+        return quiet_step(self.ctx, k, self.added)
+
+    def terminate(self, k, history):
+        """Full rank n, else order k added nothing (no later order can), else the cap."""
+        n = self.ctx.system.n
+        if self.ctx.dim >= n:
+            return StopReason.FULL_RANK_ORDER.stop(n=n, k=k)
+        if not self.added:
+            return StopReason.SPAN_CLOSED.stop(k=k)
+        if k >= self.cap:
+            return StopReason.MAX_ORDER.stop(max_order=self.cap)
+        return None
+
+
+def run_series(ctx: Context, *, seed: int, max_order=None):
+    """Absorb ``dy_k`` order by order (:class:`SeriesOrders`).
+
+    How many orders a model needs is known only at the end; with many samples, a first
+    run on the first :data:`EXPLORE_SAMPLES` samples finds it, so the run on all samples
+    evaluates one program reaching that order (the largest one the exploring run made)
+    instead of a first guess and its continuation. Every rank decision of the result is
+    still taken on all samples, in the same order, so the result is the same as without
+    the exploration.
+
+    Returns:
+        ``(history, stop_reason, k_reached)``: one Step per order ``k = 0..K``
+        (``Step.dim = rank [dy_0; ..; dy_k]``), the Report's text, ``K``.
     """
     n = ctx.system.n
     cap = n if max_order is None else int(max_order)
@@ -179,44 +247,9 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     first = None
     if ctx.samples >= EXPLORE_FROM:
         with step_listener(None):  # the exploring run's steps are not the report's
-            _, _, first = _absorb_orders(ctx.subset(EXPLORE_SAMPLES), series, cap, None, record=False)
-    return _absorb_orders(ctx, series, cap, first)
-
-
-def _absorb_orders(ctx, series, cap, first, record=True):
-    """The order-by-order loop of :func:`run_series`; ``first``: the highest order of the
-    first block (None: the fewest orders that could reach rank n); ``record=False``: no
-    history (no rank decision of the whole span per order)."""
-    n, p = ctx.system.n, len(ctx.system.outputs)
-    history = []
-    k, computed, grads_by_k = 0, -1, {}
-    # first block: the fewest orders that could reach rank n, or those the exploring run needed
-    chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
-    added = None
-    while True:
-        if k > computed:
-            if added is not None:
-                # an order adds at most what the last one added (non-increasing increments):
-                # reaching rank n needs at least this many more orders; 2 at least, since
-                # every block re-runs the Taylor pass from order 0
-                chunk = max(2, math.ceil((n - ctx.dim) / len(added)))
-            hi = min(cap, max(k + chunk - 1, k))
-            nodes, grads = series.gradients(ctx, k, hi)
-            for j in range(k, hi + 1):
-                sl = slice((j - k) * p, (j - k + 1) * p)
-                grads_by_k[j] = (nodes[sl], grads[:, sl])
-            computed = hi
-        nodes, grads = grads_by_k.pop(k)
-        added = ctx.absorb(list(nodes), grads)
-        if record:
-            history.append(ctx.step(k, added))
-        if ctx.dim >= n:
-            return history, f"full rank {n} at order {k}", k
-        if not added:
-            return history, f"order {k} adds nothing: span closed", k
-        if k >= cap:
-            return history, f"max_order={cap} reached before convergence", k
-        k += 1
+            first = iterate(SeriesOrders(ctx.subset(EXPLORE_SAMPLES), series, cap)).m
+    out = iterate(SeriesOrders(ctx, series, cap, first))
+    return out.history, out.stop.message, out.m
 
 
 def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):

@@ -42,7 +42,8 @@ import numpy as np
 
 from .._errors import OptionError
 from .context import Context
-from .rank import ZERO_ROW_RTOL
+from .driver import Recursion, StopReason, iterate, quiet_step
+from .rank import ZERO_ROW_RTOL, decide_rank
 
 
 #: Bound on the number of recursion steps beyond the start (Lemma 8 of 004: m' <= 2n + 2).
@@ -65,16 +66,166 @@ def check_applicable(system):
         )
 
 
+# --------------------------------------------------------------- the stopping rule
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """The stopping rule's verdict on the steps ``0..M`` (see :func:`stopping_rule`).
+
+    Attributes:
+        stop: the :class:`~uio_jax._analysis.driver.Stop` (None: take another step).
+        m_star: the corrected ``m*`` (None unless the recursion converged).
+        m_star_paper: the papers' literal ``m*`` (the first ``m >= m'`` with
+            ``Omega_{m+1} = Omega_m``, or the full-rank step), None if not reached yet.
+    """
+
+    stop: object = None
+    m_star: int | None = None
+    m_star_paper: int | None = None
+
+
+def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=0) -> Verdict:
+    """The single-unknown-input stopping rule (Theorem 2 of 004, with ``m* >= 1``), as a
+    function of integers.
+
+    With ``d_m = dim Omega_m`` (``dims``, m = 0..M) and ``m'`` (``m_prime``: the first m
+    with ``d tau in Omega_m``, 0 by Lemma 1, None while not known), the rule replays
+    ``m = 0..M`` and stops at the first of, in this order at each m:
+
+    * ``d_m = d_{m-1}`` with ``m - 1 >= m'``: the papers' ``m* = m - 1``; the corrected
+      rule accepts it only if ``m - 1 >= 1`` or every ``phi^i_1`` vanishes
+      (``CONVERGED_AFTER_M_PRIME``, ``Omega_m = Omega_{m-1}``);
+    * ``d_m >= n`` with ``m' <= m``: ``m* = m`` (``FULL_RANK``);
+    * ``m + offset >= max_order`` (``MAX_ORDER``), ``m >= cap`` (``STEP_CAP``).
+
+    Args:
+        dims: ``d_0 .. d_M`` (ints).
+        m_prime: ``m'`` or None.
+        n: dimension of the state.
+        phi1_vanish: whether every ``phi^i_1`` vanishes identically.
+        cap: the step bound (``2n + 3``).
+        max_order: the user's cap on ``m + offset`` (None: none).
+        offset: the paper's index offset (level of the chosen output ``h~``); the stop
+            messages number the steps ``m + offset``.
+
+    Returns:
+        :class:`Verdict`.
+    """
+    known = m_prime is not None
+    paper = None
+    for m, dim in enumerate(dims):
+        if m >= 1 and known and dim == dims[m - 1] and m - 1 >= m_prime:
+            paper = m - 1 if paper is None else paper
+            if m - 1 >= 1 or phi1_vanish:
+                stop = StopReason.CONVERGED_AFTER_M_PRIME.stop(m=m + offset, prev=m - 1 + offset)
+                return Verdict(stop, m - 1, paper)
+        if dim >= n and known and m_prime <= m:
+            return Verdict(StopReason.FULL_RANK.stop(n=n, m=m + offset), m,
+                           m if paper is None else paper)
+        if max_order is not None and m + offset >= max_order:
+            return Verdict(StopReason.MAX_ORDER.stop(max_order=max_order), None, paper)
+        if m >= cap:
+            return Verdict(StopReason.STEP_CAP.stop(cap=cap), None, paper)
+    return Verdict(None, None, paper)
+
+
+# --------------------------------------------------------------- the recursion
+class SingleUi(Recursion):
+    """Steps ``m >= 1`` of the single-unknown-input recursion, after the chosen output.
+
+    Omega_0 is the span built by :func:`_choose_output` (its last Step is passed to
+    :func:`~uio_jax._analysis.driver.iterate` as history); step m adds::
+
+        sum_i L_{f_i} Omega_{m-1} + L_{g/L_g^1} Omega_{m-1}      (the frontier's derivatives)
+        + sum_i span{d L_{phi^i_{m-1}} h~}                        (m >= 2, live phis)
+
+    with ``phi^i_m = [phi^i_{m-1}, g] / L_g^1``. Steps are numbered ``m + offset``.
+
+    Args:
+        ctx: the analysis context.
+        fs: Nodes of the known fields ``f_i``.
+        g: Node of the unknown-input field.
+        h_tilde: Node of the chosen function (``L_g h~ != 0``).
+        offset: its level (the paper's index offset).
+        max_order: the user's cap on ``m + offset``.
+    """
+
+    def __init__(self, ctx: Context, fs, g, h_tilde, offset, max_order=None):
+        b = ctx.builder
+        self.ctx, self.fs, self.g, self.h_tilde, self.offset = ctx, fs, g, h_tilde, offset
+        self.max_order = max_order
+        self.Lg1 = b.lie(g, h_tilde)
+        self.g_scaled = b.scaled(g, self.Lg1, label=f"{g.label}/L_g^1")
+        self.tau = b.ratio(b.lie(g, self.Lg1), self.Lg1, 2, label="tau")
+        self.phis = list(fs)  # phi^i_0 = f_i
+        phi_next = [b.scaled(b.bracket(p, g), self.Lg1, label=f"phi^{p.label}_1") for p in fs]
+        self.phi1_vanish = _fields_vanish(ctx, phi_next, fs, g, self.Lg1)
+        self.rule = "tau"
+        if self.phi1_vanish:
+            self.rule = "all phi^i_1 vanish (Lemma 1)"
+        elif _lemma1_holds(ctx, fs, g, self.Lg1):
+            self.rule = "Lemma 1"
+        self.m_prime = 0 if self.rule != "tau" else None
+        self.verdict = Verdict()
+        self.frontier, self.dims = [], []
+
+    def tau_in(self, m):
+        """Test ``d tau in Omega_m`` until it holds (``m'`` = the first such m)."""
+        if self.m_prime is None and self.ctx.contains_nodes([self.tau])[0]:
+            self.m_prime = m
+        return self.m_prime is not None
+
+    def extra(self, m):
+        """The Step's ``extra`` at step m: ``tau_in_omega`` when ``m'`` is the tau rule's."""
+        return {} if self.rule != "tau" else {"tau_in_omega": self.tau_in(m)}
+
+    def init(self):
+        """Omega_0 is already built: L_{g/L} of every generator so far is new."""
+        self.frontier = list(self.ctx.codist.nodes)
+        self.dims = [self.ctx.dim]
+        return None
+
+    def step(self, m):
+        """Omega_m from Omega_{m-1} (see the class), then ``phi^i_m`` for the next step."""
+        ctx, b = self.ctx, self.ctx.builder
+        blocks = [(self.frontier, self.fs + [self.g_scaled])]
+        # phi-terms: phi^i_0 = f_i repeats L_{f_i} h~ (h~ is in Omega_0), and when every
+        # phi^i_1 vanishes so do all later phi^i_m: only m >= 2 with live phis adds terms
+        if m >= 2 and not self.phi1_vanish:
+            blocks.append(([self.h_tilde], self.phis))
+        cand_nodes, cand_grads = [], []
+        for phis_block, fields in blocks:
+            nodes, grads = ctx.lie_block(phis_block, fields)
+            cand_nodes += nodes
+            cand_grads.append(grads)
+        self.frontier = ctx.absorb(cand_nodes, np.concatenate(cand_grads, axis=1))
+        self.dims.append(ctx.dim)
+        step = quiet_step(ctx, m + self.offset, self.frontier, **self.extra(m))
+        self.phis = [b.scaled(b.bracket(p, self.g), self.Lg1, label=f"phi^{f.label}_{m}")
+                     for p, f in zip(self.phis, self.fs)]
+        return step
+
+    def terminate(self, m, history):
+        """:func:`stopping_rule` on the dims so far."""
+        self.verdict = stopping_rule(
+            self.dims, self.m_prime, n=self.ctx.system.n, phi1_vanish=self.phi1_vanish,
+            cap=_step_cap(self.ctx.system.n), max_order=self.max_order, offset=self.offset)
+        return self.verdict.stop
+
+
 def single_ui_report(ctx: Context, *, why="", max_order=None):
-    """Run the single-unknown-input analysis on ``ctx`` and build the Report."""
+    """Run the single-unknown-input analysis on ``ctx`` and build the Report.
+
+    Omega_0 .. Omega_offset: the outputs and their Lie derivatives along the known fields up
+    to the first function ``h~`` with ``L_g h~ != 0`` (:func:`_choose_output`); then the
+    recursion :class:`SingleUi` until :func:`stopping_rule` stops it. Steps ``m`` of the
+    history are the paper's (``Step.dim = dim Omega_m``, ``extra["tau_in_omega"]``).
+    """
     system = ctx.system
     check_applicable(system)
-    b = ctx.builder
     (g_label,) = tuple(system.unknown)
     g = ctx.field_node(g_label)
     fs = [ctx.field_node(lbl) for lbl in system.known]
     notes = [why] if why else []
-
     history, h_tilde, offset, fraction = _choose_output(ctx, fs, g)
     if h_tilde is None:
         notes.append(
@@ -83,106 +234,43 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
             "the ORC of the known fields"
         )
         details = {"unknown_input_affects_outputs": False}
-        return ctx.report("single_ui", history, "ORC of the known fields converged",
+        return ctx.report("single_ui", history, StopReason.KNOWN_FIELDS_ORC.stop().message,
                           notes=notes, details=details)
-
-    Lg1 = b.lie(g, h_tilde)
-    g_scaled = b.scaled(g, Lg1, label=f"{g_label}/L_g^1")
-    tau = b.ratio(b.lie(g, Lg1), Lg1, 2, label="tau")
-    phis = list(fs)  # phi^i_0 = f_i
-    phi_next = [b.scaled(b.bracket(p, g), Lg1, label=f"phi^{p.label}_1") for p in phis]
-    phi1_vanish = _fields_vanish(ctx, phi_next, fs, g, Lg1)
-
-    rule = "tau"
-    if phi1_vanish:
-        rule = "all phi^i_1 vanish (Lemma 1)"
-    elif _lemma1_holds(ctx, fs, g, Lg1):
-        rule = "Lemma 1"
-    m_prime = 0 if rule != "tau" else None
-
+    rec = SingleUi(ctx, fs, g, h_tilde, offset, max_order)
+    if rec.rule == "tau":  # Omega_0 is the last history entry (the chosen output's level)
+        history[-1] = dataclasses.replace(history[-1], extra={"tau_in_omega": rec.tau_in(0)})
+    out = iterate(rec, history)
     details = {
         "unknown_input_affects_outputs": True,
         "output": h_tilde.label,
-        "L_g^1": Lg1.label,
+        "L_g^1": rec.Lg1.label,
         "relative_degree": offset + 1,
         "lg1_nonzero_fraction": fraction,
-        "phi1_vanish": phi1_vanish,
-        "convergence_rule": rule,
+        "phi1_vanish": rec.phi1_vanish,
+        "convergence_rule": rec.rule,
     }
+    if out.stop.reason is StopReason.STEP_CAP:
+        notes.append("d tau never entered Omega within the step bound (Lemma 8 of 004); "
+                     "the codistribution may be incomplete")
+    _m_star_details(rec.verdict, rec.m_prime, offset, details, notes)
+    return ctx.report("single_ui", out.history, out.stop.message, notes=notes, details=details)
 
-    def tau_in(m_fresh):
-        nonlocal m_prime
-        if m_prime is None and ctx.contains_nodes([tau])[0]:
-            m_prime = m_fresh
-        return m_prime is not None
 
-    if rule == "tau":  # Omega_start is the last history entry (the chosen output's level)
-        history[-1] = dataclasses.replace(history[-1], extra={"tau_in_omega": tau_in(0)})
-
-    frontier = list(ctx.codist.nodes)  # L_{g/L} of every earlier generator is new
-    dims = [ctx.dim]
-    m_star = m_star_paper = None
-    reason = None
-    cap = _step_cap(system.n)
-    m = 0
-    while True:
-        if ctx.dim >= system.n and m_prime is not None:
-            m_star = m if m_star is None else m_star
-            m_star_paper = m if m_star_paper is None else m_star_paper
-            reason = f"full rank {system.n} at m={m + offset}"
-            break
-        if max_order is not None and m + offset >= max_order:
-            reason = f"max_order={max_order} reached before convergence"
-            break
-        if m >= cap:
-            reason = f"no convergence certified within {cap} steps"
-            notes.append("d tau never entered Omega within the step bound (Lemma 8 of 004); "
-                         "the codistribution may be incomplete")
-            break
-        m += 1
-        cand_nodes, cand_grads = [], []
-        blocks = [(frontier, fs + [g_scaled])]
-        # phi-terms: phi^i_0 = f_i repeats L_{f_i} h~ (h~ is in Omega_0), and when every
-        # phi^i_1 vanishes so do all later phi^i_m: only m >= 2 with live phis adds terms
-        if m >= 2 and not phi1_vanish:
-            blocks.append(([h_tilde], phis))
-        for phis_block, fields in blocks:
-            nodes, grads = ctx.lie_block(phis_block, fields)
-            cand_nodes += nodes
-            cand_grads.append(grads)
-        added = ctx.absorb(cand_nodes, np.concatenate(cand_grads, axis=1))
-        frontier = added
-        dims.append(ctx.dim)
-        extra = {} if rule != "tau" else {"tau_in_omega": tau_in(m)}
-        history.append(ctx.step(m + offset, added, **extra))
-        # phi^i_m for the next step
-        phis = [b.scaled(b.bracket(p, g), Lg1, label=f"phi^{f.label}_{m}")
-                for p, f in zip(phis, fs)]
-        if m_prime is None:
-            continue
-        # Omega_m = Omega_{m-1} (dims equal) means Omega_{(m-1)+1} = Omega_{m-1}
-        if dims[-1] == dims[-2] and m - 1 >= m_prime:
-            if m_star_paper is None:
-                m_star_paper = m - 1
-            if m - 1 >= 1 or phi1_vanish:
-                m_star = m - 1
-                reason = f"Omega_{m + offset} = Omega_{m - 1 + offset} with m >= m'"
-                break
-
-    if m_star is not None:
-        details["m_prime"] = m_prime + offset
-        details["m_star"] = m_star + offset
-        details["m_star_paper"] = (m_star_paper + offset) if m_star_paper is not None else None
-        if m_star_paper is not None and m_star_paper != m_star:
-            notes.append(
-                f"the papers' stopping rule would stop at m*={m_star_paper + offset}; the "
-                f"corrected rule (m* >= 1 unless every phi^i_1 vanishes) continued to "
-                f"m*={m_star + offset}"
-            )
-    else:
-        details["m_prime"] = None if m_prime is None else m_prime + offset
-        details["m_star"] = None
-    return ctx.report("single_ui", history, reason, notes=notes, details=details)
+def _m_star_details(verdict, m_prime, offset, details, notes):
+    """Add ``m_prime``, ``m_star`` (and ``m_star_paper``) to ``details``, numbered with the
+    paper's offset, and a note where the corrected rule went past the papers' ``m*``."""
+    shift = lambda m: None if m is None else m + offset  # noqa: E731
+    details["m_prime"] = shift(m_prime)
+    details["m_star"] = shift(verdict.m_star)
+    if verdict.m_star is None:
+        return
+    details["m_star_paper"] = shift(verdict.m_star_paper)
+    if verdict.m_star_paper is not None and verdict.m_star_paper != verdict.m_star:
+        notes.append(
+            f"the papers' stopping rule would stop at m*={verdict.m_star_paper + offset}; the "
+            f"corrected rule (m* >= 1 unless every phi^i_1 vanishes) continued to "
+            f"m*={verdict.m_star + offset}"
+        )
 
 
 def _choose_output(ctx, fs, g):
@@ -261,7 +349,7 @@ def _lemma1_holds(ctx, fs, g, Lg1):
             if not (np.abs(lie[ok]) <= ZERO_ROW_RTOL * scale[ok]).mean() > 0.5:
                 return False
             vectors.append(v)
-            rank = _vector_rank(np.stack(vectors, axis=1), ctx.codist.valid)
+            rank = _vector_rank(np.stack(vectors, axis=1), ctx.codist.valid, ctx.codist.rtol)
             if rank == basis_rank:  # Lambda_j = Lambda_{j-1}: converged
                 break
             basis_rank = rank
@@ -269,13 +357,15 @@ def _lemma1_holds(ctx, fs, g, Lg1):
     return True
 
 
-def _vector_rank(vectors, valid):
-    """Generic rank of sampled vector fields ``(S, k, n)`` (majority of per-sample ranks)."""
+def _vector_rank(vectors, valid, rtol):
+    """Generic rank of sampled vector fields ``(S, k, n)``: rows scaled to unit norm (a row
+    below ``ZERO_ROW_RTOL`` of the sample's largest is zero), per-sample SVD, and the rank
+    rule of the codistributions (:func:`~uio_jax._analysis.rank.decide_rank` with ``rtol``)."""
     v = np.where(np.isfinite(vectors), vectors, 0.0)[valid]
     norms = np.linalg.norm(v, axis=-1, keepdims=True)
     ref = norms.max(axis=1, keepdims=True)
     keep = norms > ZERO_ROW_RTOL * ref
     unit = np.where(keep, v / np.where(keep, norms, 1.0), 0.0)
     s = np.linalg.svd(unit, compute_uv=False)
-    ranks = (s > 1e-8 * np.maximum(s[:, :1], 1e-300)).sum(axis=1)
-    return int(np.bincount(ranks).argmax())
+    ratios = s / np.where(s[:, :1] > 0, s[:, :1], 1.0)
+    return decide_rank(ratios, np.ones(len(ratios), bool), rtol).rank

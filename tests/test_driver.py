@@ -1,0 +1,165 @@
+"""The recursion driver (uio_jax._analysis.driver) and the single_ui stopping rule as a
+function of integer sequences."""
+
+import pytest
+
+from uio_jax._analysis.driver import Recursion, Stop, StopReason, iterate
+from uio_jax._analysis.report import Step
+from uio_jax._analysis.single_ui import stopping_rule
+from uio_jax._progress import step_listener
+
+R = StopReason
+
+
+# --------------------------------------------------------------- the enumeration
+TEXTS = [  # the texts reports carry (compared bit for bit with older reports)
+    (R.FULL_RANK.stop(n=3, m=2), "full rank 3 at m=2"),
+    (R.FULL_RANK_ORDER.stop(n=4, k=1), "full rank 4 at order 1"),
+    (R.CONVERGED.stop(m=2, prev=1), "Omega_2 = Omega_1"),
+    (R.CONVERGED_AFTER_M_PRIME.stop(m=3, prev=2), "Omega_3 = Omega_2 with m >= m'"),
+    (R.SPAN_CLOSED.stop(k=2), "order 2 adds nothing: span closed"),
+    (R.MAX_ORDER.stop(max_order=4), "max_order=4 reached before convergence"),
+    (R.STEP_CAP.stop(cap=9), "no convergence certified within 9 steps"),
+    (R.KNOWN_FIELDS_ORC.stop(), "ORC of the known fields converged"),
+    (R.ALL_STATES.stop(k=1), "every state component observable at k=1"),
+    (R.K_MAX.stop(k_max=4), "k_max=4 reached"),
+    (R.EXTENSION_CLOSED.stop(k=10, prev=9),
+     "Omega-bar_10 = Omega-bar_9: no higher order (in any extension) adds a generator"),
+]
+
+
+@pytest.mark.parametrize("stop, text", TEXTS, ids=[s.reason.name for s, _ in TEXTS])
+def test_each_reason_formats_the_report_text_and_parses_back(stop, text):
+    assert stop.message == str(stop) == text
+    assert stop.reason.matches(text)
+    assert StopReason.parse(text) == stop
+    assert [r for r in StopReason if r.matches(text)] == [stop.reason]  # no ambiguity
+
+
+def test_every_reason_is_covered_and_caps_are_not_convergence():
+    assert {s.reason for s, _ in TEXTS} == set(StopReason)
+    assert {r for r in StopReason if not r.converged} == {R.MAX_ORDER, R.STEP_CAP, R.K_MAX}
+
+
+def test_a_missing_value_fails_when_the_stop_is_made():
+    with pytest.raises(KeyError):
+        R.FULL_RANK.stop(n=3)
+    with pytest.raises(ValueError, match="not a stop reason"):
+        StopReason.parse("it stopped")
+
+
+# --------------------------------------------------------------- the driver
+class Counting(Recursion):
+    """dim_m = min(m + 1, top); stops when a step adds nothing or at ``cap``."""
+
+    def __init__(self, top, cap):
+        self.top, self.cap, self.finished = top, cap, None
+
+    def init(self):
+        return Step(0, 1, ("a0",), 1.0, {})
+
+    def step(self, m):
+        dim = min(m + 1, self.top)
+        return Step(m, dim, () if dim == self.top and m >= self.top else (f"a{m}",), 1.0, {})
+
+    def terminate(self, m, history):
+        if m > 0 and not history[-1].added:
+            return R.CONVERGED.stop(m=m, prev=m - 1)
+        if m >= self.cap:
+            return R.MAX_ORDER.stop(max_order=self.cap)
+        return None
+
+    def postprocess(self, history, stop):
+        return [st.dim for st in history]
+
+
+def test_iterate_records_announces_and_postprocesses():
+    seen = []
+    with step_listener(seen.append):
+        out = iterate(Counting(top=3, cap=10))
+    assert out.stop == R.CONVERGED.stop(m=3, prev=2)
+    assert out.m == 3 and [st.m for st in out.history] == [0, 1, 2, 3]
+    assert out.result == [1, 2, 3, 3]
+    assert seen == out.history  # every step announced once, in order
+
+
+def test_iterate_stops_at_the_cap_and_can_stop_at_init():
+    out = iterate(Counting(top=9, cap=2))
+    assert out.stop.reason is R.MAX_ORDER and out.m == 2 and len(out.history) == 3
+    out = iterate(Counting(top=9, cap=0))
+    assert out.m == 0 and len(out.history) == 1
+
+
+def test_iterate_continues_a_given_history_without_announcing_it():
+    class FromHistory(Counting):
+        def init(self):
+            return None
+
+    before = [Step(0, 1, ("h",), 1.0, {})]
+    seen = []
+    with step_listener(seen.append):
+        out = iterate(FromHistory(top=2, cap=5), before)
+    assert out.history[0] is before[0] and seen == out.history[1:]
+    with pytest.raises(ValueError):
+        iterate(FromHistory(top=2, cap=5))
+
+
+def test_stop_is_a_value():
+    assert R.FULL_RANK.stop(m=1, n=2) == Stop(R.FULL_RANK, (("m", 1), ("n", 2)))
+
+
+# --------------------------------------------------------------- the single_ui stopping rule
+def rule(dims, m_prime, n=3, phi1_vanish=False, cap=9, max_order=None, offset=0):
+    v = stopping_rule(dims, m_prime, n=n, phi1_vanish=phi1_vanish, cap=cap,
+                      max_order=max_order, offset=offset)
+    return (None if v.stop is None else v.stop.message), v.m_star, v.m_star_paper
+
+
+def test_rule_goes_on_while_the_span_grows():
+    assert rule([1], 0) == (None, None, None)
+    assert rule([1, 2], 0) == (None, None, None)
+
+
+def test_corrected_rule_does_not_stop_at_m_star_zero():
+    """The counterexample: dims 1, 1, 2, 2 with m' = 0. The papers stop at m* = 0
+    (Omega_1 = Omega_0); the correction goes on to m* = 2."""
+    assert rule([1, 1], 0) == (None, None, 0)
+    assert rule([1, 1, 2], 0) == (None, None, 0)
+    assert rule([1, 1, 2, 2], 0) == ("Omega_3 = Omega_2 with m >= m'", 2, 0)
+
+
+def test_m_star_zero_is_accepted_when_every_phi1_vanishes():
+    assert rule([1, 1], 0, phi1_vanish=True) == ("Omega_1 = Omega_0 with m >= m'", 0, 0)
+
+
+def test_the_vehicle_in_wind():
+    """002 III-C: dims 3, 5, 6, 6 in R^7, all phi_1 = 0, m' = 0: m* = 2."""
+    assert rule([3, 5, 6, 6], 0, n=7, phi1_vanish=True) == (
+        "Omega_3 = Omega_2 with m >= m'", 2, 2)
+
+
+def test_equal_dims_before_m_prime_do_not_stop():
+    assert rule([1, 1, 1], None) == (None, None, None)
+    assert rule([1, 1, 1, 2], 3) == (None, None, None)  # d_1 = d_0, d_2 = d_1, but m - 1 < m'
+    assert rule([1, 1, 1, 2, 2], 3) == ("Omega_4 = Omega_3 with m >= m'", 3, 3)
+
+
+def test_full_rank_stops_once_m_prime_is_known():
+    assert rule([2, 3], None) == (None, None, None)  # full rank, but d tau not yet in Omega
+    assert rule([2, 3, 3], 2) == ("full rank 3 at m=2", 2, 2)
+    assert rule([2, 3], 1) == ("full rank 3 at m=1", 1, 1)
+    # the papers' m* was found earlier (at 0); the corrected one is the full-rank step
+    assert rule([2, 2, 3], 0) == ("full rank 3 at m=2", 2, 0)
+
+
+def test_offset_numbers_the_messages_and_max_order():
+    assert rule([1, 1, 2, 2], 0, offset=1) == ("Omega_4 = Omega_3 with m >= m'", 2, 0)
+    assert rule([1, 2], 0, max_order=2, offset=1) == (
+        "max_order=2 reached before convergence", None, None)
+    assert rule([1, 2], 0, max_order=2) == (None, None, None)
+
+
+def test_cap_without_m_prime():
+    assert rule([1, 1, 1], None, cap=2) == ("no convergence certified within 2 steps", None, None)
+    assert rule([1, 1, 1], 0, cap=2) == ("Omega_2 = Omega_1 with m >= m'", 1, 0)
+    assert rule([1, 1], 0, cap=1) == ("no convergence certified within 1 steps", None, 0)
