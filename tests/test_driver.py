@@ -163,3 +163,26 @@ def test_cap_without_m_prime():
     assert rule([1, 1, 1], None, cap=2) == ("no convergence certified within 2 steps", None, None)
     assert rule([1, 1, 1], 0, cap=2) == ("Omega_2 = Omega_1 with m >= m'", 1, 0)
     assert rule([1, 1], 0, cap=1) == ("no convergence certified within 1 steps", None, 0)
+
+
+# --------------------------------------------------------------- the rank rule of Lemma 1
+def test_vector_rank_uses_the_codistributions_rank_rule():
+    """Sampled vector fields ``(S, k, n)``: parallel fields have rank 1, independent ones 2,
+    a zero field counts nothing, invalid samples are ignored, and ``rtol`` is the threshold
+    on ``s_i / s_1`` as in :func:`decide_rank`."""
+    import numpy as np
+
+    from uio_jax._analysis.single_ui import _vector_rank
+
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=(2, 8, 3))
+    valid = np.ones(8, bool)
+    assert _vector_rank(np.stack([a, 2 * a], axis=1), valid, 1e-8) == 1
+    assert _vector_rank(np.stack([a, b], axis=1), valid, 1e-8) == 2
+    assert _vector_rank(np.stack([a, 0 * a], axis=1), valid, 1e-8) == 1
+    near = a + 1e-6 * b  # s_2 / s_1 ~ 1e-6: independent at rtol 1e-8, not at 1e-4
+    assert _vector_rank(np.stack([a, near], axis=1), valid, 1e-8) == 2
+    assert _vector_rank(np.stack([a, near], axis=1), valid, 1e-4) == 1
+    mixed = np.stack([a, np.where(np.arange(8)[:, None] < 3, b, a)], axis=1)
+    assert _vector_rank(mixed, valid, 1e-8) == 1  # majority of the samples
+    assert _vector_rank(mixed, np.arange(8) < 3, 1e-8) == 2  # only the valid ones count

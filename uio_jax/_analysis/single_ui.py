@@ -15,6 +15,10 @@ Convergence (Lemma 1 of 002; Theorem 2 of 004):
 * otherwise ``tau = L_g^2 h / (L_g^1)^2`` and ``m'`` = first m with ``d tau in Omega_m``;
 * ``m*`` = first ``m >= m'`` with ``Omega_{m+1} = Omega_m``; ``Omega* = Omega_{m*}``.
 
+The rule, with the correction below, is :func:`stopping_rule`, a function of the dims
+``dim Omega_m`` and ``m'``; the recursion is :class:`SingleUi`, run by the shared driver
+(:func:`uio_jax._analysis.driver.iterate`).
+
 **Correction to the papers' stopping rule** (implemented, reported as ``m_star`` next to
 the literal ``m_star_paper``): the induction in the proof of Theorem 2 of 004 uses eq. 25,
 valid for ``j >= 2``, so a stop at ``m* = 0`` is not justified; we require ``m* >= 1``
@@ -42,7 +46,7 @@ import numpy as np
 
 from .._errors import OptionError
 from .context import Context
-from .driver import Recursion, StopReason, iterate, quiet_step
+from .driver import Recursion, Stop, StopReason, iterate, quiet_step
 from .rank import ZERO_ROW_RTOL, decide_rank
 
 
@@ -78,7 +82,7 @@ class Verdict:
             ``Omega_{m+1} = Omega_m``, or the full-rank step), None if not reached yet.
     """
 
-    stop: object = None
+    stop: Stop | None = None
     m_star: int | None = None
     m_star_paper: int | None = None
 
