@@ -167,10 +167,16 @@ def _shared(rule):
     return apply
 
 
+def _plain(state, i, eqn, ins):
+    """Any other primitive, as it is."""
+    prim = eqn.primitive
+    out = prim.bind(*ins, **eqn.params)
+    return out if prim.multiple_results else [out]
+
+
 #: The rule table: float64 ``sin`` and ``cos`` by :func:`sincos`, calls inline, every
 #: other primitive as it is; each equation once (:func:`_shared`).
-_RULES = Rules({"sin": _shared(_trig), "cos": _shared(_trig)},
-               default=_shared(lambda state, i, eqn, ins: bind(eqn, ins)), calls=_shared(_call))
+_RULES = Rules({"sin": _shared(_trig), "cos": _shared(_trig)}, default=_shared(_plain), calls=_shared(_call))
 
 
 def _equation_key(eqn, ins):
