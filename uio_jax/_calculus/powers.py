@@ -14,7 +14,7 @@ Three ways to build it, from the cheapest trace to the most general:
 **The rule** (:func:`lie_power`): ``j = 0`` is ``psi``; ``j < taylor_from`` (the caller's
 threshold: below it a power is small enough nested) is nested jvp; otherwise the first of
 ``taylor``, ``jet``, ``nested`` that has a rule for every primitive of ``psi`` and ``F``,
-decided once per power on the first call (an abstract evaluation, no compile). Only "no
+decided once per ``(psi, F)`` on the first call (an abstract evaluation, no compile). Only "no
 rule for this primitive" moves to the next way: the Taylor interpreter's
 ``NotImplementedError`` and jet's ``KeyError`` of a primitive. Any other error (a bug in the
 model, a shape mismatch) propagates.
@@ -96,25 +96,27 @@ def _no_jet_rule(exc: KeyError) -> bool:
     return bool(exc.args) and isinstance(exc.args[0], Primitive)
 
 
-def power_mode(psi, F, j, like) -> str:
-    """The way :func:`lie_power` evaluates ``L_F^j psi`` (``j >= 1``) at states like ``like``.
+def power_mode(psi, F, like) -> str:
+    """The way :func:`lie_power` evaluates every power ``L_F^j psi`` (``j >= 1``) at states
+    like ``like`` (a ``jax.ShapeDtypeStruct`` ``(N,)``).
 
-    The first of :data:`MODES` whose trace of ``L_F^j psi`` at ``like`` (a
-    ``jax.ShapeDtypeStruct`` ``(N,)``) meets a rule for every primitive; memoized per
-    ``(psi, F, j, shape, dtype)``.
+    The first of :data:`MODES` whose abstract trace of ``L_F^1 psi`` meets a rule for every
+    primitive. A rule is per primitive and the pass to ``j = 1`` already runs every
+    equation of ``psi`` and ``F`` through the interpreter, so one trace decides every
+    power; memoized per ``(psi, F, shape, dtype)``.
     """
-    key = (F, j, tuple(like.shape), str(like.dtype))
+    key = (F, tuple(like.shape), str(like.dtype))
     known = _MODE_OF.setdefault(psi, {})
     mode = known.get(key)
     if mode is not None:
         return mode
     mode = "nested"
     try:
-        jax.eval_shape(lie_powers(psi, F, j), like)
+        jax.eval_shape(lie_powers(psi, F, 1), like)
         mode = "taylor"
     except NO_TAYLOR_RULE:
         try:
-            jax.eval_shape(jet_power(psi, F, j), like)
+            jax.eval_shape(jet_power(psi, F, 2), like)  # jet's rules meet psi at order 2
             mode = "jet"
         except (KeyError, NotImplementedError) as exc:  # jet: no rule for a primitive
             if isinstance(exc, KeyError) and not _no_jet_rule(exc):
@@ -147,7 +149,7 @@ def lie_power(psi, F, j, *, taylor_from=1):
     def power(x):
         fn = chosen.get("fn")
         if fn is None:
-            mode = power_mode(psi, F, j, jax.ShapeDtypeStruct(x.shape, x.dtype))
+            mode = power_mode(psi, F, jax.ShapeDtypeStruct(x.shape, x.dtype))
             fn = chosen["fn"] = _BUILD[mode](psi, F, j)
         return fn(x)
 
@@ -164,7 +166,7 @@ def taylor_series(psi, F, j, like):
         psi, F, j: as :func:`lie_power` (``j >= 1``).
         like: ``jax.ShapeDtypeStruct`` ``(N,)`` of the states.
     """
-    return lie_powers(psi, F, j) if power_mode(psi, F, j, like) == "taylor" else None
+    return lie_powers(psi, F, j) if power_mode(psi, F, like) == "taylor" else None
 
 
 __all__ = ["MODES", "taylor_series", "flow_derivatives", "taylor_power", "jet_power", "nested_power",
