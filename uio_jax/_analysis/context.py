@@ -54,13 +54,17 @@ class Context:
 
     # -------------------------------------------------------------- nodes
     def output_nodes(self) -> list[Node]:
+        """The outputs ``h_i: x (n,) -> ()`` of the System as scalar nodes, in order."""
         return [self.builder.scalar(k, fn) for k, fn in self.system.outputs.items()]
 
     def field_node(self, label) -> Node:
+        """The System's field ``label`` (``x (n,) -> (n,)``: the drift, a known or unknown
+        input's field) as a field node."""
         return self.builder.field(label, self.system.fields()[label])
 
     @property
     def dim(self) -> int:
+        """The generic rank of the codistribution so far (the number of kept generators)."""
         return self.codist.rank
 
     # -------------------------------------------------------------- evaluation
@@ -147,6 +151,9 @@ class Context:
 
     # -------------------------------------------------------------- results
     def certificate(self) -> Certificate:
+        """The evidence of every rank decision of the analysis: the final span's SVD
+        (:meth:`~uio_jax._analysis.rank.Codistribution.decision`), the kept candidates and
+        the non-members (counted), the rejected candidates and the members (pruned)."""
         cd = self.codist
         final = cd.decision()
         counted = cd.acceptances + [d for m, d in self.memberships if not m]

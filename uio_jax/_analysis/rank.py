@@ -230,6 +230,7 @@ class Codistribution:
 
     @property
     def rank(self) -> int:
+        """The generic rank ``r`` of the span: the number of kept generators."""
         return len(self.nodes)
 
     def copy(self) -> "Codistribution":

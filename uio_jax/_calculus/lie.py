@@ -13,7 +13,8 @@ import jax.numpy as jnp
 
 
 def lie_derivative(phi, v):
-    """Return ``x -> L_v phi (x) = dphi(x) . v(x)`` (a scalar function)."""
+    """Return ``x (n,) -> L_v phi (x) = dphi(x) . v(x)``, shape ``()``, for a scalar ``phi``
+    ``(n,) -> ()`` and a field ``v`` ``(n,) -> (n,)``."""
 
     def lie(x):
         return jax.jvp(phi, (x,), (v(x),))[1]
@@ -22,7 +23,8 @@ def lie_derivative(phi, v):
 
 
 def lie_bracket(a, b):
-    """Return ``x -> [a, b](x) = (db/dx) a(x) - (da/dx) b(x)`` (a field of shape ``(n,)``)."""
+    """Return ``x (n,) -> [a, b](x) = (db/dx) a(x) - (da/dx) b(x)``, shape ``(n,)``, for
+    fields ``a, b: (n,) -> (n,)``."""
 
     def bracket(x):
         db_a = jax.jvp(b, (x,), (a(x),))[1]
@@ -33,7 +35,7 @@ def lie_bracket(a, b):
 
 
 def scaled_field(v, s):
-    """Return ``x -> v(x) / s(x)`` for a field ``v`` and a scalar function ``s``."""
+    """Return ``x (n,) -> v(x) / s(x)``, shape ``(n,)``, for a field ``v`` and a scalar ``s``."""
 
     def scaled(x):
         return v(x) / s(x)
@@ -42,7 +44,7 @@ def scaled_field(v, s):
 
 
 def ratio(num, den, power=1):
-    """Return ``x -> num(x) / den(x) ** power`` for scalar functions."""
+    """Return ``x (n,) -> num(x) / den(x) ** power``, shape ``()``, for scalar functions."""
 
     def r(x):
         return num(x) / den(x) ** power
