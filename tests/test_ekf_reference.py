@@ -32,8 +32,9 @@ from uio_jax._model.experiment import Experiment, Measurement
 RTOL = 1e-12
 TRIALS = 4
 #: Output epochs per zoo run (unicycle 1000 Euler steps, vehicle 200). Round-off grows with
-#: the covariance's condition number: the vehicle without wind differs by 2e-13 after 20
-#: epochs and by up to 5e-12 after 40 (cond P 1e5), all of it arithmetic order, none trig.
+#: the covariance's condition number: the vehicle without wind differs by 1.2e-13 after 20
+#: epochs and by up to 5e-12 after 40 (one trial, cond P 1e5), all of it the order of the
+#: arithmetic, none the trigonometry (docs/benchmarks/ekf.md, "The reference filter").
 EPOCHS = 20
 DEFAULT = "unicycle_disturbance.py:phi_gamma_unknown_experiment"  # angle output, 6 states
 
