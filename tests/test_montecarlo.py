@@ -140,6 +140,25 @@ def test_cli_montecarlo(tmp_path, capsys):
     assert d["trials"] == 64 and "verdict" in d
 
 
+def test_cli_montecarlo_reference_filter_gives_the_fast_filters_statistics(tmp_path, capsys):
+    """``--filter reference`` runs the plain-equation EKF: on the same trials its end-of-run
+    statistics equal the fast kernels' (float32 summaries; agreement to 1e-12 is tested in
+    test_ekf_reference.py)."""
+    import json
+
+    outs = {}
+    for name in ("fast", "reference"):
+        out = tmp_path / f"{name}.json"
+        assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"),
+                         "--trials", "4", "--keep", "0", "--no-analysis", "--no-progress",
+                         "--no-cache", "--filter", name, "--json", str(out)]) == 0
+        outs[name] = json.loads(out.read_text())
+    assert outs["fast"]["verdict"] == outs["reference"]["verdict"]
+    np.testing.assert_allclose(outs["fast"]["rmse"], outs["reference"]["rmse"], rtol=1e-6)
+    assert cli.main(["montecarlo", zoo("unicycle_disturbance.py:phi_gamma_known"), "--filter", "slow"]) == 2
+    assert "invalid choice: 'slow'" in capsys.readouterr().err
+
+
 def test_cli_montecarlo_keeps_its_programs_in_the_compile_cache(tmp_path, capsys):
     """The second run of an experiment loads the compiled programs from the cache directory
     (the first one wrote them) and gives the same numbers."""

@@ -17,6 +17,9 @@ def add_parser(subparsers):
     p.add_argument("--keep", type=int, default=4, help="full trajectories kept (default 4)")
     p.add_argument("--plot", metavar="FILE", help="write the figure (PNG, PDF, ...)")
     p.add_argument("--json", metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--filter", choices=("fast", "reference"), default="fast",
+                   help="the EKF: the fast CPU kernels (default) or the reference equations "
+                        "(F P F^T + Q, Joseph update; slower, for checking)")
     p.add_argument("--no-analysis", action="store_true",
                    help="skip the observability analysis shown beside the verdict")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -51,7 +54,7 @@ def run(args) -> int:
     from .._filter.montecarlo import run_montecarlo
 
     exp = load_experiment(args.experiment)
-    res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep,
+    res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep, filter=args.filter,
                          progress=False if args.no_progress else None)
     comparison = None
     if not args.no_analysis:
