@@ -16,7 +16,8 @@ threshold: below it a power is small enough nested) is nested jvp; otherwise the
 ``taylor``, ``jet``, ``nested`` that has a rule for every primitive of ``psi`` and ``F``,
 decided once per ``(psi, F)`` on the first call (an abstract evaluation, no compile). Only "no
 rule for this primitive" moves to the next way: the Taylor interpreter's
-``NotImplementedError`` and jet's ``KeyError`` of a primitive. Any other error (a bug in the
+:class:`~uio_jax._engine.interpreter.NoTaylorRule` and jet's ``KeyError`` of a primitive
+(or its ``NotImplementedError``). Any other error (a bug in the
 model, a shape mismatch) propagates.
 """
 
@@ -24,16 +25,13 @@ import weakref
 
 import jax
 
-from .._engine import taylor as taylor_engine
+from .._engine.interpreter import NoTaylorRule
 from .._engine.taylor import lie_powers
 from . import lie as _lie
 
 #: The ways to evaluate ``L_F^j psi``, in the order :func:`lie_power` tries them.
 MODES = ("taylor", "jet", "nested")
 
-#: What the Taylor interpreter raises for a primitive without a rule (the engine's narrow
-#: ``NoTaylorRule`` once it has one; a subclass of ``NotImplementedError``).
-NO_TAYLOR_RULE = getattr(taylor_engine, "NoTaylorRule", NotImplementedError)
 
 _MODE_OF: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # psi -> {key: mode}
 
@@ -114,7 +112,7 @@ def power_mode(psi, F, like) -> str:
     try:
         jax.eval_shape(lie_powers(psi, F, 1), like)
         mode = "taylor"
-    except NO_TAYLOR_RULE:
+    except NoTaylorRule:
         try:
             jax.eval_shape(jet_power(psi, F, 2), like)  # jet's rules meet psi at order 2
             mode = "jet"
