@@ -379,6 +379,8 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
         "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
         "inputs_observable_at": first_seen,
     }
+    # Omega-bar_k queried about the original state: the extended coordinates at the centre
+    # of their sampling box
+    space = SampledSpace(ctx, n=system.n, dim=last.dim, fill=0.5 * sum(DEFAULT_BOX))
     return ctx.report("eorc", history, reason, notes=notes, details=details, system=system,
-                      dim=last.dim, observable=observable, space=SampledSpace(ctx, n=system.n, dim=last.dim,
-                                                     fill=0.5 * sum(DEFAULT_BOX)))
+                      dim=last.dim, observable=observable, space=space)
