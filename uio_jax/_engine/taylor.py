@@ -252,15 +252,14 @@ def _bilinear(prim, params, ins, K):
 
 
 def _div(prim, params, ins, K):
-    _series(ins[0], K)  # staged as before the rule table (the jaxpr unchanged)
-    if not isinstance(ins[1], _S):  # linear in the numerator
+    """``a / b``: linear in the numerator for a constant ``b``, else a Toeplitz solve."""
+    if not isinstance(ins[1], _S):
         return [_S(jax.vmap(lambda c: prim.bind(c, ins[1], **params))(ins[0].c))]
     return [_recip_div(_series(ins[0], K), ins[1], K)]
 
 
 def _pow(prim, params, ins, K):
     """``a ** b = exp(b log a)``, base and exponent either constant or moving."""
-    _series(ins[0], K)  # staged as before the rule table (the jaxpr unchanged)
     return [_exp(_mul_series(_log(_series(ins[0], K), K), _series(ins[1], K), K), K)]
 
 
