@@ -26,7 +26,7 @@ jaxpr and evaluates it by :func:`uio_jax._engine.interpreter.interpret` with thi
 rule table (float64 ``sin`` / ``cos`` replaced, calls inline, every other primitive as it
 is, each repeated equation once). It is there for the Monte Carlo filter's speed; the
 measurements (element-wise cost of XLA's trig, trial-steps/s with and without) are in
-``docs/benchmarks/analysis.md`` (section "Engine: the jaxpr interpreter").
+``docs/benchmarks/engine.md``.
 """
 
 import functools
@@ -153,7 +153,7 @@ def _shared(rule):
     operands, so two reductions and four kernels, unless the second slice is recognised as
     the first. XLA would merge the copies too, but only after tracing, lowering and part
     of its compile have paid for them (the traced equations of one filter epoch and the
-    chunk program's trace time, before and after: ``docs/benchmarks/analysis.md``).
+    chunk program's trace time, before and after: ``docs/benchmarks/engine.md``).
     """
     def apply(state, i, eqn, ins):
         key = _equation_key(eqn, ins)
