@@ -79,8 +79,8 @@ class Builder:
 
         Repeated derivatives along the same field, ``L_v^j base``, are evaluated by the one
         power policy (:func:`uio_jax._calculus.powers.lie_power` with ``taylor_from =``
-        :data:`TAYLOR_FROM`): from ``j = TAYLOR_FROM`` on one Taylor pass along the flow of
-        ``v`` instead of ``j`` nested ``jvp`` (the traced graph grows linearly in ``j``
+        :data:`TAYLOR_FROM`): below it ``j`` nested ``jvp``, from ``j = TAYLOR_FROM`` on one
+        Taylor pass along the flow of ``v`` (the traced graph grows linearly in ``j``
         instead of geometrically: a 35-state model needs ``j`` ~ 15).
         """
         key = ("lie", v.label, phi.label)
@@ -88,10 +88,7 @@ class Builder:
         if node is not None:
             return node
         base, j = self.power_of(phi, v)
-        if j + 1 >= TAYLOR_FROM:
-            fn = lie_power(base.fn, v.fn, j + 1, taylor_from=TAYLOR_FROM)
-        else:
-            fn = _lie.lie_derivative(phi.fn, v.fn)
+        fn = lie_power(base.fn, v.fn, j + 1, taylor_from=TAYLOR_FROM)
         node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
                     _sig("lie", v.sig, phi.sig))
         self._nodes[key] = node
