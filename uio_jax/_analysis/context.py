@@ -5,6 +5,8 @@ by n + 2); inside a step the new candidate generators are evaluated in one jitte
 vmapped call and pruned by :class:`~uio_jax._rank.Codistribution`.
 """
 
+from typing import Protocol
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -208,7 +210,21 @@ class Context:
         )
 
 
-class SampledSpace:
+class Space(Protocol):
+    """What a Report asks of the final codistribution (``Report._space``), about the
+    original state ``x (n,)``: :class:`SampledSpace` is the one implementation."""
+
+    def unobservable_directions(self, x) -> np.ndarray:
+        """``(n, n - dim)`` orthonormal columns: the annihilator of the span on ``dx``."""
+
+    def is_observable(self, fn) -> bool:
+        """Whether ``d fn`` (``fn: x (n,) -> ()``) lies in the span at the samples."""
+
+    def sample_singular_values(self) -> np.ndarray:
+        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators."""
+
+
+class SampledSpace(Space):
     """The final codistribution of a Context, queried by a Report about the original state.
 
     The one implementation of a Report's queries (``unobservable_directions``,
