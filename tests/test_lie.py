@@ -62,7 +62,8 @@ def test_second_analysis_of_the_same_system_compiles_nothing():
     assert compiled > 0
     uj.analyze(s, samples=128, seed=1)
     assert len(builder_for(s).stats) == compiled
-    assert all(st.eqns > 0 and st.compile_s >= 0 for st in builder_for(s).stats)
+    # every program was really traced and compiled once: equations counted, a positive compile time
+    assert all(st.eqns > 0 and 0 < st.compile_s < 600 for st in builder_for(s).stats)
 
 
 def test_power_nodes_of_the_graph():

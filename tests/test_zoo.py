@@ -21,10 +21,20 @@ def test_published_entries_load_and_cite_a_source(module, name):
     assert pub.get("method", "auto") in ("auto", "orc", "single_ui", "eorc")
 
 
-@pytest.mark.parametrize("spec", [
-    "unicycle_wind.py:range_gamma_unknown",  # names used in DESIGN.md
-    "drone_wind.py:with_wind",
-    "drone_wind.py:no_wind",
+@pytest.mark.parametrize("spec, unknown, known_any", [
+    # names other tools use (DESIGN's public examples): what each must mean
+    ("unicycle_wind.py:range_gamma_unknown", ("w",), True),  # the wind on the unicycle unknown
+    ("drone_wind.py:with_wind", ("w",), True),  # the drone in unknown wind
+    ("drone_wind.py:no_wind", (), True),  # the same drone, no unknown input
 ])
-def test_design_contract_names(spec):
-    assert isinstance(uj.load_system(os.path.join(ROOT, "systems", spec)), uj.System)
+def test_design_contract_names(spec, unknown, known_any):
+    """The contract's names load and mean what they say: which inputs are unknown, and the
+    same drone with and without its wind (same states, outputs and known inputs)."""
+    system = uj.load_system(os.path.join(ROOT, "systems", spec))
+    assert isinstance(system, uj.System)
+    assert tuple(system.unknown) == unknown
+    assert bool(system.known) == known_any
+    if spec.startswith("drone_wind"):
+        other = uj.load_system(os.path.join(ROOT, "systems", "drone_wind.py:no_wind"))
+        assert (system.states, tuple(system.outputs), tuple(system.known)) == \
+            (other.states, tuple(other.outputs), tuple(other.known))

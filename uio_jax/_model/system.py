@@ -328,13 +328,18 @@ def _as_names(names, what) -> tuple[str, ...]:
     return names
 
 
+def _mapping(value, what: str, of: str) -> Mapping:
+    """``value`` as a mapping (None: empty); ``of`` says what it maps, in the error."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ModelError(f"{what} must be a mapping {of}, got {type(value).__name__}")
+    return value
+
+
 def _as_callables(mapping, what) -> Mapping[str, Callable]:
-    if mapping is None:
-        mapping = {}
-    if not isinstance(mapping, Mapping):
-        raise ModelError(f"{what} must be a mapping name -> function, got {type(mapping).__name__}")
     out = {}
-    for k, fn in mapping.items():
+    for k, fn in _mapping(mapping, what, "name -> function").items():
         if not isinstance(k, str) or not k:
             raise ModelError(f"{what} names must be non-empty strings, got {k!r}")
         if keyword.iskeyword(k):
@@ -353,10 +358,8 @@ def _as_params(params, states) -> Mapping[str, tuple[float, float]]:
             params = {k: DEFAULT_BOX for k in _as_names(params, "params")}
         except ModelError:
             pass
-    if not isinstance(params, Mapping):
-        raise ModelError(f"params must be a mapping name -> (lo, hi), got {type(params).__name__}")
     out = {}
-    for k, box in params.items():
+    for k, box in _mapping(params, "params", "name -> (lo, hi)").items():
         if not isinstance(k, str) or not k:
             raise ModelError(f"parameter names must be non-empty strings, got {k!r}")
         if k in states:
@@ -379,12 +382,8 @@ def _box(box, what: str) -> tuple[float, float]:
 
 
 def _as_domain(domain, states, angles) -> Mapping[str, tuple[float, float]]:
-    if domain is None:
-        domain = {}
-    if not isinstance(domain, Mapping):
-        raise ModelError(f"domain must be a mapping state -> (lo, hi), got {type(domain).__name__}")
     out = {}
-    for k, box in domain.items():
+    for k, box in _mapping(domain, "domain", "state -> (lo, hi)").items():
         if k not in states:
             raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)})")
         out[k] = _box(box, f"domain of {k!r}")
