@@ -14,7 +14,6 @@ import numpy as np
 from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
-from .._progress import announce_step
 from .rank import Codistribution
 from .report import Certificate, Report, Step
 
@@ -136,7 +135,8 @@ class Context:
         return dict(zip(self.system.states, [member for member, _ in results]))
 
     def step(self, m, added, **extra) -> Step:
-        """A history entry for the current state of the codistribution.
+        """A history entry for the current state of the codistribution (not announced: the
+        recursion driver announces the steps it records, :func:`~uio_jax._analysis.driver.iterate`).
 
         ``Step.fraction`` is the smallest agreeing fraction among the rank decisions taken
         since the previous step (candidates kept and candidates rejected; 1.0 if none): the
@@ -149,7 +149,7 @@ class Context:
         decided = cd.acceptances[a:] + cd.rejections[r:]
         self._decided_before = (len(cd.acceptances), len(cd.rejections))
         fraction = min((d.fraction for d in decided), default=1.0)
-        return announce_step(Step(m, self.dim, tuple(nd.label for nd in added), fraction, extra))
+        return Step(m, self.dim, tuple(nd.label for nd in added), fraction, extra)
 
     # -------------------------------------------------------------- results
     def certificate(self) -> Certificate:

@@ -35,9 +35,8 @@ first asks whether the last step added nothing, then whether the rank is full, t
 the cap is reached). A recursion that keeps its own state (the frontier, ``m'``) keeps it on
 ``self``: the driver only counts and records.
 
-Announcing: :meth:`~uio_jax._analysis.context.Context.step` announces the step it builds
-itself; recursions built on a Context make their Steps with :func:`quiet_step`, so that the
-driver announces each step exactly once.
+Announcing: :meth:`~uio_jax._analysis.context.Context.step` only builds a Step; the driver
+announces each step it records, exactly once.
 """
 
 import abc
@@ -47,7 +46,7 @@ import re
 from collections.abc import Sequence
 from typing import Any
 
-from .._progress import announce_step, step_listener
+from .._progress import announce_step
 from .report import Step
 
 
@@ -156,7 +155,7 @@ class Recursion(abc.ABC):
     @abc.abstractmethod
     def step(self, m: int) -> Step:
         """Build Omega_m from Omega_{m-1} (``m >= 1``) and return its Step, not yet announced
-        (use :func:`quiet_step` on a Context). ``Step.m`` is the analysis' own numbering
+        (a Context builds it with ``ctx.step``). ``Step.m`` is the analysis' own numbering
         (it may differ from ``m``, e.g. single_ui's ``m + offset``)."""
 
     @abc.abstractmethod
@@ -217,17 +216,4 @@ def iterate(recursion: Recursion, history: Sequence[Step] = ()) -> Outcome:
     return Outcome(history, stop, m, recursion.postprocess(history, stop))
 
 
-def quiet_step(ctx, m, added, **extra) -> Step:
-    """``ctx.step(m, added, **extra)`` without its announcement (the driver announces).
-
-    Args:
-        ctx: the analysis' :class:`~uio_jax._analysis.context.Context`.
-        m: the Step's number (the analysis' own numbering).
-        added: the Nodes the step kept.
-        **extra: the Step's ``extra`` entries.
-    """
-    with step_listener(None):
-        return ctx.step(m, added, **extra)
-
-
-__all__ = ["StopReason", "Stop", "Recursion", "Outcome", "iterate", "quiet_step"]
+__all__ = ["StopReason", "Stop", "Recursion", "Outcome", "iterate"]

@@ -12,7 +12,7 @@ Only Lie derivatives of the generators kept at the previous step are formed: if
 """
 
 from .context import Context
-from .driver import Recursion, StopReason, iterate, quiet_step
+from .driver import Recursion, StopReason, iterate
 
 
 class Orc(Recursion):
@@ -36,12 +36,12 @@ class Orc(Recursion):
     def init(self):
         """Omega_0 = span{d start}."""
         self.frontier = self.ctx.absorb(self.start)
-        return quiet_step(self.ctx, 0, self.frontier)
+        return self.ctx.step(0, self.frontier)
 
     def step(self, m):
         """Omega_m = Omega_{m-1} + sum_v span{d L_v c : c in frontier}."""
         self.frontier = self.ctx.absorb_lie(self.frontier, self.fields)
-        return quiet_step(self.ctx, m, self.frontier)
+        return self.ctx.step(m, self.frontier)
 
     def terminate(self, m, history):
         """Converged (the last step added nothing), else full rank ``n``, else the cap."""

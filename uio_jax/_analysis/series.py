@@ -43,7 +43,7 @@ from .._engine.taylor_flow import flow_coefficients
 from .._errors import OptionError
 from .._progress import step_listener
 from .context import Context
-from .driver import Recursion, StopReason, iterate, quiet_step
+from .driver import Recursion, StopReason, iterate
 
 
 def check_applicable(system) -> None:
@@ -213,7 +213,7 @@ class SeriesOrders(Recursion):
         """Omega_k = Omega_{k-1} + span{dy_k}."""
         nodes, grads = self._order(k)
         self.added = self.ctx.absorb(list(nodes), grads)
-        return quiet_step(self.ctx, k, self.added)
+        return self.ctx.step(k, self.added)
 
     def terminate(self, k, history):
         """Full rank n, else order k added nothing (no later order can), else the cap."""

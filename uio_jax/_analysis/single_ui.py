@@ -45,8 +45,9 @@ import dataclasses
 import numpy as np
 
 from .._errors import OptionError
+from .._progress import announce_step
 from .context import Context
-from .driver import Recursion, Stop, StopReason, iterate, quiet_step
+from .driver import Recursion, Stop, StopReason, iterate
 from .rank import ZERO_ROW_RTOL, decide_rank
 
 
@@ -203,7 +204,7 @@ class SingleUi(Recursion):
             cand_grads.append(grads)
         self.frontier = ctx.absorb(cand_nodes, np.concatenate(cand_grads, axis=1))
         self.dims.append(ctx.dim)
-        step = quiet_step(ctx, m + self.offset, self.frontier, **self.extra(m))
+        step = ctx.step(m + self.offset, self.frontier, **self.extra(m))
         self.phis = [b.scaled(b.bracket(p, self.g), self.Lg1, label=f"phi^{f.label}_{m}")
                      for p, f in zip(self.phis, self.fs)]
         return step
@@ -287,7 +288,7 @@ def _choose_output(ctx, fs, g):
     """
     outs = ctx.output_nodes()
     frontier = ctx.absorb(outs)
-    history = [ctx.step(0, frontier)]
+    history = [announce_step(ctx.step(0, frontier))]  # before the driver runs: announced here
     candidates = outs  # every output may be chosen (first in order wins)
     level = 0
     while True:
@@ -299,7 +300,7 @@ def _choose_output(ctx, fs, g):
             return history, None, level, 0.0
         level += 1
         frontier = ctx.absorb_lie(frontier, fs)
-        history.append(ctx.step(level, frontier))
+        history.append(announce_step(ctx.step(level, frontier)))
         if not frontier:
             return history, None, level, 0.0
         candidates = frontier
