@@ -23,7 +23,7 @@ Method (the textbook way, no tricks):
       Omega_m = Omega_{m-1} + sum_i L_{f_i} Omega_{m-1} + L_{g/L_g^1} Omega_{m-1}
                 + sum_i span{d L_{phi^i_{m-1}} h}
 
-  with the project's correction (DESIGN.md section 3): m* >= 1 unless every phi^i_1
+  with the project's correction (README, "A correction to the papers' stopping rule"): m* >= 1 unless every phi^i_1
   vanishes (``paper_stop=True`` gives the papers' rule instead). Lemma 1 is taken as met
   when every phi^i_1 vanishes (as 002 section III-C does). When L_g h vanishes for every
   output, 004 section 7: the first Lie derivative psi of the outputs along the known fields

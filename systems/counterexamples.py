@@ -9,8 +9,8 @@ apply with drift; the EORC does)::
 reaches y), so x2 is unobservable at every order. With ``x^(k) = [x1, x2, w, .., w^(k-1)]``,
 ``Omega-bar_k = span{dx1, d(x2 + w), dw^(1), .., dw^(k-1)}``: dim 1 on the original state.
 
-``single_ui_stop_rule``: the counterexample to the stop rule of 002 / 004 section 9 (DESIGN.md
-section 3.2, "Correction")::
+``single_ui_stop_rule``: the counterexample to the stop rule of 002 / 004 section 9 (README,
+"A correction to the papers' stopping rule")::
 
     x0' = u + x1 w,   x1' = x0 x2 u,   x2' = 0,   y = x0.
 
@@ -53,7 +53,7 @@ def single_ui_stop_rule():
 PUBLISHED = {
     "drift_example": {"source": "uio_jax issue 4 (hand derivation, module docstring)",
                       "method": "eorc", "dim": 1, "observable": ["x1"]},
-    "single_ui_stop_rule": {"source": "uio_jax single-UI issue (DESIGN.md 3.2 correction)",
+    "single_ui_stop_rule": {"source": "uio_jax single-UI issue (README: correction to the stop rule)",
                             "method": "eorc", "dims": [1, 1, 2], "dim": 2,
                             "observable": ["x0"]},
 }

@@ -1,4 +1,4 @@
-"""The 3D vehicle in wind (seed 002) under the entry names of DESIGN.md.
+"""The 3D vehicle in wind (seed 002) under the entry names of the public API's examples.
 
 ``systems/drone_wind.py:with_wind`` (unknown wind) and ``:no_wind`` are part of the public
 contract; the model itself lives in ``vehicle_wind.py`` (where ``with_wind`` treats the

@@ -150,7 +150,7 @@ PUBLISHED = {
 # w ~ N(0.05, 0.005^2) drawn every step; gamma = 0.7 pi; odometry noise std 1% of the true
 # values; one output every 2.5e-2 s (50 steps), range std 1 cm, bearings std 1 deg. EKF on
 # [xv, yv, theta, w, w1] (+ gamma when unknown), w' = w1, w1' = 0 + noise.
-# Left open by the paper, chosen here (tested in notes/ekf.md, "baseline"):
+# Left open by the paper, chosen here (tested in the filter's design runs, "baseline"; docs/benchmarks/ekf.md):
 #   true start (xv, yv, theta) = (1 m, 0, 0); initial estimate = truth + N(0, P0) with
 #   P0 std (xv, yv, theta, [gamma], w, w1) = (5 cm, 5 cm, 5 deg, [5 deg], 0.01 m/s,
 #   1e-4 m/s^2); process noise on w and w1: spectral density 1e-8 each; the white part of

@@ -1,4 +1,4 @@
-"""The unicycle pushed by a disturbance (seed 003) under the entry names of DESIGN.md.
+"""The unicycle pushed by a disturbance (seed 003) under the entry names of the public API's examples.
 
 ``systems/unicycle_wind.py:range_gamma_unknown`` and friends are part of the public
 contract; the models themselves live in ``unicycle_disturbance.py``.
