@@ -29,9 +29,8 @@ def zoo_entries():
 
 def snapshot_label(label: str) -> str:
     """``FILE.py:NAME`` or ``MODEL.toml`` without the directory (the same on every checkout)."""
-    path, sep, name = label.rpartition(":") if label.count(":") and not label.endswith(
-        (".toml", ".json")) else (label, "", "")
-    return Path(path).name + sep + name
+    path, sep, name = label.rpartition(":")
+    return Path(path).name + sep + name if sep else Path(label).name
 
 
 def main(argv=None):
