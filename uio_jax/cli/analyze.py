@@ -1,0 +1,68 @@
+"""``uio-jax analyze MODEL [options]``: the observability report of one model."""
+
+import json
+
+from .._errors import UioJaxError
+from .common import add_cache_options, check_writable
+
+
+def add_parser(subparsers, analysis_options):
+    """Add the ``analyze`` sub-command; ``analysis_options(p)`` adds the shared analysis flags."""
+    a = subparsers.add_parser("analyze", help="observability analysis of one model")
+    a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System, a .toml/.json model file, "
+                   "or a StrikePy model module (FILE.py)")
+    analysis_options(a)
+    a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
+    a.add_argument("--plot", metavar="FILE", help="also draw dims per step and the rank evidence "
+                                                  "(png, pdf, svg by suffix)")
+    a.add_argument("--no-progress", action="store_true",
+                   help="do not print each step as it is decided (printed on a terminal only)")
+    add_cache_options(a)
+    return a
+
+
+def _state_for_directions(report, system):
+    """A representative state: the centre of the sampling box."""
+    lo, hi = system.box()
+    return 0.5 * (lo + hi)
+
+
+def run(args) -> int:
+    """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
+    from .._analysis.analyze import analyze
+    from .._io.loading import load_system
+    from .._progress import StepPrinter, step_listener
+
+    if args.plot:
+        from .._analysis.plots import check_figure_path
+
+        check_figure_path(args.plot)
+    check_writable(args.json, args.plot)
+    system = load_system(args.model)
+    printer = StepPrinter(enabled=False if args.no_progress else None)
+    with step_listener(printer):
+        rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
+                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+    print(rep)
+    if rep.dim < rep.n:
+        x = _state_for_directions(rep, system)
+        try:
+            dirs = rep.unobservable_directions(x)
+        except UioJaxError:
+            dirs = None
+        if dirs is not None:
+            print("unobservable directions at the centre of the domain "
+                  f"({', '.join(f'{s}={v:.3g}' for s, v in zip(rep.states, x))}):")
+            for j in range(dirs.shape[1]):
+                print("  [" + ", ".join(f"{v:+.3f}" for v in dirs[:, j]) + "]")
+    if args.json:
+        d = rep.to_dict()
+        with open(args.json, "w") as fh:
+            json.dump(d, fh, indent=2)
+        print(f"report written to {args.json}")
+    if args.plot:
+        from .._analysis.plots import plot_analysis
+
+        plot_analysis(rep, args.plot)
+        print(f"figure written to {args.plot}")
+    return 0

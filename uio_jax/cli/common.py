@@ -1,0 +1,59 @@
+"""What the sub-commands share: the one-line usage error, the checks of output paths and
+JAX's persistent compilation cache for the duration of a command."""
+
+import argparse
+import contextlib
+import os
+import sys
+
+EXIT_USAGE = 2
+EXIT_FAILED = 1
+
+
+class UsageError(Exception):
+    """A bad command line: printed as one line, exit code 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports errors as one line and exit code 2."""
+
+    def error(self, message):
+        raise UsageError(message)
+
+
+def add_cache_options(p):
+    """``--no-cache`` and ``--cache-dir`` on the sub-command parser ``p``."""
+    p.add_argument("--no-cache", action="store_true",
+                   help="do not use the persistent compilation cache")
+    p.add_argument("--cache-dir", metavar="DIR",
+                   help="compilation cache directory (default $UIO_JAX_CACHE_DIR or ~/.cache/uio_jax/xla)")
+
+
+@contextlib.contextmanager
+def compile_cache(args):
+    """JAX's persistent compilation cache for the command, unless ``--no-cache``.
+
+    An unusable default directory only costs the cache (one warning line); an unusable
+    ``--cache-dir`` is an error.
+    """
+    from .._engine.compile_cache import compile_cache as use_cache
+
+    with contextlib.ExitStack() as stack:
+        if not args.no_cache:
+            try:
+                stack.enter_context(use_cache(args.cache_dir))
+            except OSError as exc:
+                if args.cache_dir:
+                    raise
+                print(f"uio-jax: warning: compilation cache off ({exc.strerror or exc}: {exc.filename})",
+                      file=sys.stderr)
+        yield
+
+
+def check_writable(*paths):
+    """Refuse output files whose directory is missing before hours of work, not after."""
+    for path in paths:
+        if path:
+            parent = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(parent):
+                raise UsageError(f"cannot write {path}: no directory {parent}")
