@@ -1,3 +1,4 @@
+# uio-jax: models
 """Small systems whose answer is known by hand: regression cases of the analyses.
 
 ``drift_example``: a drift and one unknown input (the single-input algorithm of 004 does not

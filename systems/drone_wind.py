@@ -1,3 +1,4 @@
+# uio-jax: models
 """The 3D vehicle in wind (seed 002) under the entry names of the public API's examples.
 
 ``systems/drone_wind.py:with_wind`` (unknown wind) and ``:no_wind`` are part of the public

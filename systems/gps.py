@@ -1,3 +1,4 @@
+# uio-jax: models
 """Unicycle with a GPS: the simple 2D localization problem (seed 004 section 11.2.1, 001 section V-A).
 
 Martinelli, INRIA RR-8608 (004) eq. 34, 36 (= MED 2015 (001) eq. 11, 12)::

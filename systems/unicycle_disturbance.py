@@ -1,3 +1,4 @@
+# uio-jax: models
 """Unicycle pushed by a disturbance along a fixed direction gamma (seed 003).
 
 Martinelli, "The Unicycle in Presence of a Single Disturbance: Observability Properties",

@@ -1,3 +1,4 @@
+# uio-jax: models
 """Unicycle in polar coordinates, one input unknown (seed 004, section 11.1).
 
 Martinelli, "Nonlinear Unknown Input Observability: Extended Observability Rank Criterion

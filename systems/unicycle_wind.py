@@ -1,3 +1,4 @@
+# uio-jax: models
 """The unicycle pushed by a disturbance (seed 003) under the entry names of the public API's examples.
 
 ``systems/unicycle_wind.py:range_gamma_unknown`` and friends are part of the public

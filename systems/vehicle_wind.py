@@ -1,3 +1,4 @@
+# uio-jax: models
 """3D vehicle with airspeed sensors, gyroscopes and a monocular camera, in wind.
 
 Martinelli, "State Observability in Presence of Disturbances", IROS 2017 (seed 002), section III.

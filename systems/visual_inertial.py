@@ -1,3 +1,4 @@
+# uio-jax: models
 """Visual-inertial structure from motion (Vi-SfM) with a partly missing IMU.
 
 Martinelli, INRIA RR-8608 (004) section 11.2.2 and MED 2015 (001) section V-B summarize the
