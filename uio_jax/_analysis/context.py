@@ -17,6 +17,13 @@ from .._model.sampling import sample_states
 from .rank import Codistribution
 from .report import Certificate, Report, Step
 
+#: A report gets a note when more than this fraction of the sampled states was dropped
+#: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
+#: past a tenth of the box the model is undefined on a part of the domain large enough
+#: that the user should know the verdict does not cover it (below it, a thin singular set
+#: such as a pole or a branch cut, which every domain box of such a model touches).
+DROPPED_NOTE_FRACTION = 0.10
+
 
 class Context:
     """Samples, node builder and codistribution of one analysis of one System.
@@ -187,6 +194,11 @@ class Context:
             observable = self.observable_states()
         notes = list(system.notes) + list(notes)
         cert = self.certificate()
+        if cert.dropped > DROPPED_NOTE_FRACTION * cert.samples:
+            notes.append(
+                f"{cert.dropped} of {cert.samples} sampled states "
+                f"({100 * cert.dropped / cert.samples:.0f} %) were dropped: the model is NaN/inf there"
+            )
         if cert.min_fraction < 0.5:
             notes.append(
                 f"weak certificate: a rank decision was backed by only "
