@@ -146,14 +146,19 @@ def test_cli_batch_writes_files_and_exit_codes(tmp_path, zoo_file, capsys):
     assert cli.main(argv) == 0
     stdout, err = capsys.readouterr()
     assert "range_known" in stdout and "2 / 3" in stdout and "1 of 1 models analysed" in stdout
-    assert err == ""  # no progress bar when not on a terminal
+    # not on a terminal: one progress line per finished model, no bar
+    assert err.splitlines() == [err.strip()] and err.startswith("batch 1/1  ") and "range_known  dim 2/3" in err
+    assert "\r" not in err
     assert json.loads(out["json"].read_text())["models"][0]["dim"] == 2
     assert out["csv"].read_text().startswith("model,ok,method")
     assert out["md"].read_text().startswith("| model |")
     # a failing model: one row with its one-line error, the others still analysed, exit 1
     assert cli.main(["batch", zoo_file, good, "--samples", str(SAMPLES), "--no-cache"]) == 1
     stdout, err = capsys.readouterr()
-    assert "Traceback" not in stdout + err and err == ""
+    assert "Traceback" not in stdout + err
+    lines = err.splitlines()
+    assert [ln.split()[1] for ln in lines] == ["1/5", "2/5", "3/5", "4/5", "5/5"]
+    assert sum("error: " in ln for ln in lines) == 1 and "ETA" in lines[0] and "ETA" not in lines[-1]
     assert sum("FAILED:" in ln for ln in stdout.splitlines()) == 1
     assert "4 of 5 models analysed, 1 failed" in stdout
 
@@ -179,6 +184,13 @@ def test_bad_model_files_are_rows(tmp_path):
     (["batch", "no/such/*.py"], "no model file matches"),
     (["batch", "missing.py:f"], "model file not found: missing.py"),
     (["batch", "systems", "--jobs", "0"], "jobs must be a positive integer"),
+    (["batch", "systems", "--jobs", "-2"], "jobs must be a positive integer"),
+    (["batch", "systems", "--jobs", "nan"], "invalid int value: 'nan'"),
+    (["batch", "systems", "--jobs", "inf"], "invalid int value: 'inf'"),
+    (["batch", "systems", "--timeout", "0"], "timeout must be a positive number"),
+    (["batch", "systems", "--timeout", "-1"], "timeout must be a positive number"),
+    (["batch", "systems", "--timeout", "nan"], "timeout must be a positive number"),
+    (["batch", "systems", "--timeout", "inf"], "timeout must be a positive number"),
     (["batch", "systems", "--samples", "0"], "samples must be an integer >= 8"),
     (["batch", "systems", "--method", "magic"], "invalid choice: 'magic'"),
     (["batch", "systems", "--json", "no/dir/t.json"], "cannot write no/dir/t.json"),
@@ -207,26 +219,70 @@ def test_progress_bar_only_when_asked():
 
     quiet = CountProgress(3, stream=io.StringIO(), delay=0.0)
     quiet.start("m")
-    assert quiet.stream.getvalue() == ""  # not a terminal
+    assert quiet.stream.getvalue() == ""  # not a terminal: nothing until a model is done
+    silenced = CountProgress(3, stream=io.StringIO(), enabled=False)
+    silenced.start("m")
+    silenced.finish("m", "dim 1/1", 0.5)
+    assert silenced.stream.getvalue() == ""  # --no-progress
     stream = Tty()
     bar = CountProgress(2, stream=stream, delay=0.0)
     bar.start("sys.py:a")
-    bar.finish()
+    bar.finish("sys.py:a", "dim 1/2", 0.1)
     bar.close()
     text = stream.getvalue()
     assert "batch [" in text and "1/2" in text and "running sys.py:a" in text
     late = CountProgress(2, stream=Tty(), delay=60.0)
     late.start("x")
-    assert late.stream.getvalue() == ""  # quick batches print nothing
-    off = io.StringIO()  # not a terminal, asked for: one finished line per model, no redraws
-    bar = CountProgress(2, stream=off, enabled=True, delay=0.0)
-    for name in ("a.py:m", "b.py:n"):
+    late.close()
+    assert late.stream.getvalue() == ""  # quick batches print nothing on a terminal
+    off = io.StringIO()  # not a terminal (the default): one finished line per model, no redraws
+    bar = CountProgress(2, stream=off, delay=60.0)
+    for name, verdict in (("a.py:m", "dim 2/3"), ("b.py:n", "timed out after 5 s at order k=2, dim 1/3")):
         bar.start(name)
-        bar.finish(name)
+        bar.finish(name, verdict, 4.0)
     bar.close()
     lines = off.getvalue().splitlines()
     assert "\r" not in off.getvalue() and len(lines) == 2
-    assert "1/2" in lines[0] and "done a.py:m" in lines[0] and "2/2" in lines[1]
+    assert lines[0] == "batch 1/2  a.py:m  dim 2/3  4.0 s  ETA 4 s"  # the mean so far: 4 s a model
+    assert lines[1] == "batch 2/2  b.py:n  timed out after 5 s at order k=2, dim 1/3  4.0 s"
+
+
+def test_eta_uses_recorded_times_and_grows_while_a_model_runs():
+    """Recorded times first, the mean so far for the others; a running model needs at least
+    as long again as it has run, so the ETA grows while one long model runs."""
+    bar = CountProgress(3, stream=io.StringIO(), expected=[10.0, None, 30.0])
+    assert bar.eta() is None  # nothing known about model 1 yet
+    bar.start("a", key=0)
+    t0 = bar.running[0][1]
+    assert bar.eta(now=t0 + 2.0) == 8.0 + 2.0 + 30.0  # model 1: the running one's elapsed 2 s
+    bar.finish("a", "dim 1/1", 6.0, key=0)
+    assert bar.eta() == 6.0 + 30.0  # model 1 now at the mean, 6 s
+    bar.start("c", key=2)
+    t2 = bar.running[2][1]
+    early, late, later = (bar.eta(now=t2 + t) for t in (5.0, 100.0, 200.0))
+    assert early == 25.0 + 6.0 and late == 100.0 + 6.0 and later == 200.0 + 6.0  # grows past 30 s
+    two = CountProgress(4, stream=io.StringIO(), expected=[10.0] * 4, workers=2)
+    assert two.eta() == 20.0  # 40 s of work on two workers
+    two.start("a", key=0)
+    assert two.eta(now=two.running[0][1] + 30.0) == 30.0  # the long running model bounds it
+    two.close()
+
+
+def test_terminal_bar_is_redrawn_while_a_model_runs():
+    """On a terminal the bar is redrawn between events (the ETA and running time move)."""
+    import time
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    bar = CountProgress(2, stream=Tty(), delay=0.0, tick=0.01)
+    bar.start("slow.py:m", key=0)
+    deadline = time.monotonic() + 30
+    while bar.stream.getvalue().count("\r") < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    bar.close()
+    assert bar.stream.getvalue().count("running slow.py:m") >= 3
 
 
 def test_progress_is_one_mechanism():
@@ -417,7 +473,7 @@ def test_timeout_stops_a_slow_model_and_goes_on(tmp_path, capsys):
     assert code == 1 and "timed out after 1.5 s" in out
 
 
-@pytest.mark.parametrize("timeout", [0, -1.0, float("nan"), True, "5"])
+@pytest.mark.parametrize("timeout", [0, -1.0, float("nan"), float("inf"), True, "5"])
 def test_timeout_must_be_positive(timeout):
     with pytest.raises(uj.OptionError, match="timeout must be a positive number"):
         uj.batch_analyze(["systems"], timeout=timeout)
@@ -442,10 +498,10 @@ def test_recorded_times_order_the_workers_longest_first(tmp_path, zoo_file, monk
             json.dump(recorded, f)
         sent = []
 
-        def fake_workers(entries, todo, jobs, timeout, kw, bar, rows):
+        def fake_workers(entries, todo, jobs, timeout, kw, tracker):
             sent.extend(entries[i].spec for i in todo)
             for i in todo:
-                rows[i] = uj.BatchRow(entries[i].label, seconds=0.5)
+                tracker.finish(i, uj.BatchRow(entries[i].label, seconds=0.5))
 
         monkeypatch.setattr(run, "run_in_workers", fake_workers)
         res = uj.batch_analyze(specs + [f"{zoo_file}:CONSTANT"], jobs=2, samples=64)

@@ -5,6 +5,7 @@ they are decided."""
 import contextlib
 import contextvars
 import sys
+import threading
 import time
 
 _STEP_LISTENER = contextvars.ContextVar("uio_jax_step_listener", default=None)
@@ -137,33 +138,145 @@ class Progress:
 
 
 class CountProgress(Progress):
-    """Progress of ``total`` items, the models of a batch:
-    ``batch [###---] 3/12  ETA 40 s  running NAME``.
+    """Progress of ``total`` items, the models of a batch, with an ETA.
 
-    ``enabled=None`` shows it only on a terminal (once ``delay`` s have passed); the line is
-    redrawn when an item starts and when one ends, and cleared by :meth:`close`. Off a
-    terminal (with ``enabled=True``) it writes one line per finished item.
+    * On a terminal: ``batch [###---] 3/12  ETA 40 s  running NAME 12 s``, one line redrawn
+      when an item starts or ends and every ``tick`` seconds in between (a background
+      thread, so the ETA and the running time move while one long item runs), once the
+      batch has lasted ``delay`` s; :meth:`close` clears it.
+    * Anywhere else (a log, a pipe): one line per finished item, from the first one:
+      ``batch 3/12  NAME  dim 4/7  2.3 s  ETA 40 s`` (never a carriage return).
+
+    **ETA.** Each item's expected time is ``expected[key]`` (seconds recorded by an earlier
+    run; items are keyed by their index ``0..total-1``), else the mean time of the items
+    finished so far, else (nothing finished yet) the elapsed time of the longest running
+    one. A running item is expected to need at least as long again as it has run so far
+    (``remaining = max(expected - elapsed, elapsed)``), so the ETA grows while an item
+    runs past its estimate instead of freezing. The work left (running items' remaining
+    plus the waiting items' expected times) is shared by ``workers`` processes: ETA =
+    ``max(longest running remaining, work / workers)``. No ETA is shown when nothing is
+    known yet.
+
+    Args:
+        total: number of items.
+        enabled: ``False`` silences it; ``True`` or ``None`` shows it (bar on a terminal,
+            lines elsewhere).
+        delay: seconds before the terminal bar appears (the lines of a log do not wait).
+        stream: where to write (default ``sys.stderr``).
+        label: the line's first word.
+        expected: expected seconds of item ``k`` at index ``k`` (None: unknown), or None.
+        workers: items that run at the same time (processes of a parallel batch).
+        tick: seconds between two redraws of the terminal bar.
     """
 
-    terminal_only = True
+    terminal_only = False
     keep_last_line = False
     bar_width = 20
 
-    def __init__(self, total, *, enabled=None, delay=2.0, stream=None, label="batch"):
+    def __init__(self, total, *, enabled=None, delay=2.0, stream=None, label="batch", expected=None,
+                 workers=1, tick=1.0):
         super().__init__(total, enabled=enabled, delay=delay, stream=stream, label=label)
         self.total = int(total)
         self.enabled = self.enabled and total > 0
+        if not self.terminal:
+            self.delay = 0.0
+        self.expected = list(expected) if expected is not None else []
+        self.workers = max(int(workers), 1)
+        self.tick = float(tick)
+        self.running = {}  # key -> (name, start time)
+        self.started = set()
+        self.finished_s = []
+        self._lock = threading.RLock()
+        self._stop = threading.Event()
+        self._ticker = None
 
-    def start(self, what):
-        """An item named ``what`` starts (drawn only on a terminal, once the bar is due)."""
-        self._show(f"running {what}", event=False)
+    def start(self, what, key=None):
+        """Item ``key`` (default: its name ``what``) starts; redraws the terminal bar."""
+        key = what if key is None else key
+        with self._lock:
+            self.running[key] = (what, time.perf_counter())
+            self.started.add(key)
+            self._show(self._running_text(), event=False)
+        if self.enabled and self.terminal and self._ticker is None:
+            self._ticker = threading.Thread(target=self._tick, name="uio_jax-progress", daemon=True)
+            self._ticker.start()
 
-    def finish(self, what=None):
-        """An item (named ``what``) is done."""
-        self.done += 1
-        self._show(f"done {what}" if what else "", event=True)
+    def finish(self, what=None, verdict="", seconds=None, key=None):
+        """Item ``key`` (default: its name ``what``) is done: its outcome ``verdict`` (e.g.
+        ``dim 4/7``) and time ``seconds`` (default: measured since :meth:`start`)."""
+        key = what if key is None else key
+        with self._lock:
+            name, since = self.running.pop(key, (what, None))
+            if seconds is None and since is not None:
+                seconds = time.perf_counter() - since
+            if seconds is not None:
+                self.finished_s.append(float(seconds))
+            self.started.add(key)
+            self.done += 1
+            if self.terminal:
+                self._show(self._running_text() or (f"done {name}" if name else ""), event=True)
+            else:
+                parts = [p for p in (name, verdict, None if seconds is None else f"{seconds:.1f} s") if p]
+                self._show("  ".join(parts), event=True)
+
+    def eta(self, now=None):
+        """Estimated seconds until every item is done (see the class doc), or None."""
+        now = time.perf_counter() if now is None else now
+        with self._lock:
+            running = [(k, now - t) for k, (_, t) in self.running.items()]
+            mean = sum(self.finished_s) / len(self.finished_s) if self.finished_s else None
+            fallback = mean if mean is not None else max((t for _, t in running), default=None)
+
+            def guess(key):
+                known = self.expected[key] if isinstance(key, int) and 0 <= key < len(self.expected) else None
+                return known if known is not None else fallback
+
+            lefts = [max((guess(k) or 0.0) - t, t) for k, t in running]
+            if self.expected:
+                waiting = [guess(k) for k in range(self.total) if k not in self.started]
+            else:
+                waiting = [fallback] * max(self.total - len(self.started), 0)
+            if any(w is None for w in waiting):
+                return None
+            if not lefts and not waiting:
+                return 0.0
+            return max(max(lefts, default=0.0), (sum(lefts) + sum(waiting)) / self.workers)
+
+    def _running_text(self) -> str:
+        """``running NAME 12 s`` of the longest running item ('' when none runs)."""
+        if not self.running:
+            return ""
+        name, since = min(self.running.values(), key=lambda v: v[1])
+        more = f" (+{len(self.running) - 1})" if len(self.running) > 1 else ""
+        return f"running {name} {time.perf_counter() - since:.0f} s{more}"
+
+    def _tick(self):
+        while not self._stop.wait(self.tick):
+            with self._lock:
+                if self.running:
+                    self._show(self._running_text(), event=False)
 
     def _line(self, elapsed, what) -> str:
-        eta = f"  ETA {elapsed / self.done * (self.total - self.done):4.0f} s" if self.done else ""
+        left = self.eta() if self.done < self.total else None
+        eta = f"  ETA {format_seconds(left)}" if left is not None else ""
+        if not self.terminal:
+            return f"{self.label} {self.done}/{self.total}  {what}{eta}"
         line = f"{self.label} [{self._bar(self.done / self.total)}] {self.done}/{self.total}{eta}  {what}"
         return line[:110]
+
+    def close(self):
+        """Stop the redraws and clear the terminal bar."""
+        self._stop.set()
+        if self._ticker is not None:
+            self._ticker.join()
+        with self._lock:
+            super().close()
+
+
+def format_seconds(s: float) -> str:
+    """``42 s``, ``4.5 min`` or ``2.1 h``: a duration in seconds, for a progress line."""
+    if s < 100:
+        return f"{s:.0f} s"
+    if s < 6000:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.1f} h"

@@ -21,11 +21,28 @@ A path may be
 * a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
   names starting with ``_`` or ``.`` are ignored);
 * a glob (``systems/*.py``, ``models/**/*.toml``): every match, as above.
+
+**Which Python files are executed.** Importing a ``.py`` file runs its top-level code, so
+discovery decides from the file's text alone (read, never imported) what to do with it:
+
+1. a file with the marker line ``# uio-jax: models`` (:data:`ZOO_MARKER`; alone on one of
+   its first :data:`MARKER_LINES` lines, spaces and case free) is a zoo file: imported;
+2. otherwise a StrikePy model module is one model, *parsed* by
+   :func:`uio_jax.load_strikepy` (never executed: a statement it does not interpret is
+   the row's error);
+3. otherwise a file the user named itself (``FILE.py`` given as a path, not found through
+   a directory or a glob), or any file when ``import_python`` is True
+   (``--import-python``), is a zoo file: imported;
+4. any other ``.py`` file is not imported: it is listed in ``skipped`` with the reason.
+
+``.toml`` and ``.json`` files are parsed, never executed; ``FILE.py:NAME`` is always a
+file the user named.
 """
 
 import glob
 import inspect
 import os
+import re
 import time
 from dataclasses import dataclass, field, replace
 
@@ -37,6 +54,13 @@ from .rows import one_line
 
 #: Suffixes of model files collected from directories and globs.
 MODEL_SUFFIXES = (".py", ".toml", ".json")
+#: The line that makes a ``.py`` file found in a directory or a glob a zoo file to import.
+ZOO_MARKER = "# uio-jax: models"
+#: The marker counts on one of a file's first lines (after a shebang, an encoding line...).
+MARKER_LINES = 10
+_MARKER_RE = re.compile(r"#\s*uio-jax\s*:\s*models\s*", re.I)
+#: Why a ``.py`` file found in a directory or a glob was not imported.
+NOT_IMPORTED = f"not imported: no {ZOO_MARKER!r} marker; name the file or pass --import-python"
 _GLOB_CHARS = "*?["
 
 
@@ -72,11 +96,13 @@ class Skipped:
     why: str
 
 
-def discover(models, *, build: bool = True):
+def discover(models, *, build: bool = True, import_python: bool = False):
     """Expand paths, globs, directories and zoo files into models.
 
     Args:
         models: a path, a System, or a sequence of them (see :func:`uio_jax.batch_analyze`).
+        import_python: import every ``.py`` file found in a directory or a glob that is not
+            a StrikePy module, marked or not (see the module doc for the rule otherwise).
         build: call the zoo files' functions now (their Systems are then reused). False:
             a function that must be called to know what it builds is an entry marked
             ``deferred``, called where the model runs (a worker process); one that gives
@@ -86,7 +112,8 @@ def discover(models, *, build: bool = True):
 
     Returns:
         ``(entries, skipped)``: the :class:`Entry` of every model in order, and
-        ``(name, reason)`` of zoo functions that gave no System.
+        ``(name, reason)`` of zoo functions that gave no System and of the ``.py`` files
+        not imported (reason :data:`NOT_IMPORTED`).
 
     Raises:
         OptionError: nothing given, or a path that matches nothing.
@@ -101,8 +128,10 @@ def discover(models, *, build: bool = True):
         if isinstance(item, System):
             entries.append(Entry(item.name or f"system {i + 1}", None, "system", item))
         elif isinstance(item, (str, os.PathLike)):
-            for path in expand(os.fspath(item)):
-                e, s = _entries_of(path, build)
+            item = os.fspath(item)
+            named = _is_spec(item) or os.path.isfile(item)  # the user named this very file
+            for path in expand(item):
+                e, s = _entries_of(path, build, named or import_python)
                 entries += e
                 skipped += s
         else:
@@ -157,19 +186,39 @@ def _dir_files(top: str) -> list[str]:
     return out
 
 
-def _entries_of(path: str, build: bool = True):
-    """Entries (and skipped functions) of one file or ``FILE.py:NAME`` spec."""
+def has_zoo_marker(path) -> bool:
+    """Whether the file ``path`` declares itself a zoo file: a line ``# uio-jax: models``
+    (:data:`ZOO_MARKER`, spaces and case free) among its first :data:`MARKER_LINES` lines.
+    The file is read, never imported; an unreadable file has no marker."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            for _, line in zip(range(MARKER_LINES), fh):
+                if _MARKER_RE.fullmatch(line.strip()):
+                    return True
+    except OSError:
+        return False
+    return False
+
+
+def _entries_of(path: str, build: bool = True, may_import: bool = True):
+    """Entries (and skipped functions or files) of one file or ``FILE.py:NAME`` spec;
+    ``may_import``: an unmarked ``.py`` file that is no StrikePy module is imported (the
+    user named it, or asked for every Python file) instead of skipped."""
     if _is_spec(path):
         return [Entry(path, path, "spec")], []
     if path.endswith((".toml", ".json")):
         return [Entry(path, path, "file")], []
     if not path.endswith(".py"):
         return [Entry(path, error=f"not a model file (expected {', '.join(MODEL_SUFFIXES)}): {path}")], []
+    if has_zoo_marker(path):
+        return _zoo_entries(path, build)
     try:
-        if is_strikepy_module(path):
+        if is_strikepy_module(path):  # read as text: parsed later, never executed
             return [Entry(path, path, "strikepy")], []
     except Exception as exc:  # a broken file: report it as the zoo loader would
         return [Entry(path, error=one_line(exc))], []
+    if not may_import:
+        return [], [(path, NOT_IMPORTED)]
     return _zoo_entries(path, build)
 
 

@@ -21,8 +21,9 @@ def load_entry(entry: Entry) -> System:
     return load_system(entry.spec)
 
 
-def run_entry(entry: Entry, analyze_kwargs, keep_report=True):
-    """Load and analyse one model with ``analyze(system, **analyze_kwargs)``.
+def run_entry(entry: Entry, analyze_kwargs, keep_report=True, on_system=None):
+    """Load and analyse one model with ``analyze(system, **analyze_kwargs)``
+    (``on_system(system)``, when given, is called with the loaded System first).
 
     Returns:
         its :class:`BatchRow` (every error becomes the row's one-line error; ``seconds``
@@ -37,7 +38,10 @@ def run_entry(entry: Entry, analyze_kwargs, keep_report=True):
     if entry.error is not None:
         return BatchRow(entry.label, error=entry.error, seconds=entry.build_s)
     try:
-        rep = analyze(load_entry(entry), **analyze_kwargs)
+        system = load_entry(entry)
+        if on_system is not None:
+            on_system(system)
+        rep = analyze(system, **analyze_kwargs)
     except UioJaxError as exc:
         return BatchRow(entry.label, error=one_line(exc, with_type=False), seconds=time.perf_counter() - t0)
     except Exception as exc:  # a bug or a model that breaks JAX: one row, the batch goes on

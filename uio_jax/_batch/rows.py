@@ -25,6 +25,10 @@ class BatchRow:
             sigma_next_max)`` (``certificate.gap_decades``; inf when nothing was rejected).
         seconds: wall time of building/loading plus analysing the model, in seconds.
         error: the one-line error of a failed model, None when it passed.
+        reached: for a model stopped in a worker (timed out, or its worker died), the last
+            step its analysis had decided, e.g. ``"k=5, dim 4/7"`` (``k`` an EORC order,
+            ``m`` a step of the other analyses; dim of the codistribution / n); None when
+            no step was decided or the model was not stopped.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
     """
@@ -40,6 +44,7 @@ class BatchRow:
     gap_decades: float | None = None
     seconds: float = 0.0
     error: str | None = None
+    reached: str | None = None
     report: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -60,7 +65,7 @@ class BatchRow:
             "observable": list(self.observable), "params": list(self.params),
             "identifiable": list(self.identifiable), "fraction": _num(self.fraction),
             "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
-            "error": self.error,
+            "error": self.error, "reached": self.reached,
         }
         return d
 
@@ -74,12 +79,16 @@ class BatchResult:
         skipped: ``(name, reason)`` of the public functions of zoo files that gave no System.
         seconds: wall time of the whole batch (s).
         options: the analysis options used (method, samples, seed, ...).
+        partial: None for a finished batch; otherwise why the rows are only some of the
+            models (``"interrupted after 3 of 12 models"``, or ``"running: 3 of 12
+            models done"`` in the files rewritten while the batch runs).
     """
 
     rows: tuple[BatchRow, ...]
     skipped: tuple[tuple[str, str], ...] = ()
     seconds: float = 0.0
     options: dict = field(default_factory=dict)
+    partial: str | None = None
 
     def __iter__(self):
         return iter(self.rows)
@@ -100,14 +109,21 @@ class BatchResult:
         """True when every model was analysed."""
         return not self.failed
 
+    @property
+    def not_imported(self) -> tuple[str, ...]:
+        """The ``.py`` files found in a directory or a glob and not imported (no marker)."""
+        return tuple(n for n, why in self.skipped if why.startswith("not imported"))
+
     def to_dict(self) -> dict:
-        """JSON-ready dictionary: ``models`` (rows), ``skipped``, ``options``, ``seconds``."""
+        """JSON-ready dictionary: ``models`` (rows), ``skipped``, ``options``, ``seconds``,
+        ``partial`` (None, or why the rows are only some of the models)."""
         return {
             "models": [r.to_dict() for r in self.rows],
             "failed": len(self.failed),
             "skipped": [{"name": n, "reason": why} for n, why in self.skipped],
             "options": dict(self.options),
             "seconds": round(self.seconds, 3),
+            "partial": self.partial,
         }
 
     def to_json(self, **kw) -> str:
@@ -119,7 +135,7 @@ class BatchResult:
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         cols = ["model", "ok", "method", "n", "dim", "unobservable", "observable", "params",
-                "identifiable", "fraction", "gap_decades", "seconds", "error"]
+                "identifiable", "fraction", "gap_decades", "seconds", "error", "reached"]
         writer.writerow(cols)
         for r in self.rows:
             d = r.to_dict()
@@ -128,10 +144,13 @@ class BatchResult:
         return buf.getvalue()
 
     def to_markdown(self) -> str:
-        """A Markdown table (failed models carry their error in the last column)."""
+        """A Markdown table (failed models carry their error in the last column); a partial
+        table ends with a line saying so."""
         headers, body = self._cells(markdown=True)
         lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
+        if self.partial:
+            lines += ["", f"*Partial table: {self.partial}.*"]
         return "\n".join(lines) + "\n"
 
     def table(self) -> str:
@@ -150,13 +169,20 @@ class BatchResult:
         return "\n".join(lines)
 
     def summary(self) -> str:
-        """One line: models passed / failed, total time, functions skipped."""
+        """One line: models passed / failed, total time, functions skipped, files not
+        imported, and whether the batch was cut short."""
         n_fail = len(self.failed)
         text = (f"{len(self.rows) - n_fail} of {len(self.rows)} models analysed"
                 + (f", {n_fail} failed" if n_fail else "") + f" in {self.seconds:.1f} s")
-        if self.skipped:
-            text += (f"; {len(self.skipped)} function{'s' if len(self.skipped) != 1 else ''} "
-                     "giving no System skipped")
+        files = len(self.not_imported)
+        functions = len(self.skipped) - files
+        if functions:
+            text += f"; {functions} function{'s' if functions != 1 else ''} giving no System skipped"
+        if files:
+            text += (f"; {files} .py file{'s' if files != 1 else ''} not imported "
+                     f"(no '# uio-jax: models' marker)")
+        if self.partial:
+            text = f"{self.partial}: {text}"
         return text
 
     def _cells(self, markdown):
@@ -197,6 +223,16 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         params=params, identifiable=tuple(p for p in params if ident.get(p)),
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
     )
+
+
+def verdict(row: BatchRow) -> str:
+    """A row's outcome in a few words: ``dim 4/7``, ``timed out after 30 s at order k=5, dim
+    4/7 ...`` or ``error: ...`` (cut to 100 characters)."""
+    if row.ok:
+        return f"dim {row.dim}/{row.n}"
+    text = row.error or "failed"
+    text = text if text.startswith("timed out") else f"error: {text}"
+    return text if len(text) <= 100 else text[:97] + "..."
 
 
 def one_line(exc, with_type=True) -> str:

@@ -19,45 +19,73 @@ JAX's thread pools then do not oversubscribe the cores (measured in
 killed (its row says so) and a fresh worker goes on with the others. Only models given by
 path can go to a worker; ``System`` objects run in the calling process. The workers take
 the models longest first by their recorded times (:mod:`uio_jax._batch.timing`).
+
+**Progress, partial results, Ctrl-C.** The progress display (:class:`uio_jax._progress.CountProgress`)
+is a bar on a terminal and one line per finished model elsewhere, with an ETA from the
+recorded times. ``on_row`` receives the partial result after every finished model (the
+command line rewrites its ``--json/--csv/--markdown`` files there). On Ctrl-C
+(KeyboardInterrupt) the workers are stopped and :class:`BatchInterrupted` carries the
+rows finished so far (``result.partial`` says "interrupted after 3 of 12 models").
 """
 
+import math
 import numbers
-import time
 
 from .._analysis.options import check_options
 from .._errors import OptionError
 from .._progress import CountProgress
-from .discovery import Skipped, discover
+from .discovery import discover
 from .one_model import run_entry
 from .rows import BatchResult
 from .timing import longest_first, record_seconds, recorded_seconds, time_key
+from .tracker import Tracker
 from .workers import run_in_workers
 
 
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`batch_analyze`: a KeyboardInterrupt that carries the rows
+    finished so far in ``result`` (a :class:`BatchResult` whose ``partial`` says
+    "interrupted after K of N models"). The worker processes are stopped already."""
+
+    def __init__(self, result):
+        super().__init__(result.partial)
+        self.result = result
+
+
 def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_reports: bool = True,
-                  **analyze_kwargs) -> BatchResult:
+                  import_python: bool = False, on_row=None, **analyze_kwargs) -> BatchResult:
     """Analyse many models; one failing model is one row with its error, the others go on.
 
     Main arguments:
         models: a path, a :class:`~uio_jax.System`, or a sequence of them. Paths are
             ``FILE.py:NAME``, zoo files ``FILE.py`` (every public no-argument function
             that returns a System; see :mod:`uio_jax._batch.discovery` for how they are
-            found), ``.toml``/``.json`` model files, directories and globs.
+            found), ``.toml``/``.json`` model files, directories and globs. A ``.py``
+            file found in a directory or a glob is imported only when it carries the line
+            ``# uio-jax: models`` (or is a StrikePy module, parsed without executing it);
+            other ``.py`` files are listed in ``skipped``, not executed.
 
     Other arguments:
         jobs: worker processes (default 1: everything in this process). Workers are
             spawned fresh and pay JAX's start-up; they share the persistent compilation
             cache of this process if one is enabled.
-        timeout: seconds one model may run (None, the default: no limit). With a limit,
+        timeout: seconds one model may run (a positive finite number; None, the default:
+            no limit). With a limit,
             models given by path run in worker processes (``jobs`` of them, at least
             one); a model over the limit has its worker killed, its row says "timed
             out", and a fresh worker takes the next model. ``System`` objects given
             directly run in this process, without a limit.
-        progress: ``True`` shows a model-count bar on stderr (off a terminal: one line
-            per finished model), ``False`` never, ``None`` (default) only on a terminal
-            and once the batch has lasted 2 s.
+        progress: ``False``: nothing on stderr. ``True`` or ``None`` (default): on a
+            terminal a model-count bar with an ETA (once the batch has lasted 2 s,
+            redrawn every second); elsewhere (a log, a pipe) one line per finished model:
+            ``batch 3/12  NAME  dim 4/7  2.3 s  ETA 40 s``.
         keep_reports: keep each model's :class:`~uio_jax.Report` in ``row.report``
             (False frees each model's compiled functions as soon as it is done).
+        import_python: also import the ``.py`` files found in directories and globs that
+            have no ``# uio-jax: models`` marker (their top-level code runs).
+        on_row: None, or a function called with the partial :class:`~uio_jax.BatchResult`
+            (the rows finished so far, in the given order; ``partial`` set until the last
+            one) after each finished model.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
             ``seed``, ``rtol``, ``max_order``, ``k_max``).
 
@@ -68,25 +96,33 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
     Raises:
         OptionError: no model given, a path that matches nothing, impossible options
             (checked before any model runs).
+        BatchInterrupted: Ctrl-C (a KeyboardInterrupt carrying the partial result).
     """
-    t0 = time.perf_counter()
     _check_batch_options(jobs, timeout, analyze_kwargs)
     # models that may run in worker processes are built there: not here first as well
-    entries, skipped = discover(models, build=jobs == 1 and timeout is None)
+    entries, skipped = discover(models, build=jobs == 1 and timeout is None, import_python=import_python)
     keys = [time_key(e, analyze_kwargs) for e in entries]
-    bar = CountProgress(len(entries), enabled=progress)
+    recorded = recorded_seconds(keys)
+    remote = sum(e.spec is not None and e.error is None for e in entries)
+    parallel = (jobs > 1 and remote > 1) or (timeout is not None and remote > 0)
+    bar = CountProgress(len(entries), enabled=progress, expected=recorded,
+                        workers=min(jobs, max(remote, 1)) if parallel else 1)
+    options = {k: v for k, v in analyze_kwargs.items() if v is not None}
+    tracker = Tracker(entries, skipped, bar, options, on_row)
     try:
-        remote = sum(e.spec is not None and e.error is None for e in entries)
-        if (jobs > 1 and remote > 1) or (timeout is not None and remote):
-            rows = _run_parallel(entries, jobs, timeout, analyze_kwargs, bar, recorded_seconds(keys))
+        if parallel:
+            _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded)
         else:
-            rows = _run_here(entries, analyze_kwargs, keep_reports, bar)
+            _run_here(entries, analyze_kwargs, keep_reports, tracker)
+    except KeyboardInterrupt:
+        bar.close()
+        record_seconds(keys, tracker.rows)
+        raise BatchInterrupted(tracker.result(
+            f"interrupted after {tracker.done} of {len(tracker.rows)} models")) from None
     finally:
         bar.close()
-    record_seconds(keys, rows)
-    rows, skipped = _move_skipped(rows, skipped)
-    options = {k: v for k, v in analyze_kwargs.items() if v is not None}
-    return BatchResult(tuple(rows), tuple(skipped), time.perf_counter() - t0, options)
+    record_seconds(keys, tracker.rows)
+    return tracker.result()
 
 
 def _check_batch_options(jobs, timeout, analyze_kwargs):
@@ -95,39 +131,26 @@ def _check_batch_options(jobs, timeout, analyze_kwargs):
         raise OptionError(f"jobs must be a positive integer, got {jobs!r}")
     check_options(**analyze_kwargs)
     if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, numbers.Real)
-                                or not timeout > 0):
+                                or not (timeout > 0 and math.isfinite(timeout))):
         raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
 
 
-def _run_here(entries, analyze_kwargs, keep_reports, bar):
+def _run_here(entries, analyze_kwargs, keep_reports, tracker):
     """Every entry in this process, in order (``entries`` is emptied as it goes)."""
-    rows = []
     for i, e in enumerate(entries):
-        label = e.label
-        bar.start(label)
-        rows.append(run_entry(e, analyze_kwargs, keep_reports))
+        tracker.start(i)
+        row = run_entry(e, analyze_kwargs, keep_reports)
         entries[i] = e = None  # without its report, the System and its compiled code can go
-        bar.finish(label)
-    return rows
+        tracker.finish(i, row)
 
 
-def _run_parallel(entries, jobs, timeout, analyze_kwargs, bar, recorded=()):
+def _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded=()):
     """Entries with a spec go to worker processes (longest recorded time first, see
     :func:`~uio_jax._batch.timing.longest_first`); in-memory Systems and known errors run here."""
-    rows = [None] * len(entries)
     remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
     local = set(range(len(entries))) - set(remote)
     for i, e in enumerate(entries):
         if i in local:
-            bar.start(e.label)
-            rows[i] = run_entry(e, analyze_kwargs, keep_report=False)
-            bar.finish(e.label)
-    run_in_workers(entries, longest_first(remote, recorded), jobs, timeout, analyze_kwargs, bar, rows)
-    return rows
-
-
-def _move_skipped(rows, skipped):
-    """Deferred zoo functions that gave no System leave the rows for ``skipped`` (after
-    the functions skipped without being called)."""
-    late = [(row.spec, row.why) for row in rows if isinstance(row, Skipped)]
-    return [r for r in rows if not isinstance(r, Skipped)], list(skipped) + late
+            tracker.start(i)
+            tracker.finish(i, run_entry(e, analyze_kwargs, keep_report=False))
+    run_in_workers(entries, longest_first(remote, recorded), jobs, timeout, analyze_kwargs, tracker)

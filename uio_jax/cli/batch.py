@@ -1,44 +1,98 @@
 """``uio-jax batch PATH... [options]``: certify many models into one table."""
 
+import os
+import sys
+
 from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable
+
+#: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
+EXIT_INTERRUPTED = 130
 
 
 def add_parser(subparsers, analysis_options):
     """Add the ``batch`` sub-command; ``analysis_options(p)`` adds the shared analysis flags."""
-    b = subparsers.add_parser("batch", help="certify many models into one table")
+    b = subparsers.add_parser(
+        "batch", help="certify many models into one table",
+        description="Certify many models into one table. A .py file found in a directory or a glob "
+                    "is imported (its top-level code runs) only when one of its first lines is "
+                    "'# uio-jax: models' or with --import-python; a StrikePy module is parsed, never "
+                    "executed; other .py files are listed as not imported. A file named on the command "
+                    "line (FILE.py, FILE.py:NAME) is always loaded.")
     b.add_argument("paths", nargs="*", metavar="PATH",
                    help="FILE.py:NAME, zoo files (every function returning a System), .toml/.json "
-                        "model files, directories, globs")
+                        "model files, StrikePy modules, directories, globs")
     analysis_options(b)
-    b.add_argument("--json", metavar="FILE", help="write the table as JSON")
-    b.add_argument("--csv", metavar="FILE", help="write the table as CSV")
-    b.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
+    b.add_argument("--json", metavar="FILE", help="write the table as JSON (rewritten after each model)")
+    b.add_argument("--csv", metavar="FILE", help="write the table as CSV (rewritten after each model)")
+    b.add_argument("--markdown", metavar="FILE",
+                   help="write the table as Markdown (rewritten after each model)")
     b.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     b.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
-                   help="time limit per model: a model over it is stopped and reported as timed out "
-                        "(runs models in worker processes; default: no limit)")
-    b.add_argument("--no-progress", action="store_true", help="no progress bar")
+                   help="time limit per model: a model over it is stopped and reported as timed out, "
+                        "with the last order it reached (runs models in worker processes; default: "
+                        "no limit)")
+    b.add_argument("--import-python", action="store_true",
+                   help="also import .py files of directories and globs without the "
+                        "'# uio-jax: models' marker (runs their top-level code)")
+    b.add_argument("--no-progress", action="store_true",
+                   help="no progress on stderr (by default: a bar on a terminal, one line per finished "
+                        "model elsewhere)")
     add_cache_options(b)
     return b
 
 
 def run(args) -> int:
-    """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
-    from .._batch.run import batch_analyze
+    """Run the sub-command; returns the exit code (errors propagate as UioJaxError).
+
+    The ``--json/--csv/--markdown`` files are rewritten (atomically) after every finished
+    model. On Ctrl-C the workers are stopped, the partial table is printed and written
+    (marked "interrupted after K of N models") and the exit code is 130.
+    """
+    from .._batch.run import BatchInterrupted, batch_analyze
 
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     check_writable(args.json, args.csv, args.markdown)
-    result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout,
-                           progress=False if args.no_progress else None,
-                           keep_reports=False, method=args.method, samples=args.samples,
-                           seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+    outputs = [(path, fmt) for path, fmt in ((args.json, "json"), (args.csv, "csv"),
+                                              (args.markdown, "markdown")) if path]
+    code = None
+    try:
+        result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout,
+                               progress=False if args.no_progress else None,
+                               keep_reports=False, import_python=args.import_python,
+                               on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
+                               method=args.method, samples=args.samples,
+                               seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+    except BatchInterrupted as exc:
+        result, code = exc.result, EXIT_INTERRUPTED
+        print(f"uio-jax: {result.partial}", file=sys.stderr)
     print(result.table())
+    for path in result.not_imported:
+        print(f"not imported: {path} (no '# uio-jax: models' marker; name the file or pass --import-python)")
     print(result.summary())
-    for path, text in ((args.json, lambda: result.to_json(indent=1)), (args.csv, result.to_csv),
-                       (args.markdown, result.to_markdown)):
-        if path:
-            with open(path, "w") as fh:
-                fh.write(text())
-            print(f"written: {path}")
+    write_outputs(outputs, result)
+    for path, _ in outputs:
+        print(f"written: {path}")
+    if code is not None:
+        return code
     return 0 if result.ok else EXIT_FAILED
+
+
+def write_outputs(outputs, result):
+    """Write ``result`` to every ``(path, format)`` of ``outputs`` (json, csv, markdown),
+    each through a temporary file then ``os.replace``: a reader (or a crash) never sees a
+    half-written file."""
+    for path, fmt in outputs:
+        text = {"json": lambda: result.to_json(indent=1), "csv": result.to_csv,
+                "markdown": result.to_markdown}[fmt]()
+        tmp = f"{path}.{os.getpid()}.tmp"
+        try:
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.replace(tmp, path)
+        except BaseException:
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            raise
