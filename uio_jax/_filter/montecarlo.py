@@ -256,24 +256,34 @@ def _chunk_records(exp, n_trials):
 
 
 def _check_model(exp):
-    """Fail early, with one line, when the model is NaN at the experiment's start."""
+    """Fail early, with one line, when the model is NaN at the experiment's start; then warn
+    when ``dt`` is far from the dynamics' time scale (:meth:`Experiment.check_time_scale`,
+    from the Jacobian this same program computes)."""
     cache = _CACHE.setdefault(exp, {})
     if "check" not in cache:  # one small program (the input law too): no op-by-op dispatch
         model = make_model(exp)
-        m, p = len(exp.system.known), len(exp.system.unknown)
+        n, m, p = exp.n, len(exp.system.known), len(exp.system.unknown)
 
-        def values(x0, istate0):
+        def values(x0, w0, istate0):
             _, u, w = exp.inputs(istate0, jnp.zeros(exp.n_input_normals))
             u = jnp.asarray(u, jnp.float64).reshape(m)
             w = jnp.asarray(w, jnp.float64).reshape(p)
-            return model.dynamics(x0, u, w), model.h_true(x0), exp.known_std(u)
+
+            def flow(xw):
+                return model.dynamics(xw[:n], u, xw[n:])
+
+            xw0 = jnp.concatenate([x0, w0])
+            return (model.dynamics(x0, u, w), model.h_true(x0), exp.known_std(u),
+                    flow(xw0), jax.jacfwd(flow)(xw0))
 
         cache["check"] = jax.jit(values)
-    out = cache["check"](np.asarray(exp.x0, np.float64), np.asarray(exp.istate0, np.float64))
+    out = cache["check"](np.asarray(exp.x0, np.float64), np.asarray(exp.w0, np.float64),
+                         np.asarray(exp.istate0, np.float64))
     for what, v in zip(("the dynamics", "the measurements", "the known-input noise std"), out):
         if not np.all(np.isfinite(np.asarray(v))):
             raise ModelError(f"experiment {exp.name!r}: {what} return NaN/inf at the true "
                              f"start x0={list(exp.x0)}")
+    exp.check_time_scale((np.asarray(out[3]), np.asarray(out[4])))
 
 
 def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, keep: int = 4,
@@ -307,8 +317,13 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
 
     Raises:
         OptionError: trials <= 0, seed outside ``[0, 2**64)``, negative keep, an unknown
-            filter.
+            filter, a run whose records would not fit in memory
+            (:meth:`~uio_jax.Experiment.check_memory`), all before any work.
         ModelError: the model is NaN at the start, or the filter became NaN/inf.
+
+    Warns:
+        TimeScaleWarning: ``dt`` or the horizon far from the time scale of the dynamics
+            at the start (:meth:`~uio_jax.Experiment.check_time_scale`), before compiling.
     """
     if not isinstance(experiment, Experiment):
         raise OptionError(f"run_montecarlo needs a uio_jax Experiment, got "
@@ -318,6 +333,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
     keep = min(_check_int(keep, "keep", 0), B)
     filter = _check_filter(filter)
     exp = experiment
+    exp.check_memory(B, keep)
     with jax.enable_x64(True):
         t0 = time.perf_counter()  # compile_s: from here to both programs compiled
         p0 = time.process_time()

@@ -13,18 +13,54 @@ simulates (``systems/unicycle_disturbance.py:range_gamma_known_experiment``). It
   the true initial augmented state;
 * what to report: the states, and the named scalar quantities (``quantities``) along
   which convergence is judged (e.g. the bearing of the unicycle from the origin, i.e. the
-  error along the rotation about the origin).
+  error along the rotation about the origin), with their units (``units``).
+
+Checks of the time step. At construction (one-line :class:`~uio_jax.ModelError`): ``dt``
+finite and positive, a finite horizon ``n_steps * dt``, every output read at least once
+(its period at most ``n_steps``), a whole number of records, and one trial's records
+within the machine's memory. Before a run (:meth:`Experiment.check_memory`, OptionError):
+the records of all trials within memory. Against the dynamics' time scale
+(:meth:`Experiment.time_scale`, a :class:`TimeScaleWarning`), with the shortest time scale
+``1 / rate`` of the dynamics at the true start (see :meth:`Experiment.time_scale`):
+
+* ``rate * dt > MAX_RATE_DT`` (1): one Euler step moves a state, or spreads its error, by
+  more than one prior standard deviation, or outruns the fastest linear mode
+  (``|lambda| dt > 1``: Euler's factor ``1 + lambda dt`` is no longer close to
+  ``exp(lambda dt)``);
+* ``rate * n_steps * dt < MIN_RATE_HORIZON`` (0.01): the whole trial lasts under 1 % of
+  that time scale, so nothing moves (e.g. ``dt = 1e-30``);
+* ``n_steps < MIN_STEPS`` (10): ``dt`` is more than a tenth of the horizon.
 """
 
 import math
 import numbers
-from collections.abc import Callable
+import os
+import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._errors import ModelError, OptionError
 from .system import System
+
+
+#: Warn when the shortest time scale of the dynamics is shorter than this many Euler steps
+#: (``rate * dt`` above it; see :meth:`Experiment.time_scale`).
+MAX_RATE_DT = 1.0
+#: Warn when the whole trial lasts less than this fraction of that time scale.
+MIN_RATE_HORIZON = 1e-2
+#: Warn when a trial has fewer Euler steps (``dt`` above a tenth of the horizon).
+MIN_STEPS = 10
+#: A run may use at most this fraction of the memory available (:meth:`Experiment.check_memory`).
+MEMORY_FRACTION = 0.8
+#: Bytes per recorded number at the peak of a run: the float32 records, their concatenation
+#: and the float64 copies the statistics make (4 + 4 + 8).
+BYTES_PER_RECORD_NUMBER = 16
+
+
+class TimeScaleWarning(UserWarning):
+    """``dt`` or the horizon is far from the time scale of the experiment's dynamics."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +138,16 @@ class Experiment:
             When ``w`` is a smooth part plus white noise drawn every step, pass the smooth
             part (e.g. the mean): the white part cannot be estimated.
         notes: the choices the paper leaves open, in words (shown in reports).
+        units: state or unknown-input name -> unit (``"m"``, ``"m/s"``), shown in tables
+            and on plot axes; angles (``system.angles``) are ``"rad"`` (shown in degrees)
+            unless given; the derivative ``w1`` of an unknown input ``w`` gets
+            ``"<unit of w>/s"``. Names not given have no unit shown (``""``).
+
+    Raises:
+        ModelError: one line naming the problem: a field of the wrong length or not
+            finite, ``dt`` not a finite positive number, an infinite horizon, an output
+            never read (its period beyond ``n_steps``), ``n_steps`` not a whole number of
+            output epochs or of records, one trial's records beyond the machine's memory.
     """
 
     name: str
@@ -124,6 +170,7 @@ class Experiment:
     record_every: int = 1
     w_reference: Callable | None = None
     notes: str = ""
+    units: Mapping = field(default_factory=dict)
     _derived: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
@@ -138,6 +185,9 @@ class Experiment:
         n, p = sys_.n, len(sys_.unknown)
         _positive(self.dt, "dt", self.name, real=True)
         _positive(self.n_steps, "n_steps", self.name)
+        if not math.isfinite(self.dt) or not math.isfinite(self.dt * self.n_steps):
+            raise ModelError(f"experiment {self.name!r}: dt={self.dt!r} s with n_steps={self.n_steps} "
+                             "is not a finite horizon")
         _positive(self.order, "order", self.name)
         _positive(self.record_every, "record_every", self.name)
         if self.n_input_normals < 0:
@@ -160,6 +210,10 @@ class Experiment:
                 raise ModelError(f"experiment {self.name!r}: measurements must be Measurement")
             _positive(m.every, f"period of {m.name!r}", self.name)
             _positive(m.sigma, f"sigma of {m.name!r}", self.name, real=True)
+            if m.every > self.n_steps:
+                raise ModelError(f"experiment {self.name!r}: output {m.name!r} is read every "
+                                 f"{m.every} steps ({m.every * self.dt:.4g} s), after the last of "
+                                 f"the {self.n_steps} steps ({self.duration:.4g} s): never read")
         for q in self.quantities:
             if not isinstance(q, Quantity):
                 raise ModelError(f"experiment {self.name!r}: quantities must be Quantity")
@@ -173,6 +227,33 @@ class Experiment:
             raise ModelError(f"experiment {self.name!r}: n_steps={self.n_steps} is not a "
                              f"multiple of the output period {every}")
         self._derived.update(epoch_steps=every, n_epochs=self.n_steps // every)
+        if self.n_epochs % self.record_every:
+            raise ModelError(f"experiment {self.name!r}: {self.n_epochs} output epochs are not "
+                             f"a multiple of record_every={self.record_every} (the last epochs "
+                             "would not be recorded)")
+        object.__setattr__(self, "units", self._check_units(self.units))
+        need, have = self.memory_bytes(1), _memory_available()
+        if have is not None and need > MEMORY_FRACTION * have:
+            raise ModelError(f"experiment {self.name!r}: one trial of {self.n_steps} steps records "
+                             f"{self.n_records + 1} times and needs about {_gib(need)} of memory, "
+                             f"more than the {_gib(have)} available: raise record_every or "
+                             "lower n_steps")
+
+    def _check_units(self, units):
+        if not isinstance(units, Mapping):
+            raise ModelError(f"experiment {self.name!r}: units must be a mapping name -> unit, "
+                             f"got {type(units).__name__}")
+        known = set(self.system.states) | set(self.system.unknown)
+        out = {}
+        for k, u in units.items():
+            if k not in known:
+                raise ModelError(f"experiment {self.name!r}: units names {k!r}, not a state or "
+                                 f"unknown input ({', '.join(sorted(known))})")
+            if not isinstance(u, str):
+                raise ModelError(f"experiment {self.name!r}: the unit of {k!r} must be a string, "
+                                 f"got {type(u).__name__}")
+            out[k] = u
+        return out
 
     # ------------------------------------------------------------------ derived sizes
     @property
@@ -199,6 +280,191 @@ class Experiment:
     def duration(self) -> float:
         """Length of a trial (s)."""
         return self.n_steps * self.dt
+
+    @property
+    def n_records(self) -> int:
+        """Number of records of a trial after t = 0 (``n_epochs // record_every``)."""
+        return self.n_epochs // self.record_every
+
+    def unit(self, name: str) -> str:
+        """Unit of a filter state or named quantity as computed (angles ``"rad"``; ``""``
+        when the experiment gives none). ``w1`` of an unknown input ``w`` in ``"<unit>/s"``,
+        ``w2`` in ``"<unit>/s^2"``, ...
+        """
+        for q in self.quantities:
+            if q.name == name:
+                return q.unit or ("rad" if q.angle else "")
+        if name in self.units:
+            return self.units[name]
+        if name in self.system.angles:
+            return "rad"
+        if name in self.system.states:
+            return ""
+        for w in self.system.unknown:
+            for k in range(self.order):
+                if name == (w if k == 0 else f"{w}{k}"):
+                    base = self.units.get(w, "")
+                    if not base or k == 0:
+                        return base
+                    return f"{base}/s" if k == 1 else f"{base}/s^{k}"
+        raise OptionError(f"experiment {self.name!r} has no state or quantity named {name!r}")
+
+    def display_unit(self, name: str) -> tuple[str, float]:
+        """``(unit, scale)`` in which ``name`` is shown: angles (wrapped states and angle
+        quantities) in ``"deg"`` (scale ``180 / pi``), the rest in :meth:`unit` (scale 1)."""
+        angle = name in self.system.angles or any(
+            q.name == name and q.angle for q in self.quantities)
+        unit = self.unit(name)
+        if angle and unit in ("rad", ""):
+            return "deg", 180.0 / math.pi
+        if unit.startswith("rad/"):
+            return "deg" + unit[3:], 180.0 / math.pi
+        return unit, 1.0
+
+    # ------------------------------------------------------------------ time step checks
+    def memory_bytes(self, trials: int, keep: int = 0) -> int:
+        """Estimated peak memory (bytes) of a run of ``trials`` trials keeping ``keep``
+        full trajectories.
+
+        Records: ``trials * (n_records + 1) * (2 N + 2 d + 1)`` numbers at
+        ``BYTES_PER_RECORD_NUMBER`` (16) bytes each; the filter carries (``N^2 + 4 N``
+        float64 per trial, in and out); per kept trajectory the float64 arrays of
+        :func:`~uio_jax.trajectories` (``(n_epochs + 1) (2 n + 2 N [+ N^2 when keep <= 4])``
+        and ``n_steps * m`` readings), three copies (device, host, concatenated).
+        """
+        N, n = self.n_aug, self.n
+        d, m = len(self.quantities), len(self.system.known)
+        E = self.n_epochs
+        records = trials * (self.n_records + 1) * (2 * N + 2 * d + 1) * BYTES_PER_RECORD_NUMBER
+        carry = trials * (N * N + 4 * N + len(self.istate0)) * 8 * 2
+        per_traj = (E + 1) * (2 * n + 2 * N + (N * N if keep <= 4 else 0)) \
+            + E * len(self.measurements) + self.n_steps * m
+        return int(records + carry + keep * per_traj * 8 * 3)
+
+    def check_memory(self, trials: int, keep: int = 0) -> int:
+        """Refuse, before any work, a run whose :meth:`memory_bytes` exceeds
+        ``MEMORY_FRACTION`` (0.8) of the memory available; returns the estimate (bytes).
+
+        Raises:
+            OptionError: one line with the estimate, the memory available and what to lower.
+        """
+        need, have = self.memory_bytes(trials, keep), _memory_available()
+        if have is not None and need > MEMORY_FRACTION * have:
+            raise OptionError(f"experiment {self.name!r}: {trials} trials of {self.n_steps} steps "
+                              f"({self.n_records + 1} records each, {keep} kept) need about "
+                              f"{_gib(need)} of memory, more than the {_gib(have)} available: "
+                              "fewer trials, a larger record_every or fewer n_steps")
+        return need
+
+    def time_scale(self, values=None) -> dict:
+        """The shortest time scale of the filter's dynamics at the true start.
+
+        At ``xa0 = [x0, w0, 0, ...]`` with the known inputs of the input law at ``z = 0``,
+        with ``F`` the augmented vector field (``x' = f(x, u, w)``, ``w' = w1``, ...,
+        top ``= 0``), ``A = dF/dxa`` and ``S = diag(prior_std)`` (entries with a zero prior
+        left out of the scaled rates)::
+
+            eigen_rate    = max |lambda(A)|            fastest linear mode (1/s)
+            coupling_rate = ||S^-1 A S||_2             errors spread, in prior stds per s
+            motion_rate   = max_i |F_i| / prior_i      the state moves, in prior stds per s
+            rate          = max of the three,   time_scale_s = 1 / rate
+
+        (``coupling_rate >= eigen_rate``; a kinematic model such as the unicycle has
+        ``eigen_rate = 0`` and a time scale set by its motion.) ``rate = 0`` (nothing moves,
+        e.g. a constant measured again and again) gives ``time_scale_s = inf``.
+
+        Args:
+            values: optional ``(f (n,), D (n, n + p))``, the vector field and its Jacobian
+                ``d f / d(x, w)`` at the start, when the caller has them (the Monte Carlo
+                driver computes them in its start-up program); else computed here (one
+                small jitted program).
+
+        Returns:
+            ``{"rate", "time_scale_s", "eigen_rate", "coupling_rate", "motion_rate",
+            "rate_dt", "rate_horizon"}`` (``rate * dt`` and ``rate * n_steps * dt``), floats.
+        """
+        if values is None and "time_scale" in self._derived:
+            return self._derived["time_scale"]
+        s = self.system
+        n, p = s.n, len(s.unknown)
+        if values is None:
+            values = self._start_jacobian()
+        f, D = values
+        f, D = np.asarray(f, np.float64), np.asarray(D, np.float64)
+        N = self.n_aug
+        A = np.zeros((N, N))
+        A[:n, :n + p] = D
+        for k in range(self.order - 1):  # w^(k)' = w^(k+1)
+            A[n + k * p:n + (k + 1) * p, n + (k + 1) * p:n + (k + 2) * p] = np.eye(p)
+        F = np.concatenate([f, np.zeros(N - n)])  # the derivatives of w start at 0
+        prior = np.asarray(self.prior_std, np.float64)
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(F))):
+            eig = coupling = motion = math.nan
+        else:
+            eig = float(np.max(np.abs(np.linalg.eigvals(A)))) if N else 0.0
+            keep = prior > 0
+            Sk = prior[keep]
+            scaled = A[np.ix_(keep, keep)] * Sk[None, :] / Sk[:, None]
+            coupling = float(np.linalg.norm(scaled, 2)) if keep.any() else 0.0
+            motion = float(np.max(np.abs(F[keep]) / Sk)) if keep.any() else 0.0
+        rate = max(eig, coupling, motion)
+        out = {"rate": rate, "time_scale_s": (1.0 / rate if rate > 0 else math.inf),
+               "eigen_rate": eig, "coupling_rate": coupling, "motion_rate": motion,
+               "rate_dt": rate * self.dt, "rate_horizon": rate * self.duration}
+        self._derived["time_scale"] = out
+        return out
+
+    def _start_jacobian(self):
+        """``(f, D)``: the vector field at ``(x0, u0, w0)`` and ``d f / d(x, w)`` there,
+        ``u0`` the input law's known inputs at ``z = 0``."""
+        import jax
+        import jax.numpy as jnp
+
+        s = self.system
+        n, m = s.n, len(s.known)
+        drift, known, unknown = s.drift, tuple(s.known.values()), tuple(s.unknown.values())
+
+        def flow(xw, u):
+            x = xw[:n]
+            dx = drift(x) if drift is not None else jnp.zeros(n, x.dtype)
+            for i, f in enumerate(known):
+                dx = dx + f(x) * u[i]
+            for j, g in enumerate(unknown):
+                dx = dx + g(x) * xw[n + j]
+            return dx
+
+        def values(xw, istate0):
+            _, u, _ = self.inputs(istate0, jnp.zeros(self.n_input_normals))
+            u = jnp.asarray(u, jnp.float64).reshape(m)
+            return flow(xw, u), jax.jacfwd(flow)(xw, u)
+
+        xw = np.concatenate([np.asarray(self.x0, np.float64), np.asarray(self.w0, np.float64)])
+        with jax.enable_x64(True):
+            return jax.jit(values)(xw, np.asarray(self.istate0, np.float64))
+
+    def check_time_scale(self, values=None) -> list[str]:
+        """Warn (:class:`TimeScaleWarning`) when ``dt`` or the horizon is far from
+        :meth:`time_scale` (criteria: module doc); returns the messages (empty: none).
+        ``values``: as in :meth:`time_scale`."""
+        ts = self.time_scale(values)
+        msgs = []
+        what = f"experiment {self.name!r}: dt={self.dt:.4g} s"
+        if math.isfinite(ts["rate"]) and ts["rate"] > 0:
+            tau = ts["time_scale_s"]
+            if ts["rate_dt"] > MAX_RATE_DT:
+                msgs.append(f"{what} is {ts['rate_dt']:.3g} times the dynamics' shortest time "
+                            f"scale {tau:.3g} s at the start (an Euler step moves the state by "
+                            "more than its prior std or outruns the fastest mode): lower dt")
+            if ts["rate_horizon"] < MIN_RATE_HORIZON:
+                msgs.append(f"{what}: the trial ({self.n_steps} steps, {self.duration:.3g} s) "
+                            f"lasts {ts['rate_horizon']:.3g} of the dynamics' time scale "
+                            f"{tau:.3g} s: nothing moves; raise dt or n_steps")
+        if self.n_steps < MIN_STEPS:
+            msgs.append(f"{what} is more than a tenth of the horizon ({self.n_steps} Euler steps "
+                        f"of {self.duration:.3g} s): raise n_steps")
+        for msg in msgs:
+            warnings.warn(msg, TimeScaleWarning, stacklevel=2)
+        return msgs
 
     def state_names(self) -> tuple[str, ...]:
         """Names of the filter state: system states, then ``w``, ``w1``, ... per input."""
@@ -240,3 +506,23 @@ def _positive(value, what, name, real=False):
     if isinstance(value, bool) or not isinstance(value, kind) or not value > 0:
         raise ModelError(f"experiment {name!r}: {what} must be a positive "
                          f"{'number' if real else 'integer'}, got {value!r}")
+
+
+def _memory_available():
+    """Bytes of memory available (``MemAvailable`` of /proc/meminfo, else the physical
+    memory), or ``None`` when unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _gib(nbytes) -> str:
+    return f"{nbytes / 2**30:.3g} GiB"
