@@ -2,16 +2,26 @@
 :mod:`uio_jax._analysis.options`)."""
 
 import jax
+import numpy as np
 
+from .._engine.interpreter import NoTaylorRule
 from .._errors import OptionError
 from .._model.system import System
+from . import series as series_module
 from .context import Context
 from .eorc import eorc_report
+from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
 from .series import check_applicable as series_applicable
 from .series import series_report
 from .single_ui import check_applicable, single_ui_report
+
+#: What the series test raises when the Taylor engines cannot expand a model: ``fast``
+#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError.
+#: (``series.SeriesNotApplicable``, an OptionError, once series.py defines it.)
+SERIES_FAILURES = (NoTaylorRule,) + tuple(
+    c for c in (getattr(series_module, "SeriesNotApplicable", None),) if c is not None)
 
 
 def analyze(
@@ -39,11 +49,15 @@ def analyze(
             coefficients along a generic known input (STRIKE-GOLDD's test, see
             :mod:`uio_jax._analysis.series`): the ORC's final verdict without nested brackets, much
             faster on large models, but per-order dims that are not the ORC's steps.
-            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
+            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``; where the
+            series engine cannot expand the model (a primitive without a Taylor rule, e.g.
+            ``lax.sort``) it runs the ORC instead and says so in a note
+            (``"fast: no Taylor rule for 'sort' -> ORC"``).
             ``Report.method`` records the choice.
         samples: number S of random states of the domain at which every rank is
             evaluated (the certificate). More samples, surer verdict; cost is linear.
-        seed: seed of the sampled states (same seed, same report).
+        seed: seed of the sampled states, an integer in ``[0, 2**64)`` (same seed, same
+            report).
         rtol: relative tolerance on ``s_i / s_1`` after scaling (default
             :func:`uio_jax.default_rtol`, 1e-8).
         max_order: optional cap on the number of steps m of the ORC / single_ui recursion.
@@ -55,7 +69,12 @@ def analyze(
         parameters apart (``params``, ``identifiable``).
 
     Raises:
-        OptionError: unknown method, impossible sample count, a method that does not apply.
+        OptionError: unknown method, an option out of its range (samples < 8, a seed
+            outside ``[0, 2**64)``, rtol not in (0, 1), ...), a method that does not apply
+            (``"series"`` on a model the Taylor engines cannot expand), or a request whose
+            arrays cannot fit in memory: samples x n x n x 8 bytes and more, or, for the
+            EORC, samples x N x N with N = n + k_max m_w (:mod:`uio_jax._analysis.memory`;
+            the limit is ``$UIO_JAX_MEMORY_LIMIT``, default half the physical memory).
         ModelError: a model that fails at the sampled states.
 
     References:
@@ -67,23 +86,56 @@ def analyze(
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
                          max_order=max_order, k_max=k_max)
     samples, seed, rtol = opts["samples"], opts["seed"], opts["rtol"]
+    max_order, k_max = opts["max_order"], opts["k_max"]
+    key_seed = _key_seed(seed)
 
     chosen, why = _choose(system, method)
     system = system.joint()  # parameters -> states with zero derivative
-    if chosen == "eorc":
-        return eorc_report(system, samples=samples, seed=seed, rtol=rtol,
+    if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself
+        return eorc_report(system, samples=samples, seed=key_seed, rtol=rtol,
                            k_max=k_max, notes=[why] if why else [])
+    check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
+                 advice="lower samples")
     with jax.enable_x64(True):
         if chosen == "series":
             series_applicable(system)
         elif chosen == "single_ui":
             check_applicable(system)
-        ctx = Context(system, samples, seed, rtol)
+        ctx = Context(system, samples, key_seed, rtol)
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":
-            return series_report(ctx, seed=seed, why=why, max_order=max_order)
+            try:
+                return series_report(ctx, seed=seed, why=why, max_order=max_order)
+            except SERIES_FAILURES as exc:
+                if method != "fast":
+                    raise _series_error(exc) from None
+                ctx = Context(system, samples, key_seed, rtol)
+                return _orc_report(ctx, f"fast: {_series_reason(exc)} -> ORC", max_order)
         return single_ui_report(ctx, why=why, max_order=max_order)
+
+
+def _key_seed(seed: int):
+    """The seed as ``jax.random.key`` takes it: a Python int below 2**63 (unchanged), else
+    ``np.uint64`` (JAX converts a Python int through int64, which overflows from 2**63; the
+    uint64 key of a smaller seed is the same key)."""
+    return seed if seed < 2**63 else np.uint64(seed)
+
+
+def _series_reason(exc) -> str:
+    """Why the series engine gave up, in a few words: ``no Taylor rule for 'sort'``."""
+    primitive = getattr(exc, "primitive", None)
+    if primitive is not None:
+        return f"no Taylor rule for {primitive!r}"
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
+def _series_error(exc) -> OptionError:
+    """The one-line OptionError of ``method="series"`` on a model it cannot expand."""
+    if isinstance(exc, OptionError):
+        return exc
+    return OptionError(f"method 'series' cannot expand the model: {_series_reason(exc)}; "
+                       "use method='orc' (or 'fast', which falls back to it)")
 
 
 def _choose(system, method):

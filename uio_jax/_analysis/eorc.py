@@ -76,6 +76,7 @@ from .._errors import ModelError
 from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context, SampledSpace
 from .driver import Recursion, StopReason, iterate
+from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report, Step
 
 #: Name of the extended drift field in generator labels.
@@ -315,6 +316,31 @@ class _Eorc(Recursion):
         return states, inputs, n - len(added)
 
 
+def check_eorc_memory(system, samples: int, K: int) -> int:
+    """Refuse an EORC whose arrays on ``Sigma^(K)`` cannot fit, before any is allocated.
+
+    The codistribution lives on ``N = n + K m_w`` coordinates, so its rank basis alone is
+    ``(S, N, N)`` float64 (:func:`uio_jax._analysis.memory.analysis_bytes`): quadratic in
+    ``k_max``. The message says to lower ``k_max`` when the default order ``n + 2`` fits
+    with these samples, else ``samples`` (and ``k_max`` when above the default).
+
+    Returns:
+        The estimated bytes.
+
+    Raises:
+        OptionError: the estimate exceeds :func:`uio_jax._analysis.memory.memory_limit`.
+    """
+    n, mw = system.n, len(system.unknown)
+    N = n + K * mw
+    K0 = default_k_max(system)
+    lower_k = K > K0 and sum(analysis_bytes(samples, n + K0 * mw, n).values()) <= memory_limit()[0]
+    what = (f"the EORC to k_max={K} (samples={samples} x N={N} coordinates: {n} states + "
+            f"{K} x {mw} unknown-input derivatives)")
+    advice = (f"lower k_max (default {K0})" if lower_k
+              else "lower samples and k_max" if K > K0 else "lower samples")
+    return check_memory(samples, N, n, what=what, advice=advice)
+
+
 def run_eorc(system, *, samples, seed, rtol, k_max=None):
     """Run the EORC recursion up to ``k_max`` (default ``n + 2``) by the shared driver.
 
@@ -323,6 +349,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
         ``k = 0..k_reached``, the stop reason's text.
     """
     K = default_k_max(system) if k_max is None else int(k_max)
+    check_eorc_memory(system, samples, K)
     run = _Eorc(system, K, samples, seed, rtol)
     out = iterate(run)
     return run, out.history, out.stop.message, out.m

@@ -16,13 +16,34 @@ DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_ord
 #: Smallest sample count: fewer random states cannot certify a rank.
 MIN_SAMPLES = 8
 
+#: Seeds are integers in ``[0, SEED_BOUND)``: a threefry key holds 64 bits (the Monte Carlo
+#: run of :mod:`uio_jax._filter.montecarlo` takes the same range).
+SEED_BOUND = 2**64
+
+
+def check_seed(seed, what: str = "seed") -> int:
+    """``seed`` as a Python int, checked to be an integer in ``[0, 2**64)``.
+
+    Args:
+        seed: an integer (numpy integers too; not a bool).
+        what: its name in the message.
+
+    Raises:
+        OptionError: not an integer, negative, or ``>= 2**64`` (a key has 64 bits).
+    """
+    if not _is_int(seed) or not 0 <= seed < SEED_BOUND:
+        raise OptionError(f"{what} must be a non-negative integer below 2**64, got {seed!r}")
+    return int(seed)
+
 
 def check_options(**options) -> dict:
     """Check the analysis options and return them normalised.
 
     Args:
         **options: any of ``method``, ``samples``, ``seed``, ``rtol``, ``max_order``,
-            ``k_max`` (those not given take :data:`DEFAULTS`).
+            ``k_max`` (those not given take :data:`DEFAULTS`). The memory a run needs
+            depends on the model and is checked where the analysis knows its size
+            (:func:`~uio_jax._analysis.memory.check_memory`).
 
     Returns:
         dict of all six: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
@@ -31,7 +52,8 @@ def check_options(**options) -> dict:
 
     Raises:
         OptionError: an unknown option name, an unknown method, ``samples`` not an integer
-            >= 8, ``seed`` not a non-negative integer, ``rtol`` outside (0, 1),
+            >= 8, ``seed`` not an integer in ``[0, 2**64)`` (:func:`check_seed`), ``rtol``
+            not a finite number in (0, 1) (NaN refused),
             ``max_order`` not a non-negative integer, ``k_max`` not a positive integer.
     """
     unknown = set(options) - set(DEFAULTS)
@@ -43,19 +65,19 @@ def check_options(**options) -> dict:
         raise OptionError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if not _is_int(samples) or samples < MIN_SAMPLES:
         raise OptionError(f"samples must be an integer >= {MIN_SAMPLES}, got {samples!r}")
-    if not _is_int(seed) or seed < 0:
-        raise OptionError(f"seed must be a non-negative integer, got {seed!r}")
+    seed = check_seed(seed)
     if rtol is None:
         rtol = default_rtol()
-    if not (isinstance(rtol, numbers.Real) and 0 < rtol < 1):
+    if isinstance(rtol, bool) or not (isinstance(rtol, numbers.Real) and 0 < rtol < 1):
         raise OptionError(f"rtol must be a number in (0, 1), got {rtol!r}")
     max_order, k_max = opts["max_order"], opts["k_max"]
     if max_order is not None and (not _is_int(max_order) or max_order < 0):
         raise OptionError(f"max_order must be a non-negative integer, got {max_order!r}")
     if k_max is not None and (not _is_int(k_max) or k_max < 1):
         raise OptionError(f"k_max must be a positive integer, got {k_max!r}")
-    return {"method": method, "samples": int(samples), "seed": int(seed), "rtol": float(rtol),
-            "max_order": max_order, "k_max": k_max}
+    return {"method": method, "samples": int(samples), "seed": seed, "rtol": float(rtol),
+            "max_order": None if max_order is None else int(max_order),
+            "k_max": None if k_max is None else int(k_max)}
 
 
 def _is_int(x) -> bool:

@@ -32,10 +32,16 @@ _SETTINGS = {
 _DIR_KEY = "jax_compilation_cache_dir"
 
 
-def default_cache_dir() -> str:
-    """The default cache directory (not created).
+#: How :func:`default_cache_dir` resolves the directory, in words (the ``--cache-dir`` help).
+DEFAULT_DIR_RULE = ("$UIO_JAX_CACHE_DIR if set, else $XDG_CACHE_HOME/uio_jax/xla if "
+                    "XDG_CACHE_HOME is set, else ~/.cache/uio_jax/xla")
 
-    ``$UIO_JAX_CACHE_DIR`` if set and non-empty, else ``$XDG_CACHE_HOME/uio_jax/xla``, else
+
+def default_cache_dir() -> str:
+    """The default cache directory (not created): :data:`DEFAULT_DIR_RULE`.
+
+    ``$UIO_JAX_CACHE_DIR`` if set and non-empty (``~`` expanded, made absolute), else
+    ``$XDG_CACHE_HOME/uio_jax/xla`` if ``XDG_CACHE_HOME`` is set and non-empty, else
     ``~/.cache/uio_jax/xla``.
     """
     env = os.environ.get("UIO_JAX_CACHE_DIR")

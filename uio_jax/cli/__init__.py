@@ -6,12 +6,16 @@ stderr, never a traceback from inside JAX), 1 when a batch has failures.
 All three use JAX's persistent compilation cache (:func:`uio_jax.enable_compile_cache`;
 ``--cache-dir`` moves it, ``--no-cache`` turns it off) for the duration of the command: a
 second run of the same models, or of the same experiment with as many trials, skips XLA
-compilation.
+compilation. ``--no-cache`` with ``--cache-dir`` is a usage error.
+
+Every option is checked before any work (:func:`uio_jax._analysis.options.check_options`;
+the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is known).
 """
 
 import sys
 
-from .._analysis.options import DEFAULTS, METHODS
+from .._analysis.memory import ENV as MEMORY_ENV
+from .._analysis.options import DEFAULTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
 from . import analyze, batch, montecarlo
@@ -33,12 +37,19 @@ def _analysis_options(p):
     """The options of :func:`uio_jax.analyze`, with its defaults (one place:
     :mod:`uio_jax._analysis.options`)."""
     d = DEFAULTS
-    p.add_argument("--method", default=d["method"], choices=METHODS, help=f"analysis (default {d['method']})")
-    p.add_argument("--samples", type=int, default=d["samples"], help=f"sampled states (default {d['samples']})")
-    p.add_argument("--seed", type=int, default=d["seed"], help=f"seed of the samples (default {d['seed']})")
-    p.add_argument("--rtol", type=float, default=d["rtol"], help=f"rank tolerance (default {default_rtol():g})")
-    p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k)")
-    p.add_argument("--k-max", type=int, default=d["k_max"], help="highest order k of the EORC (default n + 2)")
+    p.add_argument("--method", default=d["method"], choices=METHODS,
+                   help=f"analysis (default {d['method']}; fast falls back to orc where the series "
+                        "engine cannot expand the model)")
+    p.add_argument("--samples", type=int, default=d["samples"],
+                   help=f"sampled states, >= {MIN_SAMPLES} (default {d['samples']}); a run whose arrays "
+                        f"exceed ${MEMORY_ENV} (default half the physical memory) is refused")
+    p.add_argument("--seed", type=int, default=d["seed"],
+                   help=f"seed of the samples, in [0, 2**64) (default {d['seed']})")
+    p.add_argument("--rtol", type=float, default=d["rtol"],
+                   help=f"rank tolerance, in (0, 1) (default {default_rtol():g})")
+    p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k), >= 0")
+    p.add_argument("--k-max", type=int, default=d["k_max"],
+                   help="highest order k of the EORC, >= 1 (default n + 2)")
 
 
 def main(argv=None) -> int:

@@ -22,11 +22,22 @@ class Parser(argparse.ArgumentParser):
 
 
 def add_cache_options(p):
-    """``--no-cache`` and ``--cache-dir`` on the sub-command parser ``p``."""
+    """``--no-cache`` and ``--cache-dir`` on the sub-command parser ``p`` (the default
+    directory's rule in the help is :data:`uio_jax._engine.compile_cache.DEFAULT_DIR_RULE`,
+    the rule :func:`~uio_jax._engine.compile_cache.default_cache_dir` applies)."""
+    from .._engine.compile_cache import DEFAULT_DIR_RULE
+
     p.add_argument("--no-cache", action="store_true",
-                   help="do not use the persistent compilation cache")
+                   help="do not use the persistent compilation cache (not with --cache-dir)")
     p.add_argument("--cache-dir", metavar="DIR",
-                   help="compilation cache directory (default $UIO_JAX_CACHE_DIR or ~/.cache/uio_jax/xla)")
+                   help=f"compilation cache directory (default: {DEFAULT_DIR_RULE})")
+
+
+def check_cache_options(args):
+    """``--no-cache`` with ``--cache-dir DIR`` contradict each other: a usage error."""
+    if getattr(args, "no_cache", False) and getattr(args, "cache_dir", None) is not None:
+        raise UsageError(f"--no-cache and --cache-dir {args.cache_dir} contradict each other; "
+                         "give one of them")
 
 
 @contextlib.contextmanager
@@ -34,10 +45,12 @@ def compile_cache(args):
     """JAX's persistent compilation cache for the command, unless ``--no-cache``.
 
     An unusable default directory only costs the cache (one warning line); an unusable
-    ``--cache-dir`` is an error.
+    ``--cache-dir`` is an error, and so is ``--cache-dir`` with ``--no-cache``
+    (:func:`check_cache_options`).
     """
     from .._engine.compile_cache import compile_cache as use_cache
 
+    check_cache_options(args)
     with contextlib.ExitStack() as stack:
         if not args.no_cache:
             try:
