@@ -162,23 +162,37 @@ def split_general(states, dynamics, outputs, known_inputs, unknown_inputs, param
     unknown_inputs = tuple(v for v in unknown_inputs if v not in dropped)
     inputs = known_inputs + unknown_inputs
 
-    reasons = {}
-    for v in inputs:
-        if v in in_outputs:
-            reasons[v] = "appears in an output"
     nonsmooth = _inputs_in_nonsmooth(dynamics.values(), set(inputs))
-    for v in inputs:
-        if v in nonsmooth and v not in reasons:
-            reasons[v] = "enters through abs/sign/min/max"
-    if any(v not in reasons for v in inputs):
-        pattern = nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angles, seed=seed)
-        for a, v in enumerate(inputs):
-            if pattern[a, a] and v not in reasons:
-                reasons[v] = "enters the dynamics non-affinely (second derivative in it is not 0)"
-        _cover_cross_terms(list(inputs), pattern, reasons, set(unknown_inputs))
+    reasons = promotion_reasons(
+        inputs, unknown_inputs, in_outputs, {v: "enters through abs/sign/min/max" for v in nonsmooth},
+        lambda: nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angles, seed=seed))
     promoted = tuple(v for v in inputs if v in reasons)
     return _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
                      constants, domain, angles, tuple(notes))
+
+
+def promotion_reasons(inputs, unknown_inputs, in_outputs, other, pattern) -> dict:
+    """Input name -> why it is promoted to a state (the rules of the module doc, in order).
+
+    Args:
+        inputs: input names, known then unknown (the order of ``v``).
+        unknown_inputs: the unknown ones (preferred when covering cross terms).
+        in_outputs: inputs that appear in an output.
+        other: input -> reason found before the Hessian test (non-smooth entry).
+        pattern: ``() -> (m, m)`` boolean matrix of :func:`nonaffine_pattern`, called only
+            when some input is left to test.
+    """
+    reasons = {v: "appears in an output" for v in inputs if v in in_outputs}
+    for v in inputs:
+        if v in other and v not in reasons:
+            reasons[v] = other[v]
+    if any(v not in reasons for v in inputs):
+        pat = pattern()
+        for a, v in enumerate(inputs):
+            if pat[a, a] and v not in reasons:
+                reasons[v] = "enters the dynamics non-affinely (second derivative in it is not 0)"
+        _cover_cross_terms(list(inputs), pat, reasons, set(unknown_inputs))
+    return reasons
 
 
 def _inputs_in_nonsmooth(exprs, inputs):
@@ -220,17 +234,10 @@ def nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angle
     Raises:
         ModelError: ``f`` is not finite at any of the samples.
     """
-    from .._model.system import DEFAULT_BOX
-
     pnames = tuple(params)
     names = tuple(states) + pnames + tuple(inputs)
     fns = _rows(dynamics, states, names, constants)
-    boxes = ([_box(s, domain, angles, DEFAULT_BOX) for s in states]
-             + [tuple(map(float, params[q])) for q in pnames]
-             + [_box(v, domain, (), INPUT_BOX) for v in inputs])
-    lo = np.array([b[0] for b in boxes])
-    hi = np.array([b[1] for b in boxes])
-    zs = lo + (hi - lo) * np.random.default_rng(seed).random((samples, len(names)))
+    zs = affine_points(sample_boxes(states, params, inputs, domain, angles), seed, samples)
     k, m = len(states) + len(pnames), len(inputs)
     z = [zs[:, i] for i in range(k)] + [Jet.seed(zs[:, k + a], m, a) for a in range(m)]
     fs, Js, Hs = [], [], []
@@ -241,7 +248,42 @@ def nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angle
             Js.append(g)
             Hs.append(H)
         f, J, H = np.stack(fs, 1), np.stack(Js, 1), np.stack(Hs, 1)  # (S, n), (S, n, m), (S, n, m, m)
-        v = zs[:, k:]
+    return pattern_from_derivatives(f, J, H, zs[:, k:])
+
+
+def affine_points(boxes, seed=0, samples=AFFINE_SAMPLES) -> np.ndarray:
+    """The ``(samples, len(boxes))`` random points of the affinity test, uniform in ``boxes``."""
+    lo = np.array([b[0] for b in boxes], dtype=np.float64).reshape(-1)
+    hi = np.array([b[1] for b in boxes], dtype=np.float64).reshape(-1)
+    return lo + (hi - lo) * np.random.default_rng(seed).random((samples, len(boxes)))
+
+
+def sample_boxes(states, params, inputs, domain, angles) -> list:
+    """Sampling boxes of ``[x; p; v]`` for the affinity test (module doc)."""
+    from .._model.system import DEFAULT_BOX
+
+    return ([_box(s, domain, angles, DEFAULT_BOX) for s in states]
+            + [tuple(map(float, params[q])) for q in params]
+            + [_box(v, domain, (), INPUT_BOX) for v in inputs])
+
+
+def pattern_from_derivatives(f, J, H, v) -> np.ndarray:
+    """The affinity test of the module doc on values at the samples.
+
+    Args:
+        f: ``(S, n)`` right-hand side; J: ``(S, n, m)`` its Jacobian in the inputs;
+        H: ``(S, n, m, m)`` its Hessian in the inputs; v: ``(S, m)`` the inputs.
+
+    Returns:
+        ``(m, m)`` boolean: pair ``(a, b)`` has a non-negligible second-order term at a
+        sample where everything is finite.
+
+    Raises:
+        ModelError: nothing is finite at any sample.
+    """
+    f, J, H, v = (np.asarray(a, dtype=np.float64) for a in (f, J, H, v))
+    samples = f.shape[0]
+    with np.errstate(all="ignore"):
         finite = np.isfinite(f).all(axis=1) & np.isfinite(J).all(axis=(1, 2)) & np.isfinite(H).all(axis=(1, 2, 3))
         if not finite.any():
             raise ModelError(
@@ -340,25 +382,41 @@ def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted,
     out_fns = {k: to_function(e, znames, constants) for k, e in outputs.items()}
     new_domain = {k: tuple(b) for k, b in domain.items() if k in states}
     notes = list(notes)
-    for j, v in enumerate(promoted):
-        d = _fresh(f"d_{v}", taken)
+    for j, (v, d, y, note) in enumerate(promotions(promoted, reasons, known_inputs, outputs, taken)):
         new_domain[v] = _box(v, domain, (), INPUT_BOX)
+        notes.append(note)
         if v in known_inputs:
             known[d] = unit(n0 + j)
-            y = _fresh(v if v not in outputs else f"y_{v}", taken - {v})
             out_fns[y] = _reader(n0 + j)
-            notes.append(f"known input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
-                         f"({d!r} a new known input) and output {y!r} (a known input is measured)")
         else:
             unknown[d] = unit(n0 + j)
-            notes.append(f"unknown input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
-                         f"({d!r} a new unknown input; exact for a smooth {v})")
     boxes = [new_domain.get(s) or _box(s, domain, angles, DEFAULT_BOX) for s in new_states]
     boxes += [tuple(map(float, params[q])) for q in pnames]
     has_drift = bool(dynamics) and not _vanishes(drift, boxes)
     return Parts(states=new_states, outputs=out_fns, known=known, unknown=unknown,
                  drift=drift if has_drift else None, domain=new_domain, angles=tuple(angles),
                  notes=tuple(notes), promoted=promoted)
+
+
+def promotions(promoted, reasons, known_inputs, outputs, taken):
+    """For each promoted input ``v``: ``(v, d, y, note)``, with ``d`` the new input ``v' = d``,
+    ``y`` the new output of a known ``v`` (None for an unknown one) and the System's note.
+
+    ``taken`` (a set of every name in use) receives the new names.
+    """
+    out = []
+    for v in promoted:
+        d = _fresh(f"d_{v}", taken)
+        if v in known_inputs:
+            y = _fresh(v if v not in outputs else f"y_{v}", taken - {v})
+            note = (f"known input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
+                    f"({d!r} a new known input) and output {y!r} (a known input is measured)")
+        else:
+            y = None
+            note = (f"unknown input {v!r} {reasons[v]}: promoted to a state {v!r} with {v}' = {d} "
+                    f"({d!r} a new unknown input; exact for a smooth {v})")
+        out.append((v, d, y, note))
+    return out
 
 
 def _reader(i):
