@@ -21,12 +21,6 @@ def add_parser(subparsers, analysis_options):
     return a
 
 
-def _state_for_directions(report, system):
-    """A representative state: the centre of the sampling box."""
-    lo, hi = system.box()
-    return 0.5 * (lo + hi)
-
-
 def run(args) -> int:
     """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
     from .._analysis.analyze import analyze
@@ -44,17 +38,11 @@ def run(args) -> int:
         rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                       rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
     print(rep)
-    if rep.dim < rep.n:
-        x = _state_for_directions(rep, system)
+    if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
         try:
-            dirs = rep.unobservable_directions(x)
-        except UioJaxError:
-            dirs = None
-        if dirs is not None:
-            print("unobservable directions at the centre of the domain "
-                  f"({', '.join(f'{s}={v:.3g}' for s, v in zip(rep.states, x))}):")
-            for j in range(dirs.shape[1]):
-                print("  [" + ", ".join(f"{v:+.3f}" for v in dirs[:, j]) + "]")
+            print(rep.format_directions())
+        except UioJaxError as exc:
+            print(f"unobservable directions: not computed at the centre of the domain ({exc})")
     if args.json:
         d = rep.to_dict()
         with open(args.json, "w") as fh:
