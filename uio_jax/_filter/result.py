@@ -232,50 +232,108 @@ class MonteCarloResult:
             "notes": self.experiment.notes,
         }
 
+    def headline(self, comparison=None) -> list[str]:
+        """The verdict first: one line ``verdict: ...``, then the lines that explain it.
+
+        From :meth:`verdict` and, when given, :meth:`compare`'s ``comparison``:
+
+        * no comparison: which rows converge, which do not, which are unclear;
+        * every row agrees (or is undecided): "Monte Carlo agrees with the analysis";
+        * a named quantity disagrees, or an observable state does not converge: "Monte
+          Carlo and the analysis disagree on ..." (a contradiction to look into);
+        * only unobservable states look converging while every named quantity agrees:
+          "consistent with the analysis on the named quantities", and the next line says
+          why those state rows mislead (an unobservable direction moves several states
+          together: each one's error drops to the prior spread along it; see
+          :meth:`compare`). Without a named quantity this stays a disagreement.
+
+        The last line lists the rows that converge, do not and are unclear.
+        """
+        v = self.verdict()
+        rows = {**v["states"], **v["quantities"]}
+        groups = {c: [k for k, r in rows.items() if r["converges"] is c] for c in (True, False, None)}
+        facts = "; ".join(f"{word} {', '.join(groups[c])}" for c, word in
+                          ((True, "converges on"), (False, "does not converge on"),
+                           (None, "unclear on")) if groups[c])
+        facts = f"  the filter {facts}" if facts else "  nothing to judge"
+        if comparison is None:
+            return ["verdict: Monte Carlo only (no analysis compared)", facts]
+        source = (f"the analysis ({comparison['analysis']})" if comparison["analysis"]
+                  else "the experiment's labels")
+
+        def word(r):
+            obs = {True: "observable", False: "unobservable", None: "?"}[r["observable"]]
+            conv = {True: "converges", False: "does not converge", None: "unclear"}[r["converges"]]
+            return f"{obs}, {conv}"
+
+        rows_s, rows_q = comparison["states"], comparison["quantities"]
+        bad_q = [k for k, r in rows_q.items() if r["agree"] is False]
+        bad_obs = [k for k, r in rows_s.items() if r["agree"] is False and r["observable"]]
+        bad_unobs = [k for k, r in rows_s.items() if r["agree"] is False and not r["observable"]]
+        undecided = [k for k, r in {**rows_s, **rows_q}.items() if r["agree"] is None]
+        lines = []
+        if bad_q or bad_obs or (bad_unobs and not rows_q):
+            names = bad_q + bad_obs + bad_unobs
+            lines.append(f"verdict: Monte Carlo and {source} disagree on "
+                         + ", ".join(f"{k} ({word({**rows_s, **rows_q}[k])})" for k in names))
+            if bad_unobs and not rows_q:
+                lines.append(f"  {', '.join(bad_unobs)}: a state moved together with others by "
+                             "an unobservable direction can look converging (its error drops to "
+                             "the prior spread along it); no named quantity to check it along")
+        elif bad_unobs:
+            agree_q = [k for k, r in rows_q.items() if r["agree"] is True]
+            lines.append(f"verdict: consistent with {source} on the named quantities"
+                         + (": " + ", ".join(f"{k} ({word(rows_q[k])})" for k in agree_q)
+                            if agree_q else ""))
+            lines.append(f"  {', '.join(bad_unobs)} look converging though unobservable: an "
+                         "unobservable direction moves them together, so each one's error "
+                         "drops only to the prior spread along it; the named quantities decide")
+        else:
+            lines.append(f"verdict: Monte Carlo agrees with {source}"
+                         + (" where both decide" if undecided else ""))
+        if undecided:
+            lines.append(f"  undecided: {', '.join(undecided)}")
+        lines.append(facts)
+        return lines
+
+    def table(self, comparison=None) -> list[str]:
+        """Per state and named quantity: unit, prior std, RMSE and filter sigma at the end
+        (in the display unit: angles in degrees), their ratios to the prior, the verdict
+        and, with a comparison, the analysis' verdict; fixed-width columns (see
+        :func:`format_table`)."""
+        v = self.verdict()
+        header = ["", "unit", "prior std", "RMSE end", "ratio", "sigma end", "s.ratio", "converges"]
+        if comparison is not None:
+            header.append("analysis")
+        rows = []
+        for kind in ("states", "quantities"):
+            for nm, r in v[kind].items():
+                unit, scale = self.experiment.display_unit(nm)
+                row = [nm, unit, _num(r["prior"] * scale), _num(r["rmse_end"] * scale),
+                       _num(r["ratio"], ".3g"), _num(r["sigma_end"] * scale),
+                       _num(r["sigma_ratio"], ".3g"),
+                       {True: "yes", False: "no", None: "unclear"}[r["converges"]]]
+                if comparison is not None:
+                    o = comparison[kind].get(nm, {}).get("observable")
+                    row.append({True: "observable", False: "unobservable", None: "-"}[o])
+                rows.append(row)
+        align = "ll" + "r" * 5 + "ll"
+        return format_table(header, rows, align[:len(header)])
+
     def summary(self, comparison=None) -> str:
-        """A readable table: per state and quantity, RMSE and sigma start -> end, verdict."""
+        """The readable summary: title, the verdict first (:meth:`headline`), the table
+        (:meth:`table`), NEES and divergent trials, timings."""
         v = self.verdict()
         lines = [f"Monte Carlo {self.experiment.name}: {self.trials} trials, seed {self.seed}, "
                  f"{v['duration_s']:.4g} s"]
-        hdr = (f"  {'':<14}{'prior std':>12}{'RMSE end':>12}{'ratio':>7}"
-               f"{'sigma end':>12}{'s.ratio':>8}  converges")
-        if comparison is not None:
-            hdr += "  analysis"
-        lines.append(hdr)
-        for kind in ("states", "quantities"):
-            for nm, r in v[kind].items():
-                scale, unit = (180 / math.pi, "deg") if r["angle"] else (1.0, "")
-                conv = {True: "yes", False: "no", None: "unclear"}[r["converges"]]
-                line = (f"  {nm:<14}{r['prior'] * scale:>12.4g}{r['rmse_end'] * scale:>12.4g}"
-                        f"{r['ratio']:>7.2f}{r['sigma_end'] * scale:>12.4g}"
-                        f"{r['sigma_ratio']:>8.2f}  {conv:<9} {unit}")
-                if comparison is not None and nm in comparison[kind]:
-                    o = comparison[kind][nm]["observable"]
-                    line += "  " + {True: "observable", False: "unobservable",
-                                    None: "-"}[o]
-                lines.append(line.rstrip())
+        lines += self.headline(comparison)
+        lines += self.table(comparison)
         n = v["nees"]
         lines.append(f"  NEES at end ({n['dof']} dof, expected {n['dof']}): mean "
-                     f"{n['mean_end']:.3g}, median {n['median_end']:.3g}; divergent trials "
-                     f"{100 * v['divergent_fraction']:.2f}%")
-        if comparison is not None:
-            if comparison["note"]:
-                lines.append(f"  {comparison['note']}")
-            else:
-                parts = []
-                for kind in ("states", "quantities"):
-                    rows = comparison[kind]
-                    bad = [k for k, r in rows.items() if r["agree"] is False]
-                    und = [k for k, r in rows.items() if r["agree"] is None]
-                    word = (f"disagree on {', '.join(bad)}" if bad else "agree") + (
-                        f" (undecided: {', '.join(und)})" if und else "")
-                    parts.append(f"{kind} {word}")
-                lines.append(f"  Monte Carlo vs analysis ({comparison['analysis']}): "
-                             + "; ".join(parts))
-                if any(r["agree"] is False for r in comparison["states"].values()):
-                    lines.append("  (a state moved by an unobservable direction together with "
-                                 "others can look converging: its error drops to the prior "
-                                 "spread along that direction; trust the named quantities)")
+                     f"{_num(n['mean_end'], '.3g')}, median {_num(n['median_end'], '.3g')}; "
+                     f"divergent trials {100 * v['divergent_fraction']:.2f}%")
+        if comparison is not None and comparison["note"]:
+            lines.append(f"  {comparison['note']}")
         tm = self.timings
         if tm:
             lines.append(f"  {tm['trial_steps_per_s'] / 1e6:.2f} M trial-steps/s on "
@@ -286,6 +344,46 @@ class MonteCarloResult:
 
     def __str__(self) -> str:
         return self.summary()
+
+
+def _num(v, spec=".4g") -> str:
+    """A number in a table cell: ``format(v, spec)`` (``.4g``: ``1.469e+06``, ``2.1e-30``,
+    ``0.05``), ``nan`` / ``inf`` / ``-inf`` when not finite."""
+    v = float(v)
+    if math.isnan(v):
+        return "nan"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return format(v, spec)
+
+
+def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:
+    """Lines of a table with fixed-width columns, whatever the cells hold.
+
+    Args:
+        header: one string per column.
+        rows: sequences of cell strings, as many as ``header``.
+        align: one letter per column, ``"l"`` (left) or ``"r"`` (right).
+        indent: prefix of every line. gap: spaces between columns (at least 1).
+
+    Returns:
+        the header line, then one line per row; each column as wide as its longest cell
+        (header included), columns ``gap`` spaces apart, trailing spaces stripped.
+
+    Raises:
+        OptionError: a row with another number of cells, an ``align`` letter not l / r.
+    """
+    k = len(header)
+    if len(align) != k or set(align) - set("lr"):
+        raise OptionError(f"align needs one of 'l', 'r' per column ({k}), got {align!r}")
+    cells = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    for r in cells:
+        if len(r) != k:
+            raise OptionError(f"a table row has {len(r)} cells, the header {k}")
+    widths = [max(len(r[j]) for r in cells) for j in range(k)]
+    sep = " " * max(int(gap), 1)
+    return [(indent + sep.join(c.ljust(w) if a == "l" else c.rjust(w)
+                               for c, w, a in zip(r, widths, align))).rstrip() for r in cells]
 
 
 def _row(obs, conv):

@@ -1,10 +1,18 @@
 """``uio-jax montecarlo MODEL:EXPERIMENT --trials N --seed S [--plot FILE] [--json FILE]``."""
 
+import contextlib
 import json
 import os
+import sys
+import warnings
 
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
+from .._model.experiment import TimeScaleWarning
+from .common import UsageError, check_writable
+
+#: Figures are saved at this resolution (raster formats; vector formats ignore it).
+FIGURE_DPI = 150
 
 
 def add_parser(subparsers):
@@ -42,20 +50,67 @@ def split_host_devices():
     return n
 
 
-def run(args) -> int:
-    """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
+def check_options(args):
+    """Every option and output path checked before any work (one-line errors).
+
+    ``--trials >= 1``, ``--seed`` in ``[0, 2**64)``, ``--keep >= 0``; ``--plot``: a suffix
+    matplotlib writes; ``--json`` / ``--plot``: an existing, writable directory, not a
+    directory themselves, not the same file.
+    """
     if args.trials <= 0:
         raise OptionError(f"--trials must be a positive integer, got {args.trials}")
-    if args.seed < 0:
-        raise OptionError(f"--seed must be a non-negative integer, got {args.seed}")
+    if not 0 <= args.seed < 2**64:
+        raise OptionError(f"--seed must be an integer in [0, 2**64), got {args.seed}")
     if args.keep < 0:
         raise OptionError(f"--keep must be a non-negative integer, got {args.keep}")
+    if args.plot:
+        from .._analysis.plots import check_figure_path
+
+        check_figure_path(args.plot)
+    check_writable(args.json, args.plot)
+    for opt, path in (("--json", args.json), ("--plot", args.plot)):
+        if path and os.path.isdir(path):
+            raise UsageError(f"cannot write {opt} {path}: it is a directory")
+        parent = os.path.dirname(os.path.abspath(path)) if path else None
+        if path and not os.access(parent, os.W_OK):
+            raise UsageError(f"cannot write {opt} {path}: directory {parent} is not writable")
+    if args.json and args.plot and os.path.abspath(args.json) == os.path.abspath(args.plot):
+        raise UsageError(f"--json and --plot name the same file {args.json}")
+
+
+@contextlib.contextmanager
+def warnings_on_stderr(categories=(TimeScaleWarning,)):
+    """Show warnings of ``categories`` as one line ``uio-jax: warning: ...`` on stderr,
+    as they happen (each message once); other warnings as Python shows them."""
+    shown = set()
+    with warnings.catch_warnings():
+        previous = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, categories):
+                text = " ".join(str(message).split())
+                if text not in shown:
+                    shown.add(text)
+                    print(f"uio-jax: warning: {text}", file=sys.stderr)
+            else:
+                previous(message, category, filename, lineno, file, line)
+
+        for c in categories:
+            warnings.simplefilter("always", c)
+        warnings.showwarning = show
+        yield
+
+
+def run(args) -> int:
+    """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
+    check_options(args)
     split_host_devices()
     from .._filter.montecarlo import run_montecarlo
 
-    exp = load_experiment(args.experiment)
-    res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep, filter=args.filter,
-                         progress=False if args.no_progress else None)
+    with warnings_on_stderr():
+        exp = load_experiment(args.experiment)
+        res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep, filter=args.filter,
+                             progress=False if args.no_progress else None)
     comparison = None
     if not args.no_analysis:
         from .._analysis.analyze import analyze
@@ -73,7 +128,7 @@ def run(args) -> int:
         from .._filter.plots import plot_montecarlo
 
         fig, _ = plot_montecarlo(res)
-        fig.savefig(args.plot, dpi=80)
+        fig.savefig(args.plot, dpi=FIGURE_DPI)
         import matplotlib.pyplot as plt
 
         plt.close(fig)
