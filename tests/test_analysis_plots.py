@@ -50,6 +50,26 @@ def test_panels_of_a_fake_report(tmp_path):
     assert "13.5 decades" in right.get_title()  # log10(0.3 / 1e-14)
 
 
+@pytest.mark.parametrize("kw", [{}, dict(method="eorc", with_sv=False, aug=(1, 3, 4)),
+                                dict(sv=np.zeros((8, 0)))])
+def test_every_panel_has_axis_labels(kw):
+    fig = uj.plot_analysis(_fake_report(**kw))
+    left, right = fig.axes[:2]
+    assert left.get_ylabel() == "dimension (independent covectors)"
+    assert left.get_xlabel() in ("step m", "order k")
+    assert "s_i" in right.get_ylabel() and "log scale" in right.get_ylabel()
+    assert right.get_xlabel().startswith("index i of the singular value")
+
+
+def test_n_line_says_what_n_counts():
+    rep = _fake_report()
+    fig = uj.plot_analysis(rep)
+    assert "n = 3 (states)" in [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    rep.params = ("a",)
+    fig = uj.plot_analysis(rep)
+    assert "n = 3 (states + parameters)" in [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+
+
 def test_eorc_augmented_rank_and_missing_evidence():
     fig = uj.plot_analysis(_fake_report("eorc", with_sv=False, aug=(1, 3, 4)))
     left, right = fig.axes[:2]

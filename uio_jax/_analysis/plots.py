@@ -15,9 +15,10 @@ _BANDS = ((0.0, 100.0, 0.15), (5.0, 95.0, 0.3), (25.0, 75.0, 0.5))
 def plot_analysis(report, path=None, ax=None):
     """Plot a :class:`~uio_jax.Report`: dimension per step and the evidence of the rank.
 
-    Left: the dimension of the observable codistribution at each step m (each order k for
-    the EORC, where the rank of the augmented codistribution is drawn too), with the state
-    dimension n as a dashed line. Right: at every used sample, the singular values
+    Left: the dimension of the observable codistribution (a count of independent
+    covectors) at each step m (each order k for the EORC and the series, where the rank of
+    the augmented codistribution is drawn too), with n (states plus parameters) as a
+    dashed line. Right: at every used sample, the singular values
     ``s_i / s_1`` of the final generator matrix (gradients of the kept generators, columns
     scaled by the sampling box, rows normalized), shown per index i as percentile bands over
     the samples (min-max, 5-95 %, 25-75 %, median) on a log scale, with the rank tolerance
@@ -93,22 +94,24 @@ def _plot_dims(report, ax):
     if steps and all(a is not None for a in aug):
         ax.plot(steps, aug, "s:", color="C2", ms=4, label="augmented rank (EORC)")
         top = max(top, *aug)
-    ax.axhline(report.n, ls="--", color="0.4", label=f"n = {report.n}")
+    of = " (states + parameters)" if getattr(report, "params", ()) else " (states)"
+    ax.axhline(report.n, ls="--", color="0.4", label=f"n = {report.n}{of}")
     ax.set_xlabel(label)
-    ax.set_ylabel("dimension")
+    ax.set_ylabel("dimension (independent covectors)")
     ax.set_ylim(-0.2, top + 0.8)
     if steps:
         ax.set_xticks(steps)
     ax.yaxis.get_major_locator().set_params(integer=True)
     ax.set_title(f"codistribution per {label.split()[1]}", fontsize=10)
-    ax.legend(loc="lower right", fontsize=8)
+    ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
 
 
 def _plot_singular_values(report, ax):
     cert = report.certificate
     ax.set_title("rank evidence: s_i / s_1 per sample", fontsize=10)
-    ax.set_xlabel("index i")
+    ax.set_xlabel("index i of the singular value (1 = largest)")
+    ax.set_ylabel(r"$s_i\,/\,s_1$ (singular value ratio, log scale)")
     ax.set_yscale("log")
     try:
         sv = np.asarray(report.sample_singular_values(), dtype=float)
