@@ -2,7 +2,9 @@
 
 As in the figures of 003 (trajectories: truth, dead reckoning, EKF) and 002 (error per
 quantity against time): error bands over trials with the filter's +-sigma, and a NEES band.
-Nothing is shown; save with ``fig.savefig(path)``.
+Nothing is shown; save with ``fig.savefig(path)`` (the command line uses 150 dpi). Every
+axis names its quantity and unit: the experiment's units (:meth:`~uio_jax.Experiment.unit`;
+angles in degrees), ``(unit not given)`` where the experiment has none.
 """
 
 import math
@@ -10,6 +12,12 @@ import math
 import numpy as np
 
 _DEG = 180.0 / math.pi
+
+
+def _unit_label(exp, name) -> tuple[str, float]:
+    """``(" (unit)", scale)`` of a state or quantity for axis labels."""
+    unit, scale = exp.display_unit(name)
+    return (f" ({unit})" if unit else " (unit not given)"), scale
 
 
 def _axes(ax, nrows=1, ncols=1, size=(5.0, 4.0)):
@@ -48,8 +56,16 @@ def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
             color="tab:red", markevery=4, label="dead reckoning")
     ax.plot(tr["x_hat"][trial, :, i], tr["x_hat"][trial, :, j], "*", ms=3, color="k",
             markevery=4, label="EKF")
-    ax.set_xlabel(f"{names[i]} (m)")
-    ax.set_ylabel(f"{names[j]} (m)")
+    exp = result.experiment
+    (ui, si), (uj, sj) = _unit_label(exp, names[i]), _unit_label(exp, names[j])
+    if si != 1.0 or sj != 1.0:  # an angle: redraw in degrees
+        for line in ax.get_lines()[-3:]:
+            line.set_data(np.asarray(line.get_xdata()) * si, np.asarray(line.get_ydata()) * sj)
+        ax.relim()
+        ax.autoscale_view()
+    ax.set_xlabel(f"{names[i]}{ui}", fontsize=8)
+    ax.set_ylabel(f"{names[j]}{uj}", fontsize=8)
+    ax.tick_params(labelsize=7)
     ax.set_title(result.experiment.name.split(":")[-1], fontsize=9)
     ax.legend(fontsize=7)
     return fig, ax
@@ -112,13 +128,15 @@ def plot_errors(result, names=None, *, axes=None, ncols=3):
             ang = ang_q[k]
         else:
             raise OptionError(f"no state or quantity named {nm!r}")
-        scale = _DEG if ang else 1.0
+        unit, scale = _unit_label(exp, nm)
+        if ang and scale == 1.0:
+            scale, unit = _DEG, " (deg)"
         _band(a, result.t, err, sig, scale, "tab:blue")
-        a.set_title(f"{nm} error" + (" (deg)" if ang else ""), fontsize=9)
+        a.set_title(f"{nm} error{unit}", fontsize=9)
+        a.set_ylabel(f"error{unit}", fontsize=8)
+        a.set_xlabel("t (s)", fontsize=8)
         a.tick_params(labelsize=7)
     axes[0].legend(fontsize=6, loc="upper right")
-    for a in axes[-ncols:]:
-        a.set_xlabel("t (s)", fontsize=8)
     fig.tight_layout()
     return fig, axes
 
@@ -139,6 +157,8 @@ def plot_nees(result, *, ax=None):
                label=f"expected ({result.nees_dof()} dof)")
     ax.set_yscale("log")
     ax.set_xlabel("t (s)", fontsize=8)
+    ax.set_ylabel("NEES (dimensionless)", fontsize=8)
+    ax.tick_params(labelsize=7)
     ax.set_title("NEES", fontsize=9)
     ax.legend(fontsize=6)
     return fig, ax

@@ -303,10 +303,7 @@ class Experiment:
         for w in self.system.unknown:
             for k in range(self.order):
                 if name == (w if k == 0 else f"{w}{k}"):
-                    base = self.units.get(w, "")
-                    if not base or k == 0:
-                        return base
-                    return f"{base}/s" if k == 1 else f"{base}/s^{k}"
+                    return _per_second(self.units.get(w, ""), k)
         raise OptionError(f"experiment {self.name!r} has no state or quantity named {name!r}")
 
     def display_unit(self, name: str) -> tuple[str, float]:
@@ -506,6 +503,19 @@ def _positive(value, what, name, real=False):
     if isinstance(value, bool) or not isinstance(value, kind) or not value > 0:
         raise ModelError(f"experiment {name!r}: {what} must be a positive "
                          f"{'number' if real else 'integer'}, got {value!r}")
+
+
+def _per_second(unit: str, k: int) -> str:
+    """``unit`` divided by ``s^k``: ``("m/s", 1) -> "m/s^2"``, ``("m", 2) -> "m/s^2"``;
+    ``""`` stays ``""`` (no unit given)."""
+    if not unit or k == 0:
+        return unit
+    import re
+
+    m = re.fullmatch(r"(.*)/s(?:\^(\d+))?", unit)
+    base, power = (m.group(1), int(m.group(2) or 1)) if m else (unit, 0)
+    power += k
+    return f"{base}/s" if power == 1 else f"{base}/s^{power}"
 
 
 def _memory_available():
