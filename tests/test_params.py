@@ -119,6 +119,9 @@ def test_sample_singular_values_show_the_gap():
     np.testing.assert_allclose(sv[:, 0], 1.0)
     at_rank = (sv[:, -1] > rep.certificate.rtol).mean()
     assert at_rank == pytest.approx(rep.certificate.fraction)
+    out = rep.to_dict()  # fully identifiable: the direction keys are there, empty
+    assert out["unobservable_directions"] == [] and out["identifiable_combinations"] == []
+    assert out["directions_at"]["point"] == {"x1": 1.0, "x2": 1.0, "k1": 1.0, "k2": 1.0, "k3": 1.0, "b": 1.0}
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -145,3 +148,91 @@ def test_monte_carlo_refuses_params_clearly():
     with pytest.raises(uj.ModelError, match="does not take a System with params"):
         Experiment(name="e", system=sum_only(), dt=0.1, n_steps=10, x0=(1.0,), inputs=None,
                    istate0=(), n_input_normals=0, known_std=None, measurements=())
+
+
+@pytest.fixture(scope="module")
+def sum_rep():
+    return uj.analyze(sum_only(), samples=64)
+
+
+def test_is_observable_takes_fn_of_x_and_p(sum_rep):
+    assert sum_rep.is_observable(lambda x, p: p[0] + p[1])
+    assert sum_rep.is_observable(lambda x, p: x[0] * (p[0] + p[1]) ** 2)
+    assert not sum_rep.is_observable(lambda x, p: p[0])
+    assert sum_rep.is_observable(lambda z: z[1] + z[2])  # fn(z), z = [x; p], still works
+
+    def scaled(z, scale=2.0):  # one required argument: a function of z
+        return scale * z[0]
+
+    assert sum_rep.is_observable(scaled)
+
+
+@pytest.mark.parametrize("fn, message", [
+    (lambda x, p, q: p[0], r"fn\(z\) with z = \[x; p\] \(3,\) or fn\(x, p\) with x \(1,\), p \(2,\).*3 required"),
+    (lambda: 1.0, "0 required positional arguments"),
+    (lambda x, p: x @ p, r"fn\(x, p\) with x \(1,\), p \(2,\) fails \(TypeError: .*\); expected fn\(z\)"),
+    (lambda x, p: p[5], "indexes outside its arguments"),
+    (lambda x, p: p, r"must return a scalar \(\), got shape \(2,\)"),
+])
+def test_is_observable_bad_functions_are_one_line(sum_rep, fn, message):
+    with pytest.raises(uj.ModelError, match=message) as err:
+        sum_rep.is_observable(fn)
+    assert "\n" not in str(err.value) and not str(err.value).endswith(": TypeError")
+
+
+def test_fn_of_x_and_p_needs_parameters():
+    from conftest import zoo
+
+    rep = uj.analyze(uj.load_system(zoo("unicycle_polar.py:range_known")), samples=64)
+    with pytest.raises(uj.ModelError, match=r"fn\(z\) with z \(3,\) \(this model has no parameters\)"):
+        rep.is_observable(lambda x, p: x[0])
+    with pytest.raises(uj.ModelError, match="this model has no parameters"):
+        rep.unobservable_directions(np.ones(3), np.ones(1))
+
+
+def test_directions_labelled_with_the_identifiable_sum(sum_rep):
+    np.testing.assert_allclose(sum_rep.domain_centre(), [1.0, 1.0, 1.0])
+    summary = sum_rep.direction_summary()
+    assert summary["point"] == {"x": 1.0, "a": 1.0, "b": 1.0}
+    (d,) = summary["directions"]
+    assert list(d) == ["x", "a", "b"] and d["x"] == 0.0
+    np.testing.assert_allclose([d["a"], d["b"]], np.array([1.0, -1.0]) / np.sqrt(2), atol=1e-10)
+    (c,) = summary["identifiable_combinations"]
+    assert set(c) == {"a", "b"}
+    np.testing.assert_allclose([c["a"], c["b"]], [1.0, 1.0], atol=1e-9)
+    text = sum_rep.format_directions(summary)
+    assert "+0.707 a  -0.707 b" in text and "da + db" in text
+    # (x, p) and z give the same basis
+    np.testing.assert_allclose(np.abs(sum_rep.unobservable_directions([1.0], [0.7, 1.2])),
+                               np.abs(sum_rep.unobservable_directions([1.0, 0.7, 1.2])), atol=1e-12)
+    out = sum_rep.to_dict()
+    assert out["unobservable_directions"] == [d]
+    assert out["identifiable_combinations"] == [c]
+    assert out["directions_at"] == {"rule": "centre of the sampling box of every state and parameter",
+                                    "point": {"x": 1.0, "a": 1.0, "b": 1.0}}
+
+
+def test_weighted_combination_and_a_state_parameter_symmetry():
+    weighted = uj.System(states=("x",), outputs={"y": lambda x, p: x[0]},
+                         drift=lambda x, p: jnp.stack([-(p[0] + 2.0 * p[1]) * x[0]]),
+                         params={"a": (0.5, 1.5), "b": (0.5, 2.5)})
+    rep = uj.analyze(weighted, samples=64)
+    s = rep.direction_summary()
+    assert s["point"] == {"x": 1.0, "a": 1.0, "b": 1.5}
+    (d,) = s["directions"]
+    np.testing.assert_allclose([d["x"], d["a"], d["b"]], np.array([0.0, 2.0, -1.0]) / np.sqrt(5), atol=1e-10)
+    (c,) = s["identifiable_combinations"]
+    np.testing.assert_allclose([c["a"], c["b"]], [0.5, 1.0], atol=1e-9)  # d(a + 2 b) / 2
+    assert "0.5 da + db" in rep.format_directions(s)
+    # y = a x, x' = 0: (x, a) -> (s x, a / s) is hidden, direction (x, -a) at the point
+    scale = uj.System(states=("x",), outputs={"y": lambda x, p: p[0] * x[0]},
+                      drift=lambda x, p: 0.0 * x, params={"a": (1.0, 3.0)})
+    rep = uj.analyze(scale, samples=64)
+    assert rep.dim == 1 and rep.n == 2
+    s = rep.direction_summary()
+    (d,) = s["directions"]
+    np.testing.assert_allclose([d["x"], d["a"]], np.array([-1.0, 2.0]) / np.sqrt(5), atol=1e-10)
+    assert s["identifiable_combinations"] == []  # one hidden parameter: no combination
+    s = rep.direction_summary([0.5], [3.0])
+    np.testing.assert_allclose(np.abs([s["directions"][0]["x"], s["directions"][0]["a"]]),
+                               np.array([0.5, 3.0]) / np.hypot(0.5, 3.0), atol=1e-10)

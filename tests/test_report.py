@@ -89,3 +89,35 @@ def test_max_order_caps_the_recursion():
     rep = uj.analyze(zoo_system("vehicle_wind", "no_wind"), samples=64, max_order=0)
     assert rep.dims == (3,)
     assert "max_order" in rep.stop_reason
+
+
+def test_the_first_lines_say_which_question_is_answered():
+    import dataclasses
+
+    rep = zoo_report("unicycle_polar", "range_known")
+    lines = str(rep).splitlines()
+    assert lines[2].startswith("answer: exact (observability rank condition")
+    eorc = dataclasses.replace(rep, method="eorc")
+    assert str(eorc).splitlines()[2].startswith("answer: sufficient only (EORC)")
+    capped = dataclasses.replace(rep, stop_reason="max_order=1 reached before convergence")
+    assert "sufficient only (the recursion was capped" in capped.answer_kind()
+    single = dataclasses.replace(rep, method="single_ui")
+    assert single.answer_kind().startswith("exact (Martinelli")
+
+
+def test_directions_at_a_regular_point_and_json_without_parameters():
+    rep = zoo_report("unicycle_polar", "range_known")
+    np.testing.assert_allclose(rep.domain_centre(), [1.25, 0.0, 0.0])
+    # phi = theta = 0 is a singular point of this codistribution: the centre is refused ...
+    with pytest.raises(uj.ModelError, match=r"drops rank at \(r=1.25, phi=0, theta=0\)"):
+        rep.direction_summary(rep.domain_centre())
+    # ... and the report's representative point moves off it, saying so
+    z, rule = rep.representative_point()
+    assert "off the centre" in rule and np.all(np.isfinite(z))
+    (d,) = rep.direction_summary()["directions"]
+    np.testing.assert_allclose([d["r"], d["phi"], d["theta"]], np.array([0.0, 1.0, 1.0]) / np.sqrt(2),
+                               atol=1e-9)  # the rotation about the origin
+    text = rep.format_directions()
+    assert "the rank drops there" in text and "+0.707 phi  +0.707 theta" in text
+    # without parameters the JSON keeps its keys (the zoo snapshot compares them)
+    assert not {"unobservable_directions", "directions_at", "identifiable_combinations"} & set(rep.to_dict())

@@ -408,6 +408,12 @@ class Report:
             has = "no parameters" if not npar else f"{npar} parameters"
             raise ModelError(f"{what} needs {forms} (this model has {has}); got a function "
                              f"of {nargs} required positional arguments")
+        try:  # JAX clamps an index past the end (p[5] of 2): plain numpy raises instead
+            of_z(np.full(self.n, 0.75))
+        except IndexError as exc:
+            raise ModelError(f"{what}: {form} indexes outside its arguments ({exc})") from None
+        except Exception:  # numpy input not supported by this function: the trace decides
+            pass
         with jax.enable_x64(True):
             try:
                 out = jax.eval_shape(of_z, jax.ShapeDtypeStruct((self.n,), jnp.float64))
