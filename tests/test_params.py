@@ -184,7 +184,7 @@ def test_fn_of_x_and_p_needs_parameters():
     from conftest import zoo
 
     rep = uj.analyze(uj.load_system(zoo("unicycle_polar.py:range_known")), samples=64)
-    with pytest.raises(uj.ModelError, match=r"fn\(z\) with z \(3,\) \(this model has no parameters\)"):
+    with pytest.raises(uj.ModelError, match=r"fn\(x\) with x \(3,\) \(this model has no parameters\)"):
         rep.is_observable(lambda x, p: x[0])
     with pytest.raises(uj.ModelError, match="this model has no parameters"):
         rep.unobservable_directions(np.ones(3), np.ones(1))

@@ -337,7 +337,7 @@ class Report:
     def _point(self, x, p, what) -> np.ndarray:
         """``z = [x; p]`` from ``z`` or ``(x, p)`` (shapes checked, ModelError otherwise)."""
         ns, npar = len(self.states), len(self.params)
-        forms = (f"z = [x; p] of shape ({self.n},)" if not npar else
+        forms = (f"a state of shape ({self.n},)" if not npar else
                  f"z = [x; p] of shape ({self.n},) or (x, p) with x ({ns},), p ({npar},)")
         if x is None:
             if p is not None:
@@ -392,7 +392,7 @@ class Report:
     def _function_of_z(self, fn, what):
         """``fn`` as a function of ``z (n,)``, checked on shapes (one-line ModelError)."""
         ns, npar = len(self.states), len(self.params)
-        forms = (f"fn(z) with z ({self.n},)" if not npar else
+        forms = (f"fn(x) with x ({self.n},)" if not npar else
                  f"fn(z) with z = [x; p] ({self.n},) or fn(x, p) with x ({ns},), p ({npar},)")
         if not callable(fn):
             raise ModelError(f"{what} needs a callable {forms}, got {type(fn).__name__}")
@@ -403,7 +403,8 @@ class Report:
             of_z.__name__ = getattr(fn, "__name__", "fn")
             form = f"fn(x, p) with x ({ns},), p ({npar},)"
         elif nargs in (None, 1):
-            of_z, form = fn, f"fn(z) with z ({self.n},)"
+            of_z = fn
+            form = f"fn(z) with z ({self.n},)" if npar else f"fn(x) with x ({self.n},)"
         else:
             has = "no parameters" if not npar else f"{npar} parameters"
             raise ModelError(f"{what} needs {forms} (this model has {has}); got a function "
