@@ -245,3 +245,151 @@ def test_seed_outside_64_bits_is_one_line_error():
             run_montecarlo(exp, 2, seed=seed)
         with pytest.raises(OptionError, match="seed"):
             trajectories(exp, [0], seed=seed)
+
+
+# ---------------------------------------------------------------------- dt and the horizon
+def _toy(**changes):
+    """x' = -a x (a = 2/s), one output every step: the fastest mode |lambda| = 2/s."""
+    import jax.numpy as jnp
+
+    sys_ = uj.System(("x",), {"y": lambda x: x[0]}, drift=lambda x: -2.0 * x)
+    kw = dict(name="toy", system=sys_, dt=0.05, n_steps=20, x0=(0.0,),
+              inputs=lambda s, z: (s, jnp.zeros(0), jnp.zeros(0)), istate0=(),
+              n_input_normals=0, known_std=lambda u: jnp.zeros(0),
+              measurements=(uj.Measurement("y", lambda x: x[0], 0.1, 1),), prior_std=(1.0,))
+    kw.update(changes)
+    return uj.Experiment(**kw)
+
+
+@pytest.mark.parametrize("changes, needle", [
+    (dict(dt=0.0), "dt must be a positive number"),
+    (dict(dt=-1e-3), "dt must be a positive number"),
+    (dict(dt=float("nan")), "dt must be a positive number"),
+    (dict(dt=float("inf")), "not a finite horizon"),
+    (dict(dt=1e300, n_steps=10**10), "not a finite horizon"),
+    (dict(n_steps=0), "n_steps"),
+    (dict(measurements=(uj.Measurement("y", lambda x: x[0], 0.1, 40),), n_steps=20),
+     "never read"),
+    (dict(record_every=3), "not a multiple of record_every"),
+    (dict(n_steps=10**15), "memory"),
+    (dict(units={"nope": "m"}), "not a state"),
+])
+def test_impossible_dt_or_horizon_is_a_one_line_model_error(changes, needle):
+    with pytest.raises(ModelError, match=needle) as info:
+        _toy(**changes)
+    assert "\n" not in str(info.value)
+
+
+def test_run_refused_before_any_work_when_the_records_do_not_fit_in_memory():
+    exp = _toy(n_steps=10**6)
+    assert exp.memory_bytes(10**6) > 10**6 * (10**6 + 1) * 3 * 4  # at least the float32 records
+    with pytest.raises(OptionError, match="memory") as info:
+        run_montecarlo(exp, 10**6, keep=0)
+    assert "\n" not in str(info.value) and "fewer trials" in str(info.value)
+
+
+def test_time_scale_of_a_linear_mode_and_of_a_kinematic_model():
+    ts = _toy().time_scale()
+    assert ts["eigen_rate"] == pytest.approx(2.0) and ts["motion_rate"] == 0.0  # x0 = 0
+    assert ts["time_scale_s"] == pytest.approx(0.5) and ts["rate_dt"] == pytest.approx(0.1)
+    # the unicycle is kinematic (nilpotent Jacobian): its scale is the motion, theta' = omega
+    # = 0.2 pi rad/s against a 5 deg prior: 7.2 prior stds per second
+    uni = UNI.range_gamma_unknown_experiment().time_scale()
+    assert uni["eigen_rate"] == pytest.approx(0.0, abs=1e-12)
+    assert uni["rate"] == pytest.approx(0.2 * np.pi / (5 * np.pi / 180))
+
+
+@pytest.mark.parametrize("changes, needle", [
+    (dict(dt=1.0), "lower dt"),                     # |lambda| dt = 2 > 1
+    (dict(dt=1e-6), "nothing moves"),              # 20 steps: 4e-5 of the 0.5 s scale
+    (dict(n_steps=5), "a tenth of the horizon"),
+])
+def test_dt_far_from_the_time_scale_warns(changes, needle):
+    exp = _toy(**changes)
+    with pytest.warns(uj._model.experiment.TimeScaleWarning, match=needle):
+        msgs = exp.check_time_scale()
+    assert len(msgs) == 1 and "\n" not in msgs[0]
+
+
+def test_zoo_experiments_and_a_sound_dt_do_not_warn():
+    assert _toy().check_time_scale() == []
+    # (every zoo run checks it too: a TimeScaleWarning fails the tests that run them)
+    assert UNI.range_gamma_unknown_experiment().check_time_scale() == []
+
+
+def test_run_warns_before_compiling_when_dt_is_far_from_the_time_scale():
+    from uio_jax._model.experiment import TimeScaleWarning
+
+    with pytest.warns(TimeScaleWarning, match="lower dt"):
+        run_montecarlo(_toy(dt=1.0), 2, keep=0)
+
+
+def test_units_of_states_derivatives_and_angles():
+    exp = UNI.range_gamma_unknown_experiment().with_(units={"xv": "m", "w": "m/s"})
+    assert exp.unit("xv") == "m" and exp.unit("yv") == "" and exp.unit("w1") == "m/s^2"
+    assert exp.display_unit("theta") == ("deg", pytest.approx(180 / np.pi))
+    assert exp.display_unit("bearing phi")[0] == "deg" and exp.display_unit("range") == ("m", 1.0)
+    with pytest.raises(OptionError):
+        exp.unit("nope")
+
+
+# ---------------------------------------------------------------------- the summary
+def _fabricated(values, exp=None):
+    """A result whose every record holds ``values`` (errors and sigmas; NEES 3)."""
+    exp = exp or UNI.range_gamma_unknown_experiment()
+    N, d = exp.n_aug, len(exp.quantities)
+    stats = np.empty((2, 3, 2 * N + 2 * d + 1), np.float32)
+    stats[:] = np.resize(np.asarray(values, np.float32), 2 * N + 2 * d + 1)
+    stats[..., -1] = 3.0
+    return uj.MonteCarloResult(exp, 2, 0, np.array([0.0, 1.0, 2.0]), stats, None)
+
+
+def test_format_table_keeps_columns_apart_for_any_value():
+    from uio_jax._filter.result import _num, format_table
+
+    values = [1.469e6, 29372044.28, 1e-30, float("nan"), float("inf"), -2.5e-7, 0.05]
+    cells = [_num(v) for v in values]
+    assert cells == ["1.469e+06", "2.937e+07", "1e-30", "nan", "inf", "-2.5e-07", "0.05"]
+    rows = [[f"s{i}", c, _num(v * 3, ".3g"), "deg" if i % 2 else ""] for i, (c, v) in
+            enumerate(zip(cells, values))]
+    lines = format_table(["name", "value", "x3", "unit"], rows, "lrrl")
+    for line, row in zip(lines[1:], rows):
+        assert line.split() == [c for c in row if c]          # no cells ran together
+    ends = {len(ln[:ln.index(r[1]) + len(r[1])]) for ln, r in zip(lines[1:], rows)}
+    assert len(ends) == 1                                     # right-aligned: same right edge
+    with pytest.raises(OptionError):
+        format_table(["a", "b"], [["1"]], "lr")
+
+
+def test_summary_table_aligned_with_huge_tiny_nan_and_deg():
+    res = _fabricated([1.469e6, 1e-30, float("nan"), 29372044.28, 0.05, 3e30])
+    lines = res.summary().splitlines()
+    table = lines[lines.index(next(ln for ln in lines if "prior std" in ln)):][:1 + 8]
+    header = table[0]
+    cols = [header.index(h) + len(h) for h in ("prior std", "RMSE end", "ratio", "sigma end")]
+    for ln in table[1:]:
+        for c in cols:  # every number ends at its header's right edge, a space before it
+            assert ln[c - 1] != " " and (c == len(ln) or ln[c] == " "), ln
+    theta = next(ln for ln in table if ln.split()[0] == "theta")
+    assert theta.split()[1] == "deg" and theta.index("deg") == header.index("unit")
+
+
+def test_summary_starts_with_the_verdict_and_explains_it():
+    """The 003 case (range, gamma unknown): the states moved by the rotation look
+    converging, the named quantities agree: 'consistent', with the reason next to it."""
+    res = _fabricated([0.01] * 4)
+    cmp = {"analysis": "single_ui", "note": "",
+           "states": {s: {"observable": False, "converges": True, "agree": False}
+                      for s in ("xv", "theta", "gamma")}
+           | {"yv": {"observable": False, "converges": None, "agree": None}},
+           "quantities": {"bearing phi": {"observable": False, "converges": False, "agree": True},
+                          "range": {"observable": True, "converges": True, "agree": True}},
+           "agree": False}
+    lines = res.summary(cmp).splitlines()
+    assert lines[1].startswith("verdict: consistent with the analysis (single_ui) on the named")
+    assert "xv, theta, gamma look converging though unobservable" in lines[2]
+    assert "undecided: yv" in lines[3]
+    cmp["quantities"]["bearing phi"] = {"observable": True, "converges": False, "agree": False}
+    assert res.headline(cmp)[0].startswith("verdict: Monte Carlo and the analysis (single_ui) "
+                                           "disagree on bearing phi (observable, does not converge)")
+    assert res.headline()[0] == "verdict: Monte Carlo only (no analysis compared)"
