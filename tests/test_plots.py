@@ -53,3 +53,24 @@ def test_plot_montecarlo_writes_file(result, tmp_path):
     path = tmp_path / "mc.png"
     fig.savefig(path, dpi=50)
     assert path.stat().st_size > 1000
+
+
+def test_every_axis_names_its_quantity_and_unit(result, tmp_path):
+    """Units from the experiment (angles in degrees, w1 in unit of w per second); a name
+    without a unit says so rather than showing a bare number."""
+    exp = result.experiment.with_(units={"xv": "m", "yv": "m", "w": "m/s"})
+    res = type(result)(exp, result.trials, result.seed, result.t, result.stats,
+                       result.trajectories, result.timings)
+    fig, axes = plot_montecarlo(res, names=["xv", "theta", "w1", "bearing phi", "range"])
+    shown = [a for a in axes if a.get_visible()]
+    for a in shown:
+        assert a.get_xlabel() and a.get_ylabel(), a.get_title()
+        assert "(" in a.get_xlabel() and "(" in a.get_ylabel(), (a.get_xlabel(), a.get_ylabel())
+    assert (shown[0].get_xlabel(), shown[0].get_ylabel()) == ("xv (m)", "yv (m)")
+    ylabels = [a.get_ylabel() for a in shown[1:-1]]
+    assert ylabels == ["error (m)", "error (deg)", "error (m/s^2)", "error (deg)", "error (m)"]
+    _, axes = plot_errors(result, ["yv"])  # the zoo gives no unit for yv (yet)
+    assert axes[0].get_ylabel() == "error (unit not given)"
+    path = tmp_path / "mc.png"
+    fig.savefig(path, dpi=150)
+    assert path.stat().st_size > 1000

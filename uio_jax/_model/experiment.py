@@ -44,7 +44,6 @@ import numpy as np
 from .._errors import ModelError, OptionError
 from .system import System
 
-
 #: Warn when the shortest time scale of the dynamics is shorter than this many Euler steps
 #: (``rate * dt`` above it; see :meth:`Experiment.time_scale`).
 MAX_RATE_DT = 1.0
