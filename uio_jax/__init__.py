@@ -40,6 +40,7 @@ from ._io.loading import load_system as load_system
 from ._io.model_file import save_model as save_model
 from ._io.experiment_loading import load_experiment as load_experiment
 from ._io import sympy_import as _sympy_import  # noqa: F401  (installs System.from_sympy)
+from ._io import dynamics_form as _dynamics_form  # noqa: F401  (installs System.from_dynamics)
 
 # many models at once
 from ._batch.run import batch_analyze as batch_analyze

@@ -1,0 +1,193 @@
+"""Systems from Python callables in the general form: :func:`system_from_dynamics`
+(also ``System.from_dynamics``).
+
+A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i(x) u_i +
+sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
+``f(x, p, u, w)`` with parameters), split by the same code as model files
+(:func:`uio_jax._io.affine.split_callable`: the Hessian in the inputs at the same samples
+and threshold, the same promotions of inputs that enter non-affinely or appear in an
+output, the same notes).
+"""
+
+from collections.abc import Mapping
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import ModelError
+from .._model.system import System
+
+_SOURCE = "from_dynamics"
+
+
+def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), params=None, domain=None,
+                         angles=(), name="", notes=()) -> System:
+    """Build a System from ``x' = f(x, u, w)``, ``y = h(x, u, w)`` (JAX callables).
+
+    Example::
+
+        sys = uj.System.from_dynamics(
+            states=("px", "py", "th"),
+            dynamics=lambda x, u, w: jnp.array([w[0] * jnp.cos(x[2]), w[0] * jnp.sin(x[2]), u[0]]),
+            outputs={"px": lambda x, u, w: x[0], "py": lambda x, u, w: x[1]},
+            known=("omega",), unknown=("v",))
+
+    Args:
+        states: state names, the order of ``x`` (length n).
+        dynamics: ``f(x, u, w) -> (n,)`` with ``x (n,)``, ``u (len(known),)`` and
+            ``w (len(unknown),)``; with ``params``, ``f(x, p, u, w)`` with ``p (P,)``.
+        outputs: output name -> ``h(x, u, w) -> ()`` (``h(x, p, u, w)`` with params).
+        known, unknown: names of the known inputs (order of ``u``) and of the unknown
+            inputs (order of ``w``).
+        params: unknown constant parameters, name -> ``(lo, hi)`` box, or a sequence of
+            names (box ``(0.5, 1.5)`` each), the order of ``p``.
+        domain: state or input name -> ``(lo, hi)`` sampling box (an input's box is where
+            the affinity test samples it, and the box of its state if it is promoted).
+        angles: state names that are angles.
+        name: name shown in reports.
+        notes: remarks copied into every report.
+
+    Returns:
+        A :class:`uio_jax.System` in the control-affine form: drift ``f(x, 0, 0)``, fields
+        ``d f / d u_i`` and ``d f / d w_j`` at ``u = w = 0``. An input that enters
+        non-affinely or appears in an output becomes a state (``v' = d_v``; a known one is
+        also an output), an input that appears nowhere is dropped, each with a note in
+        ``System.notes``. With params its callables take ``(x, p)``.
+
+    Raises:
+        ModelError: one line naming the problem (bad or clashing name, a callable that
+            fails or returns the wrong shape or a complex value, dynamics not finite at
+            any sampled point).
+    """
+    from .affine import split_callable
+
+    states = _names(states, "states")
+    known = _names(known, "known")
+    unknown = _names(unknown, "unknown")
+    if isinstance(params, Mapping):
+        pnames = _names(tuple(params), "params")
+        boxes = dict(params)
+    elif params is None:
+        pnames, boxes = (), {}
+    else:
+        pnames = _names(params, "params")
+        from .._model.system import DEFAULT_BOX
+
+        boxes = {k: DEFAULT_BOX for k in pnames}
+    taken = {}
+    for kind, group in (("state", states), ("parameter", pnames), ("known input", known),
+                        ("unknown input", unknown)):
+        for nm in group:
+            if nm in taken:
+                raise ModelError(f"{_SOURCE}: {kind} {nm!r} has the name of {_a(taken[nm])}")
+            taken[nm] = kind
+    if not callable(dynamics):
+        raise ModelError(f"{_SOURCE}: dynamics must be callable, got {type(dynamics).__name__}")
+    if not isinstance(outputs, Mapping) or not outputs:
+        raise ModelError(f"{_SOURCE}: outputs must be a non-empty mapping name -> h(x, u, w)")
+    for k, h in outputs.items():
+        if not isinstance(k, str) or not k:
+            raise ModelError(f"{_SOURCE}: output names must be non-empty strings, got {k!r}")
+        if not callable(h):
+            raise ModelError(f"{_SOURCE}: output {k!r} is not callable (got {type(h).__name__})")
+    domain = dict(domain or {})
+    for k in domain:
+        if k not in taken or taken[k] == "parameter":
+            raise ModelError(f"{_SOURCE}: domain given for {k!r}, which is neither a state nor an input")
+    n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
+    with_p = bool(pnames)
+
+    def full(fn):  # always (x, p, u, w)
+        return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
+
+    args = "(x, p, u, w)" if with_p else "(x, u, w)"
+    lengths = f"x ({n}), p ({P}), u ({nk}), w ({nw})" if with_p else f"x ({n}), u ({nk}), w ({nw})"
+    dyn = full(dynamics)
+    outs = {k: full(h) for k, h in outputs.items()}
+    _check("dynamics", dyn, (n,), args, lengths, n, P, nk, nw)
+    for k, h in outs.items():
+        _check(f"output {k!r}", h, (), args, lengths, n, P, nk, nw)
+    parts = split_callable(states, dyn, outs, known, unknown, boxes, domain, tuple(angles))
+    wrap = _with_params if with_p else (lambda fn: fn)
+    notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
+    return System(
+        parts.states,
+        {k: wrap(f) for k, f in parts.outputs.items()},
+        known={k: wrap(f) for k, f in parts.known.items()},
+        unknown={k: wrap(f) for k, f in parts.unknown.items()},
+        drift=None if parts.drift is None else wrap(parts.drift),
+        domain=parts.domain, angles=parts.angles, name=name, params=boxes,
+        notes=notes + tuple(parts.notes),
+    )
+
+
+def _a(kind: str) -> str:
+    return ("an " if kind[0] in "aeiou" else "a ") + kind
+
+
+def _names(v, what) -> tuple:
+    if isinstance(v, str) or isinstance(v, Mapping):
+        raise ModelError(f"{_SOURCE}: {what} must be a sequence of names, got {type(v).__name__} {v!r}")
+    try:
+        names = tuple(v)
+    except TypeError:
+        raise ModelError(f"{_SOURCE}: {what} must be a sequence of names, got {type(v).__name__}") from None
+    seen = set()
+    for nm in names:
+        if not isinstance(nm, str) or not nm.isidentifier():
+            raise ModelError(f"{_SOURCE}: {what} entry {nm!r} is not a valid name (letters, digits and _)")
+        if nm in seen:
+            raise ModelError(f"{_SOURCE}: {nm!r} is listed twice in {what}")
+        seen.add(nm)
+    return names
+
+
+def _check(what, fn, expected, args, lengths, n, P, nk, nw):
+    """Trace ``fn(x, p, u, w)`` once: right shape, real dtype, no indexing past a vector."""
+    try:
+        fn(np.full(n, 0.75), np.full(P, 0.75), np.full(nk, 0.75), np.full(nw, 0.75))
+    except IndexError as exc:
+        raise ModelError(f"{_SOURCE}: {what} indexes outside {lengths}: {exc}") from None
+    except Exception:  # numpy input not supported: the traced check decides
+        pass
+    specs = [jax.ShapeDtypeStruct((k,), jnp.float64) for k in (n, P, nk, nw)]
+    with jax.enable_x64(True):
+        try:
+            out = jax.eval_shape(fn, *specs)
+        except Exception as exc:
+            text = str(exc).strip()
+            msg = text.splitlines()[0] if text else ""
+            raise ModelError(f"{_SOURCE}: {what} fails on {args} of lengths {lengths}: "
+                             f"{type(exc).__name__}: {msg}") from None
+    shape = getattr(out, "shape", None)
+    if shape is None:
+        raise ModelError(f"{_SOURCE}: {what} must return an array, got {type(out).__name__}")
+    if tuple(shape) != expected:
+        want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
+        raise ModelError(f"{_SOURCE}: {what} returns shape {tuple(shape)}, expected {want}")
+    dtype = np.dtype(out.dtype)
+    if np.issubdtype(dtype, np.complexfloating):
+        raise ModelError(f"{_SOURCE}: {what} returns a complex value ({dtype}); the dynamics and outputs "
+                         "must be real")
+
+
+def _with_params(fn):
+    """``fn(z)`` on ``z = [x; p]`` -> the System's callable ``(x, p)``."""
+
+    def f(x, p):
+        return fn(jnp.concatenate([jnp.asarray(x), jnp.asarray(p)]))
+
+    return f
+
+
+def _from_dynamics(cls, *args, **kwargs) -> System:
+    """A System from ``x' = f(x, u, w)`` and outputs ``h(x, u, w)``; see
+    :func:`system_from_dynamics` for the arguments (the split into the control-affine form
+    and the promotions are those of model files in the general form)."""
+    return system_from_dynamics(*args, **kwargs)
+
+
+# ``System.from_dynamics`` is installed here, by the importers' layer, so that the model
+# layer never imports the importers (the dependency rule of the package's layout).
+System.from_dynamics = classmethod(_from_dynamics)
