@@ -38,12 +38,24 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._calculus.generators import Node
+from .._engine.interpreter import NoTaylorRule
 from .._engine.taylor import taylor
 from .._engine.taylor_flow import flow_coefficients
 from .._errors import OptionError
 from .._progress import step_listener
 from .context import Context
 from .driver import Recursion, StopReason, iterate
+
+
+class SeriesNotApplicable(OptionError):
+    """The series test cannot expand the model: a primitive of its dynamics or outputs has
+    no Taylor rule (``primitive``: its name, e.g. ``lgamma``, ``sort``). Other methods
+    (the ORC) differentiate it by JAX's own rules; ``method='fast'`` may fall back to them."""
+
+    def __init__(self, primitive, detail=""):
+        super().__init__(f"method 'series' cannot expand primitive '{primitive}'{detail} (no Taylor rule); "
+                         "use method='orc'")
+        self.primitive = primitive
 
 
 def check_applicable(system) -> None:
@@ -80,6 +92,10 @@ def output_series(system, a, K):
         system: a System without unknown inputs (states only; parameters already joint).
         a: input coefficients ``(m_u, >= K + 1)`` from :func:`input_coefficients`.
         K: highest order.
+
+    Raises:
+        SeriesNotApplicable: (when the returned function is traced) a primitive of the
+            model without a Taylor rule.
     """
     n = system.n
     drift = system.drift
@@ -99,7 +115,11 @@ def output_series(system, a, K):
     def coefficients(x):
         if K == 0:
             return out(x)[None]
-        return taylor(out, x, flow_coefficients(field, x, K, known=u_series))
+        try:
+            return taylor(out, x, flow_coefficients(field, x, K, known=u_series))
+        except NoTaylorRule as exc:  # a primitive of the model without a Taylor rule
+            detail = str(exc).removeprefix(f"no Taylor rule for {exc.primitive}")
+            raise SeriesNotApplicable(exc.primitive, detail) from None
 
     return coefficients
 
@@ -265,4 +285,5 @@ def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
     return ctx.report("series", history, reason, notes=notes, details={"order": k})
 
 
-__all__ = ["series_report", "run_series", "output_series", "input_coefficients", "check_applicable"]
+__all__ = ["series_report", "run_series", "output_series", "input_coefficients", "check_applicable",
+           "SeriesNotApplicable"]

@@ -175,6 +175,112 @@ def _ipow(a, p, K):
     return out
 
 
+# -- elementary functions from the building blocks (shared with .taylor_flow) ---------------
+# A recipe ``ELEMENTARY[name](E, *stacks) -> stack`` writes one primitive with the blocks of
+# an engine ``E``: stacks are arrays ``(K + 1, *shape)`` of normalized coefficients (of equal
+# rank); linear operations are plain ``jnp`` on them; the nonlinear ones are ``E.mul(a, b)``,
+# ``E.div(a, b)``, ``E.exp(a)``, ``E.log(a)``, ``E.sqrt(a)`` and ``E.integral(pairs)``: the
+# series ``y`` with ``y[0] = 0`` and ``y' = sum g u'`` over the pairs ``(g, u)``, i.e.
+# ``y[k] = (1/k) sum_(g, u) sum_{1 <= j <= k} j u[j] g[k - j]`` (a function ``f(u)`` with a
+# known derivative series ``g = f'(u)`` is ``f(u0) + integral``). ``E.moving[i]``: operand i
+# is a series (else a constant, lifted). Only orders >= 1 of a recipe count: the engines set
+# order 0 to the primitive on the order-0 values (exact, as the primal).
+
+def _one(a):
+    """The constant 1 as a stack like ``a``."""
+    return jnp.zeros_like(a).at[0].set(1)
+
+
+def _sgn(a):
+    """``sign(a[0])`` with 0 read as 1 (element shape): the branch of an odd function."""
+    return jnp.where(a[0] < 0, -1.0, 1.0).astype(a.dtype)
+
+
+def _tanh(E, u):
+    """``s (1 - e) / (1 + e)``, ``e = exp(-2 s u)``, ``s = sign(u0)``: no overflow."""
+    s = _sgn(u)
+    e = E.exp(-2.0 * s * u)
+    return E.div(s * (_one(u) - e), _one(u) + e)
+
+
+def _pow_recipe(E, a, b):
+    """``a ** b = exp(b log a)``; a constant exponent on a negative base: ``s^b |a|^b``."""
+    if E.moving[1]:
+        return E.exp(E.mul(E.log(a), b))
+    s = _sgn(a)
+    return jnp.power(s, b[0]) * E.exp(b[0] * E.log(s * a))
+
+
+def _rsq(E, d):
+    """``1 / sqrt(d)``."""
+    return E.div(_one(d), E.sqrt(d))
+
+
+def _atan2(E, a, b):
+    """``atan2(a, b)' = (b a' - a b') / (a^2 + b^2)``."""
+    r2 = E.mul(a, a) + E.mul(b, b)
+    return E.integral([(E.div(b, r2), a), (E.div(-a, r2), b)])
+
+
+#: primitive name -> recipe (see above); both Taylor engines apply these
+ELEMENTARY = {
+    "atan": lambda E, u: E.integral([(E.div(_one(u), _one(u) + E.mul(u, u)), u)]),
+    "asin": lambda E, u: E.integral([(_rsq(E, _one(u) - E.mul(u, u)), u)]),
+    "acos": lambda E, u: E.integral([(-_rsq(E, _one(u) - E.mul(u, u)), u)]),
+    "asinh": lambda E, u: E.integral([(_rsq(E, _one(u) + E.mul(u, u)), u)]),
+    "acosh": lambda E, u: E.integral([(_rsq(E, E.mul(u - _one(u), u + _one(u))), u)]),
+    "atanh": lambda E, u: E.integral([(E.div(_one(u), _one(u) - E.mul(u, u)), u)]),
+    "atan2": _atan2,
+    "tanh": _tanh,
+    "logistic": lambda E, u: 0.5 * (_one(u) + _tanh(E, 0.5 * u)),
+    "sinh": lambda E, u: 0.5 * (E.exp(u) - E.exp(-u)),
+    "cosh": lambda E, u: 0.5 * (E.exp(u) + E.exp(-u)),
+    "expm1": lambda E, u: E.exp(u),
+    "exp2": lambda E, u: E.exp(math.log(2.0) * u),
+    "log1p": lambda E, u: E.integral([(E.div(_one(u), _one(u) + u), u)]),
+    "erf": lambda E, u: E.integral([((2 / math.sqrt(math.pi)) * E.exp(-E.mul(u, u)), u)]),
+    "erfc": lambda E, u: E.integral([((-2 / math.sqrt(math.pi)) * E.exp(-E.mul(u, u)), u)]),
+    "cbrt": lambda E, u: _sgn(u) * E.exp(E.log(_sgn(u) * u) / 3.0),
+    "pow": _pow_recipe,
+}
+
+
+class _Blocks:
+    """The building blocks of :data:`ELEMENTARY` on whole stacks (state: K)."""
+
+    def __init__(self, K, moving):
+        self.K, self.moving = K, moving
+
+    def mul(self, a, b):
+        return _mul_series(_S(a), _S(b), self.K).c
+
+    def div(self, a, b):
+        return _recip_div(_S(a), _S(b), self.K).c
+
+    def exp(self, a):
+        return _exp_coeffs(a, self.K)
+
+    def log(self, a):
+        return _log(_S(a), self.K).c
+
+    def sqrt(self, a):
+        return _sqrt(_S(a), self.K).c
+
+    def integral(self, pairs):
+        ks = None
+        v = 0.0
+        for g, u in pairs:
+            ks = _orders(self.K, u)
+            v = v + self.mul(g, ks * u)
+        return jnp.concatenate([jnp.zeros_like(v[:1]), v[1:] / ks[1:]])
+
+
+def ranked(stacks):
+    """Stacks ``(K + 1, *shape)`` given one rank (leading singleton element axes)."""
+    r = max(c.ndim for c in stacks)
+    return [c.reshape(c.shape[:1] + (1,) * (r - c.ndim) + c.shape[1:]) for c in stacks]
+
+
 # -- the rule table (state: K) -------------------------------------------------------------
 # A rule of the table is ``rule(K, i, eqn, ins)`` (see :class:`~.interpreter.Rules`); the
 # Taylor rules proper are ``rule(prim, params, ins, K)``, applied by :func:`_on_series`
@@ -258,15 +364,52 @@ def _div(prim, params, ins, K):
     return [_recip_div(_series(ins[0], K), ins[1], K)]
 
 
-def _pow(prim, params, ins, K):
-    """``a ** b = exp(b log a)``, base and exponent either constant or moving."""
-    return [_exp(_mul_series(_log(_series(ins[0], K), K), _series(ins[1], K), K), K)]
+def _elementary(prim, params, ins, K):
+    """A primitive of :data:`ELEMENTARY`: its recipe on the operands' stacks, order 0 the
+    primitive on the order-0 values."""
+    v0 = prim.bind(*[v.c[0] if isinstance(v, _S) else v for v in ins], **params)
+    stacks = ranked([_series(v, K).c for v in ins])
+    out = ELEMENTARY[prim.name](_Blocks(K, tuple(isinstance(v, _S) for v in ins)), *stacks)
+    return [_S(jnp.broadcast_to(out, (K + 1,) + v0.shape).astype(v0.dtype).at[0].set(v0))]
 
 
 def _max_min(prim, params, ins, K):
     a, b = _align(_series(ins[0], K), _series(ins[1], K))
     pick = (a.c[0] >= b.c[0]) if prim.name == "max" else (a.c[0] <= b.c[0])
     return [_S(jnp.where(pick, a.c, b.c))]
+
+
+def _clamp(prim, params, ins, K):
+    """``clamp(lo, x, hi)``: the operand the order-0 values pick."""
+    lo, x, hi = ranked([_series(v, K).c for v in ins])
+    return [_S(jnp.where(x[0] < lo[0], lo, jnp.where(x[0] > hi[0], hi, x)))]
+
+
+def _reduce_max_min(prim, params, ins, K):
+    """``reduce_max`` / ``reduce_min``: the elements extreme at order 0 (their mean on ties)."""
+    a = ins[0].c
+    pick = extreme_mask(prim, params, a[0])
+    return [_S(jax.vmap(lambda c: jnp.sum(jnp.where(pick, c, 0), axis=params["axes"]))(a)
+               / jnp.sum(pick, axis=params["axes"]))]
+
+
+def extreme_mask(prim, params, a0):
+    """Bool (shape of ``a0``): the elements of ``a0`` equal to their ``reduce_max`` /
+    ``reduce_min`` over ``params["axes"]`` (``prim`` either of them)."""
+    m = prim.bind(a0, **params)
+    keep = [d for d in range(a0.ndim) if d not in params["axes"]]
+    return a0 == jax.lax.broadcast_in_dim(m, a0.shape, keep)
+
+
+def rem_quotient(a0, b0):
+    """``q`` with ``rem(a, b) = a - q b`` near the order-0 values (integral, constant along t)."""
+    return jnp.round((a0 - jax.lax.rem(a0, b0)) / b0)
+
+
+def _rem(prim, params, ins, K):
+    """``rem(a, b) = a - q b``, the integer quotient ``q`` constant along t."""
+    a, b = ranked([_series(v, K).c for v in ins])
+    return [_S(a - rem_quotient(a[0], b[0]) * b)]
 
 
 def _tan(a, K):
@@ -287,9 +430,13 @@ _RULES = Rules({
     "mul": _on_series(_bilinear),
     "dot_general": _on_series(_bilinear),
     "div": _on_series(_div),
-    "pow": _on_series(_pow),
+    **{name: _on_series(_elementary) for name in ELEMENTARY},
     "max": _on_series(_max_min),
     "min": _on_series(_max_min),
+    "clamp": _on_series(_clamp),
+    "reduce_max": _on_series(_reduce_max_min),
+    "reduce_min": _on_series(_reduce_max_min),
+    "rem": _on_series(_rem),
     "integer_pow": _on_series(lambda prim, params, ins, K: [_ipow(_series(ins[0], K), params["y"], K)]),
     "square": _on_series(_unary(lambda a, K: _mul_series(a, a, K))),
     "sin": _on_series(_unary(lambda a, K: _sincos(a, K)[0])),
@@ -364,4 +511,5 @@ def lie_powers(psi, F, j):
     return powers
 
 
-__all__ = ["taylor", "flow_series", "lie_powers", "NoTaylorRule"]
+__all__ = ["taylor", "flow_series", "lie_powers", "NoTaylorRule", "ELEMENTARY", "ranked", "extreme_mask",
+           "rem_quotient"]

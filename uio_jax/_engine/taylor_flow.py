@@ -50,6 +50,7 @@ from jax import lax
 
 from .interpreter import BILINEAR, CONSTANT, DATA_OPERANDS, LINEAR, NoTaylorRule, Rules, bind, call_body, interpret
 from .sparsity import structural_zeros
+from .taylor import ELEMENTARY, extreme_mask, ranked, rem_quotient
 
 #: indexing and reshaping primitives that move elements without combining them: a mask of
 #: constant elements moves with them (operands other than the data, e.g. gather indices,
@@ -248,6 +249,15 @@ class _Pass:
 
         return self.slot(key, coef, shape, dtype)
 
+    def integral(self, key, pairs, shape, dtype):
+        """``y[0] = 0``, ``y[k] = (1/k) sum_(g, u) sum_{j <= k} j u[j] g[k - j]``: the series
+        with ``y' = sum g u'`` (stacks ``g``, ``u``)."""
+        def coef(own):
+            k = jnp.maximum(self.kk(dtype), 1)
+            return sum(self.conv(self.orders(u) * u, g) for g, u in pairs) / k
+
+        return self.slot(key, coef, shape, dtype)
+
     def ipow(self, key, a, p, shape, dtype):
         if p == 0:
             return self.lift(jnp.ones(shape, dtype))
@@ -263,6 +273,38 @@ class _Pass:
                 base = self.mul(key + ("b", i), base, base, shape, dtype)
             i += 1
         return out
+
+
+class _Blocks:
+    """The building blocks of :data:`uio_jax._engine.taylor.ELEMENTARY` in pass k: each
+    nonlinear block a carried stack, named ``key + (n,)`` in the order the recipe calls them
+    (the same in every pass), of the equation's output shape and dtype."""
+
+    def __init__(self, ps, key, shape, dtype, moving):
+        self.ps, self.key, self.shape, self.dtype, self.moving = ps, key, shape, dtype, moving
+        self.n = 0
+
+    def _block(self, name, *args):
+        self.n += 1
+        return getattr(self.ps, name)(self.key + (self.n,), *args, self.shape, self.dtype)
+
+    def mul(self, a, b):
+        return self._block("mul", a, b)
+
+    def div(self, a, b):
+        return self._block("div", a, b)
+
+    def exp(self, a):
+        return self._block("exp", a)
+
+    def log(self, a):
+        return self._block("log", a)
+
+    def sqrt(self, a):
+        return self._block("sqrt", a)
+
+    def integral(self, pairs):
+        return self._block("integral", pairs)
 
 
 # -- the rule table (state: the pass and the key prefix of the enclosing calls) -------------
@@ -350,15 +392,35 @@ def _div(ps, key, eqn, ins):
     return [ps.series(ps.div(key, ps.lift(ins[0]), ps.stack(ins[1]), *_aval(eqn)))]
 
 
-def _pow(ps, key, eqn, ins):
-    """``a ** b = exp(b log a)``, base and exponent either constant or moving."""
+def _elementary(ps, key, eqn, ins):
+    """A primitive of :data:`~uio_jax._engine.taylor.ELEMENTARY`: its recipe on the operands'
+    stacks, order 0 the primitive on the order-0 values."""
     shape, dtype = _aval(eqn)
-    lg = ps.log(key + ("l",), ps.lift(ins[0]), shape, dtype)
-    if isinstance(ins[1], _T):
-        arg = ps.mul(key + ("m",), lg, ps.stack(ins[1]), shape, dtype)
-    else:  # constant exponent: linear in the series of log a
-        arg = lg * jnp.asarray(ins[1], lg.dtype)
-    return [ps.series(ps.exp(key, arg, shape, dtype))]
+    stacks = ranked([ps.lift(v) for v in ins])
+    blocks = _Blocks(ps, key, shape, dtype, tuple(isinstance(v, _T) for v in ins))
+    out = ELEMENTARY[eqn.primitive.name](blocks, *stacks)
+    (v0,) = bind(eqn, [ps.order0(v) for v in ins])
+    return [ps.series(jnp.broadcast_to(out, (ps.K + 1,) + tuple(shape)).astype(dtype).at[0].set(v0))]
+
+
+def _clamp(ps, key, eqn, ins):
+    """``clamp(lo, x, hi)``: the operand the order-0 values pick."""
+    lo, x, hi = (ps.order0(v) for v in ins)
+    pick = jnp.where(x < lo, ps.at(ins[0]), jnp.where(x > hi, ps.at(ins[2]), ps.at(ins[1])))
+    return [_T(pick, key=key + (0,))]
+
+
+def _reduce_max_min(ps, key, eqn, ins):
+    """``reduce_max`` / ``reduce_min``: the elements extreme at order 0 (their mean on ties)."""
+    axes = eqn.params["axes"]
+    pick = extreme_mask(eqn.primitive, eqn.params, ps.order0(ins[0]))
+    return [_T(jnp.sum(jnp.where(pick, ins[0].ck, 0), axis=axes) / jnp.sum(pick, axis=axes), key=key + (0,))]
+
+
+def _rem(ps, key, eqn, ins):
+    """``rem(a, b) = a - q b``, the integer quotient ``q`` constant along t."""
+    q = rem_quotient(ps.order0(ins[0]), ps.order0(ins[1]))
+    return [_T(ps.at(ins[0]) - q * ps.at(ins[1]), key=key + (0,))]
 
 
 def _unary(f):
@@ -399,7 +461,11 @@ _RULES = Rules({
     "abs": _on_series(_abs),
     "max": _on_series(_max_min),
     "min": _on_series(_max_min),
-    "pow": _on_series(_pow),
+    **{name: _on_series(_elementary) for name in ELEMENTARY},
+    "clamp": _on_series(_clamp),
+    "reduce_max": _on_series(_reduce_max_min),
+    "reduce_min": _on_series(_reduce_max_min),
+    "rem": _on_series(_rem),
     "integer_pow": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.ipow(key, a, eqn.params["y"], s, d))),
     "square": _on_series(_unary(lambda ps, key, eqn, a, s, d: ps.mul(key, a, a, s, d))),
     "sin": _on_series(_unary(_trig)),
