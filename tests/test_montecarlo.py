@@ -88,7 +88,8 @@ def test_compare_with_analysis_range_gamma_known():
     assert cmp["analysis"] == "single_ui"
     assert all(r["observable"] for r in cmp["states"].values())
     assert cmp["quantities"]["bearing phi"]["agree"] is True
-    assert "Monte Carlo vs analysis" in res.summary(cmp)
+    verdict = res.summary(cmp).splitlines()[1]  # the verdict first, under the title
+    assert verdict.startswith("verdict: ") and "the analysis (single_ui)" in verdict, verdict
 
 
 def test_compare_refuses_a_report_of_other_states():
