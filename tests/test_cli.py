@@ -163,3 +163,79 @@ def test_the_option_defaults_are_those_of_analyze():
     opts = check_options(samples=np.int64(64), seed=np.uint32(3))
     assert opts == {**DEFAULTS, "samples": 64, "seed": 3, "rtol": 1e-8}
     assert type(opts["samples"]) is int and type(opts["seed"]) is int
+
+
+# ---------------------------------------------------------------------------- option ranges (H2)
+SORT_MODEL = """
+    import jax, jax.numpy as jnp, uio_jax as uj
+    def f():
+        return uj.System(states=("a", "b"), outputs={"y": lambda x: jax.lax.sort(x)[0]},
+                         known={"u": lambda x: jnp.stack([x[1], 0.0 * x[0]])},
+                         domain={"a": (0.5, 1.0), "b": (2.0, 3.0)})
+    """
+EORC_MODEL = f"{zoo_path('gps')}:inputs_unknown"  # two unknown inputs: auto -> EORC
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["analyze", GOOD, "--seed", str(2**64)], "seed must be a non-negative integer below 2**64"),
+        (["batch", GOOD, "--seed", str(2**64)], "seed must be a non-negative integer below 2**64"),
+        (["analyze", GOOD, "--samples", str(10**9)],
+         "samples=1000000000 x 3 states needs about 384 GB"),
+        (["analyze", EORC_MODEL, "--k-max", "1000"], "the EORC to k_max=1000 (samples=4096 x N=2003"),
+        (["analyze", GOOD, "--max-order", "-1"], "max_order must be a non-negative integer"),
+        (["analyze", GOOD, "--k-max", "0"], "k_max must be a positive integer"),
+        (["analyze", GOOD, "--rtol", "nan"], "rtol must be a number in (0, 1)"),
+        (["analyze", GOOD, "--rtol", "inf"], "rtol must be a number in (0, 1)"),
+        (["analyze", GOOD, "--rtol=-inf"], "rtol must be a number in (0, 1)"),
+        (["analyze", GOOD, "--samples", "7"], "samples must be an integer >= 8"),
+        (["batch", GOOD, "--jobs", "0"], "jobs must be a positive integer"),
+        (["batch", GOOD, "--timeout", "0"], "timeout must be a positive number of seconds"),
+        (["batch", GOOD, "--timeout", "-1"], "timeout must be a positive number of seconds"),
+        (["batch", GOOD, "--timeout", "nan"], "timeout must be a positive number of seconds"),
+        (["batch", GOOD, "--k-max", "0"], "k_max must be a positive integer"),
+        (["analyze", GOOD, "--no-cache", "--cache-dir", "somewhere"],
+         "--no-cache and --cache-dir somewhere contradict each other"),
+        (["batch", GOOD, "--no-cache", "--cache-dir", "somewhere"], "contradict each other"),
+        (["montecarlo", f"{zoo_path('unicycle_disturbance')}:range_gamma_unknown_experiment",
+          "--no-cache", "--cache-dir", "somewhere"], "contradict each other"),
+    ],
+)
+def test_option_ranges_are_one_line_usage_errors(monkeypatch, capsys, argv, message):
+    monkeypatch.setenv("UIO_JAX_MEMORY_LIMIT", "8G")
+    assert cli.main(argv + ["--no-progress"] if argv[0] != "montecarlo" else argv) == 2
+    assert message in _one_line_error(capsys)
+
+
+def test_a_seed_past_2_63_runs(capsys):
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--seed", str(2**63), "--no-progress"]) == 0
+    assert "dim 2 of 3" in capsys.readouterr().out
+
+
+def test_fast_falls_back_to_orc_on_the_command_line(tmp_path, capsys):
+    path = _write(tmp_path, "sorted_model", SORT_MODEL)
+    assert cli.main(["analyze", f"{path}:f", "--method", "fast", "--samples", "64", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "fast: no Taylor rule for 'sort' -> ORC" in out and "dim 2 of 2" in out
+    assert cli.main(["analyze", f"{path}:f", "--method", "series", "--samples", "64"]) == 2
+    assert "sort" in _one_line_error(capsys)
+
+
+def test_cache_dir_help_states_the_default_rule(capsys):
+    from uio_jax._engine.compile_cache import DEFAULT_DIR_RULE
+
+    for command in ("analyze", "batch", "montecarlo"):
+        with pytest.raises(SystemExit):
+            cli.main([command, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert f"(default: {DEFAULT_DIR_RULE})" in text
+        assert "$XDG_CACHE_HOME/uio_jax/xla" in text
+
+
+def test_batch_row_of_a_model_too_large(monkeypatch, capsys):
+    """In a batch the memory check is per model (it depends on its size): a failed row."""
+    monkeypatch.setenv("UIO_JAX_MEMORY_LIMIT", "8G")
+    assert cli.main(["batch", GOOD, "--samples", str(10**9), "--no-progress"]) == 1
+    out = capsys.readouterr().out
+    assert "needs about 384 GB" in out and "lower samples" in out

@@ -19,7 +19,7 @@ from .._analysis.options import DEFAULTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
 from . import analyze, batch, montecarlo
-from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, compile_cache
+from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
 
 COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo}
 
@@ -62,6 +62,7 @@ def main(argv=None) -> int:
             return EXIT_USAGE
         if args.command not in COMMANDS:
             raise UsageError(f"unknown command {args.command!r}")
+        check_cache_options(args)  # a usage error before any side effect
         if args.command == "montecarlo":
             montecarlo.split_host_devices()  # before anything starts JAX's backend
         with compile_cache(args):
