@@ -25,6 +25,7 @@ tree: ``parse(to_text(e)) == e``.
 
 import ast
 import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -161,6 +162,12 @@ def _parse_ast(text, what):
     try:
         return ast.parse(text, mode="eval")
     except SyntaxError as exc:
+        if "Exceeds the limit" in (exc.msg or ""):  # Python's limit on integer literals' digits
+            run = max(re.finditer(r"\d+", text), key=lambda mt: len(mt.group()))
+            raise ExpressionError(
+                f"{what} {_quote(text)} at column {run.start() + 1}: a number of {len(run.group())} digits "
+                "is too large"
+            ) from None
         if _parses(text + " 1"):
             raise ExpressionError(
                 f"{what} {_quote(text)} at column {len(text) + 1}: incomplete expression (an operand is missing)"

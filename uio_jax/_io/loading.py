@@ -55,8 +55,13 @@ def load_system(spec, *args, **kwargs) -> System:
                 if args or kwargs:
                     raise LoadError(f"{spec}: a StrikePy model takes no arguments")
                 return load_strikepy(spec)
+            offered = model_functions(spec)
+            if offered and _is_zoo_file(spec):
+                raise LoadError(f"{spec} is a zoo file; name one model: "
+                                + ", ".join(f"{spec}:{nm}" for nm in offered))
+            defines = f" (it defines: {', '.join(offered)})" if offered else ""
             raise LoadError(f"{spec} is not a StrikePy model module (no sympy import or no top-level x, f, h): "
-                            "name the entry as FILE.py:NAME")
+                            f"name the entry as FILE.py:NAME{defines}")
     path, name = split_spec(spec)
     module = load_module(path)
     if not hasattr(module, name):
@@ -75,6 +80,32 @@ def load_system(spec, *args, **kwargs) -> System:
     if not obj.name:
         object.__setattr__(obj, "name", f"{os.path.basename(path)}:{name}")
     return obj
+
+
+def model_functions(path) -> list[str]:
+    """Public top-level functions of a Python file, in file order, read without running it.
+
+    The entries ``FILE.py:NAME`` a zoo file offers (``ast``: ``def`` statements at top level
+    whose name does not start with ``_``); empty when the file cannot be read or parsed.
+    """
+    import ast
+
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            tree = ast.parse(fh.read())
+    except (OSError, SyntaxError, ValueError, RecursionError, MemoryError):
+        return []
+    return [node.name for node in tree.body
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and not node.name.startswith("_")]
+
+
+def _is_zoo_file(path) -> bool:
+    """Whether the file's first line is the zoo marker ``# uio-jax: models``."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            return fh.readline().strip().replace(" ", "") == "#uio-jax:models"
+    except OSError:
+        return False
 
 
 def split_spec(spec: str) -> tuple[str, str]:
