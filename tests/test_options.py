@@ -299,3 +299,17 @@ def test_default_cache_dir_rule(monkeypatch, tmp_path):
     assert compile_cache.default_cache_dir() == str(tmp_path / "home" / ".cache" / "uio_jax" / "xla")
     for words in ("$UIO_JAX_CACHE_DIR", "$XDG_CACHE_HOME/uio_jax/xla", "~/.cache/uio_jax/xla"):
         assert words in compile_cache.DEFAULT_DIR_RULE
+
+
+def test_a_bare_no_taylor_rule_is_a_one_line_option_error():
+    """The series engines' own exception, if it reaches analyze, reads as the series' error."""
+    from uio_jax._analysis.analyze import SERIES_FAILURES, _series_error, _series_reason
+    from uio_jax._analysis.series import SeriesNotApplicable
+    from uio_jax._engine.interpreter import NoTaylorRule
+
+    bare = NoTaylorRule("lgamma")
+    assert isinstance(bare, SERIES_FAILURES) and _series_reason(bare) == "no Taylor rule for 'lgamma'"
+    err = _series_error(bare)
+    assert isinstance(err, uj.OptionError) and "'lgamma'" in str(err) and "\n" not in str(err)
+    converted = SeriesNotApplicable("cumsum")
+    assert _series_error(converted) is converted and _series_reason(converted) == "no Taylor rule for 'cumsum'"

@@ -7,21 +7,20 @@ import numpy as np
 from .._engine.interpreter import NoTaylorRule
 from .._errors import OptionError
 from .._model.system import System
-from . import series as series_module
 from .context import Context
 from .eorc import eorc_report
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
+from .series import SeriesNotApplicable, series_report
 from .series import check_applicable as series_applicable
-from .series import series_report
 from .single_ui import check_applicable, single_ui_report
 
 #: What the series test raises when the Taylor engines cannot expand a model: ``fast``
-#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError.
-#: (``series.SeriesNotApplicable``, an OptionError, once series.py defines it.)
-SERIES_FAILURES = (NoTaylorRule,) + tuple(
-    c for c in (getattr(series_module, "SeriesNotApplicable", None),) if c is not None)
+#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError
+#: (:class:`~uio_jax._analysis.series.SeriesNotApplicable` is one; a bare
+#: :class:`~uio_jax._engine.interpreter.NoTaylorRule` is converted).
+SERIES_FAILURES = (SeriesNotApplicable, NoTaylorRule)
 
 
 def analyze(
