@@ -93,7 +93,7 @@ def _vehicle(wind: str) -> SympyModel:
         known["w"] = wind_field
     elif wind == "unknown":
         unknown["w"] = wind_field
-    name = {"none": "no_wind", "known": "with_wind", "unknown": "wind_unknown"}[wind]
+    name = {"none": "no_wind", "known": "wind_known", "unknown": "wind_unknown"}[wind]
     return SympyModel(f"vehicle_wind:{name}", tuple(X), outputs, known, unknown,
                       domain=_VEH_DOMAIN)
 
@@ -168,7 +168,7 @@ def _gps(unknown: tuple, name: str) -> SympyModel:
 
 MODELS = {
     "systems/vehicle_wind.py:no_wind": lambda: _vehicle("none"),
-    "systems/vehicle_wind.py:with_wind": lambda: _vehicle("known"),
+    "systems/vehicle_wind.py:wind_known": lambda: _vehicle("known"),
     "systems/vehicle_wind.py:wind_unknown": lambda: _vehicle("unknown"),
 }
 for _out in ("range", "bearing", "phi"):

@@ -50,7 +50,7 @@ sys.path.insert(0, str(HERE))
 
 ORC_MODELS = [
     "systems/vehicle_wind.py:no_wind",
-    "systems/vehicle_wind.py:with_wind",
+    "systems/vehicle_wind.py:wind_known",
     "systems/unicycle_polar.py:range_known",
     "systems/unicycle_polar.py:bearing_known",
     "systems/unicycle_polar.py:phi_known",

@@ -82,13 +82,13 @@ def main(argv=None):
                  ["bearing phi", "theta"], (0, 1), os.path.join(a.out, f"003_{out}.png"),
                  f"003 section 5, output {out.replace('_', ' ')}: {a.trials} trials")
     calm = run(veh.no_wind_experiment(), a.vehicle_trials)
-    wind = run(veh.with_wind_experiment(), a.vehicle_trials)
+    wind = run(veh.wind_unknown_experiment(), a.vehicle_trials)
     _columns([("no wind (7-state EKF)", calm), ("wind along z (9-state EKF)", wind)],
              ["distance 1", "roll", "pitch", "yaw"], (0, 2),
              os.path.join(a.out, "002_paper.png"),
              f"002 section III-D (two features, 200 s): {a.vehicle_trials} trials")
     calm = run(veh.no_wind_hover_experiment(), 2 * a.vehicle_trials)
-    wind = run(veh.with_wind_hover_experiment(), 2 * a.vehicle_trials)
+    wind = run(veh.wind_unknown_hover_experiment(), 2 * a.vehicle_trials)
     _columns([("no wind", calm), ("wind along z", wind)], ["z", "roll", "pitch", "yaw"], (0, 1),
              os.path.join(a.out, "002_hover.png"),
              f"002, the analysed system (one feature), hovering: {2 * a.vehicle_trials} trials")

@@ -1,9 +1,9 @@
 # uio-jax: models
 """The 3D vehicle in wind (seed 002) under the entry names of the public API's examples.
 
-``systems/drone_wind.py:with_wind`` (unknown wind) and ``:no_wind`` are part of the public
-contract; the model itself lives in ``vehicle_wind.py`` (where ``with_wind`` treats the
-wind as a *known* input and ``wind_unknown`` is the paper's case).
+``systems/drone_wind.py:wind_unknown`` (the paper's case: wind of unknown magnitude, 002
+section III-C), ``:wind_known`` and ``:no_wind`` are the entries of the public API's
+examples; the model itself lives in ``vehicle_wind.py``, under the same names.
 """
 
 import importlib.util
@@ -20,11 +20,12 @@ def no_wind():
     return _zoo.no_wind()
 
 
-def with_wind():
-    """Wind of unknown, time-varying magnitude along z (002 section III-C)."""
+def wind_unknown():
+    """Wind of unknown, time-varying magnitude along z (002 section III-C): the seed
+    paper's drone in wind (this entry was ``with_wind`` before)."""
     return _zoo.wind_unknown()
 
 
-def known_wind():
-    """Wind along z treated as a known input."""
-    return _zoo.with_wind()
+def wind_known():
+    """Wind along z treated as a known input (an ORC sanity case)."""
+    return _zoo.wind_known()

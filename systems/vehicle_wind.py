@@ -103,10 +103,11 @@ def no_wind():
     return uj.System(STATES, OUTPUTS, known=KNOWN, domain=DOMAIN, name="vehicle_wind:no_wind")
 
 
-def with_wind():
-    """Wind along z treated as one more *known* input (an ORC sanity case)."""
+def wind_known():
+    """Wind along z treated as one more *known* input (an ORC sanity case, not in 002;
+    ``wind_unknown`` is the paper's case, section III-C)."""
     known = dict(KNOWN, w=_wind)
-    return uj.System(STATES, OUTPUTS, known=known, domain=DOMAIN, name="vehicle_wind:with_wind")
+    return uj.System(STATES, OUTPUTS, known=known, domain=DOMAIN, name="vehicle_wind:wind_known")
 
 
 def wind_unknown():
@@ -290,7 +291,7 @@ def _make_vehicle_experiment(wind, features, hover, n_steps, tag, prior_r, prior
                    for k, p in enumerate(features)]
     prior = (prior_r,) * 3 + (0.01,) + (prior_q,) * 3 + ((0.05, 1e-3) if wind else ())
     law = _hover_law(wind) if hover else _vehicle_inputs
-    name = f"vehicle_wind:{'with_wind' if wind else 'no_wind'}{tag}"
+    name = f"vehicle_wind:{'wind_unknown' if wind else 'no_wind'}{tag}"
     notes = EXPERIMENT_NOTES
     if hover:
         notes += (" Hovering variant (not in the paper): one feature (the analysed output "
@@ -307,7 +308,7 @@ def _make_vehicle_experiment(wind, features, hover, n_steps, tag, prior_r, prior
         w_reference=_wind_mean if wind else None)
 
 
-def with_wind_experiment():
+def wind_unknown_experiment():
     """002 section III-D with wind along z (unknown, time-varying): 9-state EKF, 200 s,
     features at the origin and at [1, 0, 1] (the paper's setting)."""
     return _vehicle_experiment(True)
@@ -318,7 +319,7 @@ def no_wind_experiment():
     return _vehicle_experiment(False)
 
 
-def with_wind_hover_experiment():
+def wind_unknown_hover_experiment():
     """The analysed system exactly (one feature at the origin), with wind, hovering: the
     airspeed flies a 0.4 m circle and cancels the mean wind, so the vehicle stays near the
     feature (in the paper's setting it drifts 40 m away and depth fades)."""
@@ -327,6 +328,6 @@ def with_wind_hover_experiment():
 
 
 def no_wind_hover_experiment():
-    """As ``with_wind_hover_experiment`` without wind (7-state EKF)."""
+    """As ``wind_unknown_hover_experiment`` without wind (7-state EKF)."""
     return _vehicle_experiment(False, FEATURES[:1], hover=True, n_steps=6000,
                                tag="_hover")

@@ -101,11 +101,11 @@ def test_published_symmetries_are_annihilated_by_omega(module, name):
 
 
 @pytest.mark.slow  # 14 s: an ORC of the 7-state vehicle with two more fields
-def test_with_wind_as_known_input_keeps_only_the_yaw_symmetry():
+def test_wind_as_known_input_keeps_only_the_yaw_symmetry():
     """A known wind along z makes roll and pitch observable, but a rotation about the
     global z axis through the feature maps the wind to itself: yaw stays hidden (dim 6),
     the same symmetry the paper finds with an unknown wind (002 section III-C)."""
-    rep = zoo_report("vehicle_wind", "with_wind")
+    rep = zoo_report("vehicle_wind", "wind_known")
     assert rep.dim == 6
     assert observable_set(rep) == {"z"}
     yaw = zoo_module("vehicle_wind").yaw_symmetry

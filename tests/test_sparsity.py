@@ -104,7 +104,7 @@ def test_pattern_through_nested_jit_and_where():
 @pytest.mark.parametrize("path, name", [
     ("unicycle_disturbance.py", "range_gamma_known_experiment"),
     ("unicycle_disturbance.py", "range_gamma_unknown_experiment"),
-    ("vehicle_wind.py", "with_wind_experiment"),
+    ("vehicle_wind.py", "wind_unknown_experiment"),
     ("vehicle_wind.py", "no_wind_experiment"),
 ])
 def test_zoo_patterns_cover_the_jacobian(path, name):

@@ -24,7 +24,7 @@ def test_published_entries_load_and_cite_a_source(module, name):
 @pytest.mark.parametrize("spec, unknown, known_any", [
     # names other tools use (the public API's examples): what each must mean
     ("unicycle_wind.py:range_gamma_unknown", ("w",), True),  # the wind on the unicycle unknown
-    ("drone_wind.py:with_wind", ("w",), True),  # the drone in unknown wind
+    ("drone_wind.py:wind_unknown", ("w",), True),  # the drone in unknown wind
     ("drone_wind.py:no_wind", (), True),  # the same drone, no unknown input
 ])
 def test_design_contract_names(spec, unknown, known_any):
