@@ -300,3 +300,38 @@ def test_cli_analyzes_a_model_file(capsys):
     assert main(["analyze", TWO_COMPARTMENT, "--samples", "256"]) == 0
     out = capsys.readouterr().out
     assert "k21" in out and "identifiable" in out
+
+
+# ----------------------------------------------------------------------------- H4 small items
+def test_a_number_past_pythons_digit_limit_is_one_line_naming_the_field_and_length(tmp_path):
+    path = tmp_path / "big.toml"
+    path.write_text('states = ["x"]\n[outputs]\ny = "x"\n[drift]\nx = "-x + ' + "1" * 5000 + '"\n')
+    with pytest.raises(uj.ExpressionError) as err:
+        uj.load_system(str(path))
+    msg = str(err.value)
+    assert "drift.x" in msg and "a number of 5000 digits is too large" in msg
+    assert "\n" not in msg and "set_int_max_str_digits" not in msg
+
+
+def test_a_zoo_file_without_name_lists_its_models(capsys):
+    from uio_jax.cli import main
+
+    spec = os.path.join(ROOT, "systems", "gps.py")
+    with pytest.raises(uj.LoadError) as err:
+        uj.load_system(spec)
+    msg = str(err.value)
+    assert msg.startswith(f"{spec} is a zoo file; name one model: ")
+    for name in ("inputs_known", "inputs_unknown", "omega_unknown", "v_unknown"):
+        assert f"{spec}:{name}" in msg
+    assert "_system" not in msg and "\n" not in msg
+    assert main(["analyze", spec]) == 2
+    assert capsys.readouterr().err.startswith("uio-jax: error: ")
+
+
+def test_model_functions_reads_public_top_level_defs_without_running(tmp_path):
+    from uio_jax._io.loading import model_functions
+
+    path = tmp_path / "m.py"
+    path.write_text("raise SystemExit('never run')\n\ndef a():\n    pass\n\ndef _b():\n    pass\n\n"
+                    "class C:\n    def d(self):\n        pass\n\ndef e(k=1):\n    pass\n")
+    assert model_functions(str(path)) == ["a", "e"]

@@ -51,6 +51,16 @@ def test_a_valid_system_builds_with_default_domain():
         (dict(outputs={"y": lambda x: x @ jnp.ones(3)}), "output 'y' fails on a state vector"),
         (dict(outputs={"y": lambda x: jnp.log(-x[0] - 1.0)}), "output 'y' returns NaN/inf at every"),
         (dict(known={"u": lambda x: jnp.array([jnp.nan, 0.0])}), "known field 'u' returns NaN/inf"),
+        (dict(outputs={"y": lambda x: x[0] + 1j * x[1]}),
+         "output 'y' returns a complex value (complex128); outputs and fields must be real"),
+        (dict(known={"u": lambda x: jnp.array([x[1], 0.0]) * (1 + 0j)}), "known field 'u' returns a complex value"),
+        (dict(drift=lambda x: jnp.array([0j, 1.0])), "drift returns a complex value"),
+        (dict(outputs={"y": lambda x, p: x[0] + 1j * p[0]}, known={"u": lambda x, p: jnp.array([x[1], 0.0])},
+              params=("k",)), "output 'y' returns a complex value"),
+        (dict(known={"a": lambda x: jnp.array([x[1], 0.0])}), "known input 'a' has the name of a state"),
+        (dict(unknown={"b": lambda x: jnp.array([1.0, 0.0])}), "unknown input 'b' has the name of a state"),
+        (dict(outputs={"y": lambda x, p: x[0]}, known={"k": lambda x, p: jnp.array([x[1], 0.0])},
+              params=("k",)), "known input 'k' has the name of a parameter"),
     ],
 )
 def test_bad_models_are_refused_with_one_line(kw, message):
@@ -59,6 +69,15 @@ def test_bad_models_are_refused_with_one_line(kw, message):
     text = str(err.value)
     assert message in text
     assert "\n" not in text
+
+
+def test_integer_and_boolean_results_are_promoted_to_float():
+    s = good(outputs={"y": lambda x: x[0], "flag": lambda x: x[0] > 1.0},
+             drift=lambda x: jnp.array([1, 0]))
+    x = jnp.array([1.2, 0.7])
+    assert s.drift(x).dtype == jnp.result_type(float) and s.outputs["flag"](x) == 1.0
+    rep = uj.analyze(s, samples=64)
+    assert rep.observable == {"a": True, "b": True}
 
 
 def test_model_error_is_a_value_error():
