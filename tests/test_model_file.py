@@ -320,7 +320,7 @@ def test_a_zoo_file_without_name_lists_its_models(capsys):
     with pytest.raises(uj.LoadError) as err:
         uj.load_system(spec)
     msg = str(err.value)
-    assert msg.startswith(f"{spec} is a zoo file; name one model: ")
+    assert msg.startswith(f"{spec} is a zoo file, not a StrikePy model module; name one model as FILE.py:NAME: ")
     for name in ("inputs_known", "inputs_unknown", "omega_unknown", "v_unknown"):
         assert f"{spec}:{name}" in msg
     assert "_system" not in msg and "\n" not in msg

@@ -57,7 +57,8 @@ def load_system(spec, *args, **kwargs) -> System:
                 return load_strikepy(spec)
             offered = model_functions(spec)
             if offered and _is_zoo_file(spec):
-                raise LoadError(f"{spec} is a zoo file; name one model: "
+                raise LoadError(f"{spec} is a zoo file, not a StrikePy model module; name one model as "
+                                "FILE.py:NAME: "
                                 + ", ".join(f"{spec}:{nm}" for nm in offered))
             defines = f" (it defines: {', '.join(offered)})" if offered else ""
             raise LoadError(f"{spec} is not a StrikePy model module (no sympy import or no top-level x, f, h): "
