@@ -230,7 +230,8 @@ def _make_experiment(output, gamma_known):
         inputs=_unicycle_inputs, istate0=(), n_input_normals=2, known_std=_unicycle_known_std,
         measurements=(meas,), w0=(0.05,), w_white_std=(0.005,), order=2, q_aug=(1e-8, 1e-8),
         prior_std=prior, quantities=quantities, nees_states=("xv", "yv", "theta"),
-        record_every=1, w_reference=_unicycle_w_mean, notes=EXPERIMENT_NOTES)
+        record_every=1, w_reference=_unicycle_w_mean, notes=EXPERIMENT_NOTES,
+        units={"xv": "m", "yv": "m", "w": "m/s"})
 
 
 def range_gamma_known_experiment():

@@ -305,7 +305,9 @@ def _make_vehicle_experiment(wind, features, hover, n_steps, tag, prior_r, prior
         w0=(0.2,) if wind else (), w_white_std=(0.05,) if wind else (), order=2,
         q_aug=(1e-8, 1e-8) if wind else (), prior_std=prior, quantities=tuple(quantities),
         nees_states=STATES, record_every=5, notes=notes,
-        w_reference=_wind_mean if wind else None)
+        w_reference=_wind_mean if wind else None,
+        units={"x": "m", "y": "m", "z": "m", **dict.fromkeys(STATES[3:], "1"),
+               **({"w": "m/s"} if wind else {})})
 
 
 def wind_unknown_experiment():
