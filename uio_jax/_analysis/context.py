@@ -5,6 +5,7 @@ by n + 2); inside a step the new candidate generators are evaluated in one jitte
 vmapped call and pruned by :class:`~uio_jax._rank.Codistribution`.
 """
 
+from collections.abc import Mapping
 from typing import Protocol
 
 import jax
@@ -235,6 +236,13 @@ class Space(Protocol):
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators."""
 
+    @property
+    def domain(self) -> Mapping:
+        """The sampling box ``name -> (lo, hi)`` of the analysed coordinates."""
+
+    def rank_ratio_at(self, z) -> float | None:
+        """``s_r / s_1`` of the kept generators at the original state ``z (n,)``."""
+
 
 class SampledSpace(Space):
     """The final codistribution of a Context, queried by a Report about the original state.
@@ -306,6 +314,35 @@ class SampledSpace(Space):
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators at the valid samples."""
         return self._ctx.codist.sample_ratios()
+
+    @property
+    def domain(self) -> Mapping:
+        """The sampling box ``name -> (lo, hi)`` of the analysed System."""
+        return self._ctx.system.domain
+
+    def rank_ratio_at(self, z) -> float | None:
+        """``s_r / s_1`` of the kept generators' gradients at the original state ``z (n,)``.
+
+        As in the analysis, the columns are scaled by the box widths and the rows normalized;
+        the extra coordinates of a larger analysed state (the EORC's ``[x; xi]``) take the
+        value ``fill``. NaN/inf gradients give 0.0 (the point is singular); None when no
+        generator was kept.
+        """
+        if not self._nodes:
+            return None
+        system = self._ctx.system
+        full = np.concatenate([np.asarray(z, dtype=np.float64), np.full(self._N - self._n, self._fill)])
+        domain = system.domain
+        width = np.array([float(domain[v][1]) - float(domain[v][0]) if v in domain else 1.0
+                          for v in system.states])
+        with jax.enable_x64(True):
+            g = np.asarray(self._ctx.builder.gradients(self._nodes, jnp.asarray(full)[None])[0])
+        if not np.isfinite(g).all():
+            return 0.0
+        g = g * width
+        g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+        s = np.linalg.svd(g, compute_uv=False)
+        return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 
     def is_observable(self, fn) -> bool:
         """Whether ``d fn`` (padded with zeros to ``N``) lies in the span at the samples.

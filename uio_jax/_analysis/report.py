@@ -252,7 +252,7 @@ class Report:
         if self.dim >= self.n:
             dirs = np.zeros((self.n, 0))
         else:
-            ratio = _rank_ratio_at(self._space, z, _domain_of(self._space), self.variables)
+            ratio = _rank_ratio_at(self._space, z)
             if ratio is not None and not ratio > self.certificate.rtol:
                 raise ModelError(f"the codistribution drops rank at {_point_text(names, z)} "
                                  f"(s_r/s_1 = {ratio:.1e} <= rtol {self.certificate.rtol:.0e}):"
@@ -288,7 +288,7 @@ class Report:
         for j in range(4):
             t = 2.0 * np.modf((np.arange(self.n) + 1.0) * (0.6180339887 + 0.1 * j))[0] - 1.0
             z = centre if j == 0 else centre + 0.3 * width * t
-            ratio = _rank_ratio_at(self._space, z, domain, self.variables)
+            ratio = _rank_ratio_at(self._space, z)
             if ratio is None or ratio > rtol:
                 return z, (_CENTRE if j == 0 else _OFF_CENTRE)
         raise ModelError("the codistribution drops rank at the centre of the sampling box and "
@@ -544,36 +544,16 @@ def _point_text(names, z) -> str:
     return "(" + ", ".join(f"{k}={v:.3g}" for k, v in zip(names, z)) + ")"
 
 
-def _rank_ratio_at(space, z, domain, names):
-    """``s_r / s_1`` of the kept generators' gradients at ``z`` (columns scaled by the box
-    widths, rows normalized, as in the analysis); None when the space cannot evaluate them.
-
-    For a space on a larger state (the EORC's ``[x; xi]``) the extra coordinates take the
-    space's fill value. NaN/inf gradients count as 0 (the point is singular).
-    """
-    ctx, nodes = getattr(space, "_ctx", None), getattr(space, "_nodes", None)
-    if ctx is None or nodes is None or not nodes or domain is None:
-        return None
-    system = ctx.system
-    full = np.concatenate([np.asarray(z, dtype=np.float64),
-                           np.full(system.n - len(z), float(getattr(space, "_fill", 1.0)))])
-    width = np.array([float(domain[v][1]) - float(domain[v][0]) if v in domain else 1.0
-                      for v in system.states])
-    with jax.enable_x64(True):
-        g = np.asarray(ctx.builder.gradients(tuple(nodes), jnp.asarray(full)[None])[0])
-    if not np.isfinite(g).all():
-        return 0.0
-    g = g * width
-    g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
-    s = np.linalg.svd(g, compute_uv=False)
-    return float(s[-1] / s[0]) if s[0] > 0 else 0.0
+def _rank_ratio_at(space, z):
+    """``s_r / s_1`` of the space's generators at ``z`` (:meth:`Space.rank_ratio_at`), or
+    None for a space that cannot evaluate them."""
+    at = getattr(space, "rank_ratio_at", None)
+    return None if at is None else at(z)
 
 
 def _domain_of(space):
     """The sampling box ``name -> (lo, hi)`` behind a Report's space, or None."""
     domain = getattr(space, "domain", None)
-    if domain is None:  # SampledSpace: the analysed System's domain
-        domain = getattr(getattr(getattr(space, "_ctx", None), "system", None), "domain", None)
     return domain if isinstance(domain, Mapping) else None
 
 
