@@ -2,7 +2,6 @@
 :mod:`uio_jax._analysis.options`)."""
 
 import jax
-import numpy as np
 
 from .._engine.interpreter import NoTaylorRule
 from .._errors import OptionError
@@ -86,12 +85,11 @@ def analyze(
                          max_order=max_order, k_max=k_max)
     samples, seed, rtol = opts["samples"], opts["seed"], opts["rtol"]
     max_order, k_max = opts["max_order"], opts["k_max"]
-    key_seed = _key_seed(seed)
 
     chosen, why = _choose(system, method)
     system = system.joint()  # parameters -> states with zero derivative
     if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself
-        return eorc_report(system, samples=samples, seed=key_seed, rtol=rtol,
+        return eorc_report(system, samples=samples, seed=seed, rtol=rtol,
                            k_max=k_max, notes=[why] if why else [])
     check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
                  advice="lower samples")
@@ -100,7 +98,7 @@ def analyze(
             series_applicable(system)
         elif chosen == "single_ui":
             check_applicable(system)
-        ctx = Context(system, samples, key_seed, rtol)
+        ctx = Context(system, samples, seed, rtol)
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":
@@ -109,16 +107,9 @@ def analyze(
             except SERIES_FAILURES as exc:
                 if method != "fast":
                     raise _series_error(exc) from None
-                ctx = Context(system, samples, key_seed, rtol)
+                ctx = Context(system, samples, seed, rtol)
                 return _orc_report(ctx, f"fast: {_series_reason(exc)} -> ORC", max_order)
         return single_ui_report(ctx, why=why, max_order=max_order)
-
-
-def _key_seed(seed: int):
-    """The seed as ``jax.random.key`` takes it: a Python int below 2**63 (unchanged), else
-    ``np.uint64`` (JAX converts a Python int through int64, which overflows from 2**63; the
-    uint64 key of a smaller seed is the same key)."""
-    return seed if seed < 2**63 else np.uint64(seed)
 
 
 def _series_reason(exc) -> str:

@@ -3,6 +3,7 @@
 
 import numbers
 
+from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .rank import default_rtol
 
@@ -15,26 +16,6 @@ DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_ord
 
 #: Smallest sample count: fewer random states cannot certify a rank.
 MIN_SAMPLES = 8
-
-#: Seeds are integers in ``[0, SEED_BOUND)``: a threefry key holds 64 bits (the Monte Carlo
-#: run of :mod:`uio_jax._filter.montecarlo` takes the same range).
-SEED_BOUND = 2**64
-
-
-def check_seed(seed, what: str = "seed") -> int:
-    """``seed`` as a Python int, checked to be an integer in ``[0, 2**64)``.
-
-    Args:
-        seed: an integer (numpy integers too; not a bool).
-        what: its name in the message.
-
-    Raises:
-        OptionError: not an integer, negative, or ``>= 2**64`` (a key has 64 bits).
-    """
-    if not _is_int(seed) or not 0 <= seed < SEED_BOUND:
-        raise OptionError(f"{what} must be a non-negative integer below 2**64, got {seed!r}")
-    return int(seed)
-
 
 def check_options(**options) -> dict:
     """Check the analysis options and return them normalised.

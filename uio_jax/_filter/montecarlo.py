@@ -237,11 +237,6 @@ def _check_int(value, what, lo):
     return int(value)
 
 
-def _check_seed(seed):
-    seed = _check_int(seed, "seed", 0)
-    if seed >= 2**64:
-        raise OptionError(f"seed must be below 2**64, got {seed}")
-    return seed
 
 
 def _chunk_records(exp, n_trials):
@@ -329,7 +324,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         raise OptionError(f"run_montecarlo needs a uio_jax Experiment, got "
                           f"{type(experiment).__name__}")
     B = _check_int(trials, "trials", 1)
-    seed = _check_seed(seed)
+    seed = threefry.check_seed(seed)
     keep = min(_check_int(keep, "keep", 0), B)
     filter = _check_filter(filter)
     exp = experiment
@@ -424,7 +419,7 @@ def trajectories(experiment: Experiment, trial_ids, *, seed: int = 0, filter: st
     ids = np.asarray(list(trial_ids), np.uint32)
     with jax.enable_x64(True):
         fn = _traj_fn(exp, _check_filter(filter))
-        out = fn(jnp.asarray(ids), threefry.seed_key(_check_seed(seed)))
+        out = fn(jnp.asarray(ids), threefry.seed_key(threefry.check_seed(seed)))
         out = jax.tree.map(np.asarray, out)
     (x_t0, xa0, sig0, xdr0, P0), (x_t, xa, sig, xdr, y, u_reads, Ps) = out
     k, E = x_t.shape[0], x_t.shape[1]

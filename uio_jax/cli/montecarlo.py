@@ -6,6 +6,7 @@ import os
 import sys
 import warnings
 
+from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
 from .._model.experiment import TimeScaleWarning
@@ -59,8 +60,7 @@ def check_options(args):
     """
     if args.trials <= 0:
         raise OptionError(f"--trials must be a positive integer, got {args.trials}")
-    if not 0 <= args.seed < 2**64:
-        raise OptionError(f"--seed must be an integer in [0, 2**64), got {args.seed}")
+    check_seed(args.seed, "--seed")
     if args.keep < 0:
         raise OptionError(f"--keep must be a non-negative integer, got {args.keep}")
     if args.plot:
