@@ -239,3 +239,21 @@ def test_batch_row_of_a_model_too_large(monkeypatch, capsys):
     assert cli.main(["batch", GOOD, "--samples", str(10**9), "--no-progress"]) == 1
     out = capsys.readouterr().out
     assert "needs about 384 GB" in out and "lower samples" in out
+
+
+@pytest.mark.parametrize("command", ["analyze", "batch"])
+def test_output_paths_checked_before_any_work(command, tmp_path, capsys):
+    """An output path that is a directory, or two outputs naming one file, is one line and
+    exit 2 before the model is even loaded (the model path does not exist)."""
+    missing_model = str(tmp_path / "no_such_model.toml")
+    first = "--json"
+    second = "--plot" if command == "analyze" else "--csv"
+    cases = [
+        [first, str(tmp_path)],                                            # a directory
+        [first, str(tmp_path / "out.png"), second, str(tmp_path / "out.png")],  # the same file
+    ]
+    for extra in cases:
+        assert cli.main([command, missing_model, *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and "Traceback" not in err
+        assert "directory" in err or "same file" in err, err

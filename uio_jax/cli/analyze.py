@@ -31,7 +31,7 @@ def run(args) -> int:
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot)
+    check_writable(args.json, args.plot, names=("--json", "--plot"))
     system = load_system(args.model)
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with step_listener(printer):

@@ -52,7 +52,7 @@ def run(args) -> int:
 
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
-    check_writable(args.json, args.csv, args.markdown)
+    check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"))
     outputs = [(path, fmt) for path, fmt in ((args.json, "json"), (args.csv, "csv"),
                                               (args.markdown, "markdown")) if path]
     code = None

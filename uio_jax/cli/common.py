@@ -63,10 +63,34 @@ def compile_cache(args):
         yield
 
 
-def check_writable(*paths):
-    """Refuse output files whose directory is missing before hours of work, not after."""
-    for path in paths:
-        if path:
-            parent = os.path.dirname(os.path.abspath(path))
-            if not os.path.isdir(parent):
-                raise UsageError(f"cannot write {path}: no directory {parent}")
+def check_writable(*paths, names=None):
+    """Refuse output files that cannot be written, before hours of work, not after.
+
+    Each given path must be in an existing, writable directory, must not be a directory
+    itself, and no two may name the same file.
+
+    Args:
+        *paths: output paths (None or "" for an option not given).
+        names: the options' names (``"--json"``), one per path, for the messages.
+
+    Raises:
+        UsageError: the first path that fails, named.
+    """
+    names = names or [None] * len(paths)
+    seen = {}
+    for name, path in zip(names, paths):
+        if not path:
+            continue
+        what = f"{name} {path}" if name else path
+        full = os.path.abspath(path)
+        parent = os.path.dirname(full)
+        if not os.path.isdir(parent):
+            raise UsageError(f"cannot write {what}: no directory {parent}")
+        if os.path.isdir(full):
+            raise UsageError(f"cannot write {what}: it is a directory")
+        if not os.access(parent, os.W_OK):
+            raise UsageError(f"cannot write {what}: directory {parent} is not writable")
+        if full in seen:
+            raise UsageError(f"{seen[full] or 'two outputs'} and {name or 'another output'} name the same "
+                             f"file {path}")
+        seen[full] = name

@@ -10,7 +10,7 @@ from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
 from .._model.experiment import TimeScaleWarning
-from .common import UsageError, check_writable
+from .common import check_writable
 
 #: Figures are saved at this resolution (raster formats; vector formats ignore it).
 FIGURE_DPI = 150
@@ -67,15 +67,7 @@ def check_options(args):
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot)
-    for opt, path in (("--json", args.json), ("--plot", args.plot)):
-        if path and os.path.isdir(path):
-            raise UsageError(f"cannot write {opt} {path}: it is a directory")
-        parent = os.path.dirname(os.path.abspath(path)) if path else None
-        if path and not os.access(parent, os.W_OK):
-            raise UsageError(f"cannot write {opt} {path}: directory {parent} is not writable")
-    if args.json and args.plot and os.path.abspath(args.json) == os.path.abspath(args.plot):
-        raise UsageError(f"--json and --plot name the same file {args.json}")
+    check_writable(args.json, args.plot, names=("--json", "--plot"))
 
 
 @contextlib.contextmanager
