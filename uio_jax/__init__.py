@@ -18,6 +18,7 @@ from ._model.system import System as System
 from ._model.experiment import Experiment as Experiment
 from ._model.experiment import Measurement as Measurement
 from ._model.experiment import Quantity as Quantity
+from ._model.experiment import TimeScaleWarning as TimeScaleWarning
 
 # the analyses and their report
 from ._analysis.analyze import analyze as analyze
@@ -66,6 +67,7 @@ __all__ = [
     "batch_analyze", "BatchResult", "BatchRow",
     "enable_compile_cache",
     "UioJaxError", "ModelError", "OptionError", "LoadError", "ExpressionError",
+    "TimeScaleWarning",
 ]
 
 try:
