@@ -15,7 +15,11 @@ stack at once:
   recurrences (Griewank & Walther, "Evaluating Derivatives", 2nd ed., table 13.2) are
   lower-triangular Toeplitz systems in the unknown coefficients, solved by one forward
   substitution loop each: a handful of traced primitives per operation whatever K is (a
-  Python loop over k would trace ``O(K^2)`` of them). Integer powers: repeated squaring.
+  Python loop over k would trace ``O(K^2)`` of them). Integer powers: repeated squaring;
+* the other elementary functions (atan2, atan, asin, acos, tanh, sinh, cosh, asinh, acosh,
+  atanh, logistic, log1p, expm1, exp2, erf, erfc, cbrt, real powers): the recipes of
+  :mod:`uio_jax._engine.elementary` over these blocks, shared with the Taylor flow;
+  ``clamp``, ``reduce_max`` / ``reduce_min`` and ``rem`` pick or shift by the order-0 values.
 
 Comparisons and other non-smooth primitives act on the order-0 coefficient only (their
 outputs are constant along t for a generic state). The walk over the jaxpr is
@@ -34,6 +38,7 @@ import math
 import jax
 import jax.numpy as jnp
 
+from .elementary import ELEMENTARY, extreme_mask, ranked, rem_quotient
 from .interpreter import CONSTANT, DATA_OPERANDS, LINEAR, NoTaylorRule, Rules, inline, interpret
 
 
@@ -175,78 +180,11 @@ def _ipow(a, p, K):
     return out
 
 
-# -- elementary functions from the building blocks (shared with .taylor_flow) ---------------
-# A recipe ``ELEMENTARY[name](E, *stacks) -> stack`` writes one primitive with the blocks of
-# an engine ``E``: stacks are arrays ``(K + 1, *shape)`` of normalized coefficients (of equal
-# rank); linear operations are plain ``jnp`` on them; the nonlinear ones are ``E.mul(a, b)``,
-# ``E.div(a, b)``, ``E.exp(a)``, ``E.log(a)``, ``E.sqrt(a)`` and ``E.integral(pairs)``: the
-# series ``y`` with ``y[0] = 0`` and ``y' = sum g u'`` over the pairs ``(g, u)``, i.e.
-# ``y[k] = (1/k) sum_(g, u) sum_{1 <= j <= k} j u[j] g[k - j]`` (a function ``f(u)`` with a
-# known derivative series ``g = f'(u)`` is ``f(u0) + integral``). ``E.moving[i]``: operand i
-# is a series (else a constant, lifted). Only orders >= 1 of a recipe count: the engines set
-# order 0 to the primitive on the order-0 values (exact, as the primal).
-
-def _one(a):
-    """The constant 1 as a stack like ``a``."""
-    return jnp.zeros_like(a).at[0].set(1)
-
-
-def _sgn(a):
-    """``sign(a[0])`` with 0 read as 1 (element shape): the branch of an odd function."""
-    return jnp.where(a[0] < 0, -1.0, 1.0).astype(a.dtype)
-
-
-def _tanh(E, u):
-    """``s (1 - e) / (1 + e)``, ``e = exp(-2 s u)``, ``s = sign(u0)``: no overflow."""
-    s = _sgn(u)
-    e = E.exp(-2.0 * s * u)
-    return E.div(s * (_one(u) - e), _one(u) + e)
-
-
-def _pow_recipe(E, a, b):
-    """``a ** b = exp(b log a)``; a constant exponent on a negative base: ``s^b |a|^b``."""
-    if E.moving[1]:
-        return E.exp(E.mul(E.log(a), b))
-    s = _sgn(a)
-    return jnp.power(s, b[0]) * E.exp(b[0] * E.log(s * a))
-
-
-def _rsq(E, d):
-    """``1 / sqrt(d)``."""
-    return E.div(_one(d), E.sqrt(d))
-
-
-def _atan2(E, a, b):
-    """``atan2(a, b)' = (b a' - a b') / (a^2 + b^2)``."""
-    r2 = E.mul(a, a) + E.mul(b, b)
-    return E.integral([(E.div(b, r2), a), (E.div(-a, r2), b)])
-
-
-#: primitive name -> recipe (see above); both Taylor engines apply these
-ELEMENTARY = {
-    "atan": lambda E, u: E.integral([(E.div(_one(u), _one(u) + E.mul(u, u)), u)]),
-    "asin": lambda E, u: E.integral([(_rsq(E, _one(u) - E.mul(u, u)), u)]),
-    "acos": lambda E, u: E.integral([(-_rsq(E, _one(u) - E.mul(u, u)), u)]),
-    "asinh": lambda E, u: E.integral([(_rsq(E, _one(u) + E.mul(u, u)), u)]),
-    "acosh": lambda E, u: E.integral([(_rsq(E, E.mul(u - _one(u), u + _one(u))), u)]),
-    "atanh": lambda E, u: E.integral([(E.div(_one(u), _one(u) - E.mul(u, u)), u)]),
-    "atan2": _atan2,
-    "tanh": _tanh,
-    "logistic": lambda E, u: 0.5 * (_one(u) + _tanh(E, 0.5 * u)),
-    "sinh": lambda E, u: 0.5 * (E.exp(u) - E.exp(-u)),
-    "cosh": lambda E, u: 0.5 * (E.exp(u) + E.exp(-u)),
-    "expm1": lambda E, u: E.exp(u),
-    "exp2": lambda E, u: E.exp(math.log(2.0) * u),
-    "log1p": lambda E, u: E.integral([(E.div(_one(u), _one(u) + u), u)]),
-    "erf": lambda E, u: E.integral([((2 / math.sqrt(math.pi)) * E.exp(-E.mul(u, u)), u)]),
-    "erfc": lambda E, u: E.integral([((-2 / math.sqrt(math.pi)) * E.exp(-E.mul(u, u)), u)]),
-    "cbrt": lambda E, u: _sgn(u) * E.exp(E.log(_sgn(u) * u) / 3.0),
-    "pow": _pow_recipe,
-}
-
+# -- the building blocks of the elementary functions (:mod:`.elementary`) -----------------
 
 class _Blocks:
-    """The building blocks of :data:`ELEMENTARY` on whole stacks (state: K)."""
+    """The building blocks of :data:`~uio_jax._engine.elementary.ELEMENTARY` on whole stacks
+    (state: K)."""
 
     def __init__(self, K, moving):
         self.K, self.moving = K, moving
@@ -267,18 +205,9 @@ class _Blocks:
         return _sqrt(_S(a), self.K).c
 
     def integral(self, pairs):
-        ks = None
-        v = 0.0
-        for g, u in pairs:
-            ks = _orders(self.K, u)
-            v = v + self.mul(g, ks * u)
-        return jnp.concatenate([jnp.zeros_like(v[:1]), v[1:] / ks[1:]])
-
-
-def ranked(stacks):
-    """Stacks ``(K + 1, *shape)`` given one rank (leading singleton element axes)."""
-    r = max(c.ndim for c in stacks)
-    return [c.reshape(c.shape[:1] + (1,) * (r - c.ndim) + c.shape[1:]) for c in stacks]
+        """``y[0] = 0``, ``k y[k] = sum_(g, u) (g * (j u[j]))[k]`` (Cauchy products)."""
+        v = sum(self.mul(g, _orders(self.K, u) * u) for g, u in pairs)
+        return jnp.concatenate([jnp.zeros_like(v[:1]), v[1:] / _orders(self.K, v)[1:]])
 
 
 # -- the rule table (state: K) -------------------------------------------------------------
@@ -365,8 +294,8 @@ def _div(prim, params, ins, K):
 
 
 def _elementary(prim, params, ins, K):
-    """A primitive of :data:`ELEMENTARY`: its recipe on the operands' stacks, order 0 the
-    primitive on the order-0 values."""
+    """A primitive of :data:`~uio_jax._engine.elementary.ELEMENTARY`: its recipe on the
+    operands' stacks, order 0 the primitive on the order-0 values."""
     v0 = prim.bind(*[v.c[0] if isinstance(v, _S) else v for v in ins], **params)
     stacks = ranked([_series(v, K).c for v in ins])
     out = ELEMENTARY[prim.name](_Blocks(K, tuple(isinstance(v, _S) for v in ins)), *stacks)
@@ -391,19 +320,6 @@ def _reduce_max_min(prim, params, ins, K):
     pick = extreme_mask(prim, params, a[0])
     return [_S(jax.vmap(lambda c: jnp.sum(jnp.where(pick, c, 0), axis=params["axes"]))(a)
                / jnp.sum(pick, axis=params["axes"]))]
-
-
-def extreme_mask(prim, params, a0):
-    """Bool (shape of ``a0``): the elements of ``a0`` equal to their ``reduce_max`` /
-    ``reduce_min`` over ``params["axes"]`` (``prim`` either of them)."""
-    m = prim.bind(a0, **params)
-    keep = [d for d in range(a0.ndim) if d not in params["axes"]]
-    return a0 == jax.lax.broadcast_in_dim(m, a0.shape, keep)
-
-
-def rem_quotient(a0, b0):
-    """``q`` with ``rem(a, b) = a - q b`` near the order-0 values (integral, constant along t)."""
-    return jnp.round((a0 - jax.lax.rem(a0, b0)) / b0)
 
 
 def _rem(prim, params, ins, K):
@@ -511,5 +427,4 @@ def lie_powers(psi, F, j):
     return powers
 
 
-__all__ = ["taylor", "flow_series", "lie_powers", "NoTaylorRule", "ELEMENTARY", "ranked", "extreme_mask",
-           "rem_quotient"]
+__all__ = ["taylor", "flow_series", "lie_powers", "NoTaylorRule"]

@@ -15,8 +15,14 @@ lower ones:
 * ``e = exp(a)``: ``e[k] = (1/k) sum_{i < k} (k - i) a[k - i] e[i]``;
 * ``l = log(a)``: ``l[k] = (a[k] - (1/k) sum_{0 < i < k} i l[i] a[k - i]) / a[0]``;
 * ``r = sqrt(a)``: ``r[k] = (a[k] - sum_{0 < i < k} r[i] r[k - i]) / (2 r[0])``;
-* sin / cos through the complex exponential, integer powers by repeated squaring, real
-  powers as ``exp(b log a)``, all with intermediate stacks of their own.
+* sin / cos through the complex exponential, integer powers by repeated squaring, all
+  with intermediate stacks of their own;
+* ``y' = g u'`` for a known derivative series ``g``:
+  ``y[k] = (1/k) sum_{1 <= j <= k} j u[j] g[k - j]`` (:meth:`_Pass.integral`);
+* the other elementary functions (atan2, atan, asin, acos, tanh, sinh, cosh, asinh, acosh,
+  atanh, logistic, log1p, expm1, exp2, erf, erfc, cbrt, real powers): the recipes of
+  :mod:`uio_jax._engine.elementary` over these blocks, shared with
+  :mod:`uio_jax._engine.taylor`.
 
 The stacks of the nonlinear results are the ``fori_loop`` carry (one array
 ``(K + 1, *shape)`` each, orders above k still zero), and so are the stacks of the linear
@@ -48,9 +54,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .elementary import ELEMENTARY, extreme_mask, ranked, rem_quotient
 from .interpreter import BILINEAR, CONSTANT, DATA_OPERANDS, LINEAR, NoTaylorRule, Rules, bind, call_body, interpret
 from .sparsity import structural_zeros
-from .taylor import ELEMENTARY, extreme_mask, ranked, rem_quotient
 
 #: indexing and reshaping primitives that move elements without combining them: a mask of
 #: constant elements moves with them (operands other than the data, e.g. gather indices,
@@ -276,7 +282,7 @@ class _Pass:
 
 
 class _Blocks:
-    """The building blocks of :data:`uio_jax._engine.taylor.ELEMENTARY` in pass k: each
+    """The building blocks of :data:`uio_jax._engine.elementary.ELEMENTARY` in pass k: each
     nonlinear block a carried stack, named ``key + (n,)`` in the order the recipe calls them
     (the same in every pass), of the equation's output shape and dtype."""
 
@@ -393,7 +399,7 @@ def _div(ps, key, eqn, ins):
 
 
 def _elementary(ps, key, eqn, ins):
-    """A primitive of :data:`~uio_jax._engine.taylor.ELEMENTARY`: its recipe on the operands'
+    """A primitive of :data:`~uio_jax._engine.elementary.ELEMENTARY`: its recipe on the operands'
     stacks, order 0 the primitive on the order-0 values."""
     shape, dtype = _aval(eqn)
     stacks = ranked([ps.lift(v) for v in ins])
