@@ -246,8 +246,8 @@ def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
 
 
 def test_fallback_without_jet_rule():
-    """A primitive without a Taylor rule (atan2) falls back (jet, then nested jvp)."""
-    sys_ = uj.System(("x", "a"), {"y": lambda s: jnp.arctan2(0.3 * s[0], 2.0)},
+    """A primitive without a Taylor rule (erf_inv) falls back (jet, then nested jvp)."""
+    sys_ = uj.System(("x", "a"), {"y": lambda s: jax.scipy.special.erfinv(0.3 * s[0])},
                      unknown={"w": lambda s: jnp.array([s[1], 0.0])})
     rep = uj.analyze(sys_, method="eorc", samples=64, k_max=2)
     assert rep.observable == {"x": True, "a": False}
