@@ -257,3 +257,13 @@ def test_output_paths_checked_before_any_work(command, tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and "Traceback" not in err
         assert "directory" in err or "same file" in err, err
+
+
+def test_analysis_options_checked_before_the_model_is_loaded(tmp_path, capsys):
+    """A bad option is named even when the model would fail too (it is never loaded)."""
+    missing_model = str(tmp_path / "no_such_model.toml")
+    for extra, words in ((["--seed", str(2**64)], "seed"), (["--samples", "3"], "samples"),
+                         (["--k-max", "0"], "k_max")):
+        assert cli.main(["analyze", missing_model, *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and words in err and "no_such_model" not in err, err

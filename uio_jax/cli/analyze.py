@@ -24,9 +24,12 @@ def add_parser(subparsers, analysis_options):
 def run(args) -> int:
     """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
     from .._analysis.analyze import analyze
+    from .._analysis.options import check_options
     from .._io.loading import load_system
     from .._progress import StepPrinter, step_listener
 
+    check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
+                  max_order=args.max_order, k_max=args.k_max)  # before loading the model
     if args.plot:
         from .._analysis.plots import check_figure_path
 
