@@ -193,7 +193,7 @@ def test_bad_model_files_are_rows(tmp_path):
     (["batch", "systems", "--timeout", "inf"], "timeout must be a positive number"),
     (["batch", "systems", "--samples", "0"], "samples must be an integer >= 8"),
     (["batch", "systems", "--method", "magic"], "invalid choice: 'magic'"),
-    (["batch", "systems", "--json", "no/dir/t.json"], "cannot write no/dir/t.json"),
+    (["batch", "systems", "--json", "no/dir/t.json"], "cannot write --json no/dir/t.json"),
 ])
 def test_cli_batch_usage_errors(capsys, argv, message):
     assert cli.main(argv + ["--no-cache"]) == 2
