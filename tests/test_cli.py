@@ -1,5 +1,6 @@
 """Command line: readable reports, one-line errors with exit code 2, no tracebacks."""
 
+import itertools
 import json
 import os
 import subprocess
@@ -262,8 +263,9 @@ def test_output_paths_checked_before_any_work(command, tmp_path, capsys):
 def test_analysis_options_checked_before_the_model_is_loaded(tmp_path, capsys):
     """A bad option is named even when the model would fail too (it is never loaded)."""
     missing_model = str(tmp_path / "no_such_model.toml")
-    for extra, words in ((["--seed", str(2**64)], "seed"), (["--samples", "3"], "samples"),
-                         (["--k-max", "0"], "k_max")):
-        assert cli.main(["analyze", missing_model, *extra]) == 2
+    for command, (extra, words) in itertools.product(
+            ("analyze", "batch"),
+            ((["--seed", str(2**64)], "seed"), (["--samples", "3"], "samples"), (["--k-max", "0"], "k_max"))):
+        assert cli.main([command, missing_model, *extra]) == 2
         err = capsys.readouterr().err.strip()
         assert err.count("\n") == 0 and words in err and "no_such_model" not in err, err

@@ -48,8 +48,11 @@ def run(args) -> int:
     model. On Ctrl-C the workers are stopped, the partial table is printed and written
     (marked "interrupted after K of N models") and the exit code is 130.
     """
+    from .._analysis.options import check_options
     from .._batch.run import BatchInterrupted, batch_analyze
 
+    check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
+                  max_order=args.max_order, k_max=args.k_max)  # before any model is found
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"))
