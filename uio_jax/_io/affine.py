@@ -89,6 +89,25 @@ class Parts:
     notes: tuple = ()
     promoted: tuple = field(default=())
 
+    def to_system(self, wrap, *, name, params, source=None, notes=()):
+        """The :class:`uio_jax.System` of these parts, every function passed through ``wrap``
+        (``fn(z)`` -> the System's callable: ``x`` as is, or ``(x, p)`` with params).
+
+        ``name``, ``params`` (name -> box) and ``source`` go to the System as given; its
+        notes are ``notes`` followed by those of the parts.
+        """
+        from .._model.system import System
+
+        return System(
+            self.states,
+            {k: wrap(f) for k, f in self.outputs.items()},
+            known={k: wrap(f) for k, f in self.known.items()},
+            unknown={k: wrap(f) for k, f in self.unknown.items()},
+            drift=None if self.drift is None else wrap(self.drift),
+            domain=self.domain, angles=self.angles, name=name, params=params, source=source,
+            notes=tuple(notes) + tuple(self.notes),
+        )
+
 
 def _rows(exprs: Mapping[str, Expr], rows: Sequence[str], names: Sequence[str], constants):
     return [compile_raw(exprs[r], names, constants) if r in exprs else None for r in rows]
@@ -325,8 +344,6 @@ def _fresh(name, taken):
 
 def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
               constants, domain, angles, notes):
-    from .._model.system import DEFAULT_BOX
-
     pnames = tuple(params)
     n0 = len(states)
     taken = set(states) | set(pnames) | set(known_inputs) | set(unknown_inputs) | set(outputs) | set(constants)
@@ -382,9 +399,33 @@ def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted,
 
         return ej
 
+    return _parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons, params, domain, angles,
+                  notes, taken, field_of=field_of, output_of=lambda e: to_function(e, znames, constants),
+                  unit=unit, drift=drift, has_drift=lambda boxes: bool(dynamics) and not _vanishes(drift, boxes))
+
+
+def _parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons, params, domain, angles, notes,
+           taken, *, field_of, output_of, unit, drift, has_drift) -> Parts:
+    """The :class:`Parts` on ``z = [x; promoted; p]`` that both routes assemble alike.
+
+    ``known_inputs``/``unknown_inputs``: the inputs kept (not dropped), ``promoted`` those
+    of them that become states (after ``states``, in this order). The routes differ only in
+    how their functions are made: ``field_of(i)`` is the field of the ``i``-th unpromoted
+    input (in the order known then unknown), ``output_of(h)`` the output function of
+    ``outputs[name]``, ``unit(j)`` the constant field ``e_j`` (the derivative of promoted
+    state ``j``); ``has_drift(boxes)`` (the sampling boxes of ``z``) says whether ``drift``
+    is kept. Each promotion (:func:`promotions`, which adds its new names to ``taken``)
+    adds its note, its input ``d`` with field ``e_j``, its box (``domain`` or
+    :data:`INPUT_BOX`) and, for a known input, an output reading the state.
+    """
+    from .._model.system import DEFAULT_BOX
+
+    n0 = len(states)
+    new_states = tuple(states) + tuple(promoted)
+    rest = tuple(v for v in known_inputs + unknown_inputs if v not in promoted)
     known = {v: field_of(rest.index(v)) for v in known_inputs if v not in promoted}
     unknown = {v: field_of(rest.index(v)) for v in unknown_inputs if v not in promoted}
-    out_fns = {k: to_function(e, znames, constants) for k, e in outputs.items()}
+    out_fns = {k: output_of(h) for k, h in outputs.items()}
     new_domain = {k: tuple(b) for k, b in domain.items() if k in states}
     notes = list(notes)
     for j, (v, d, y, note) in enumerate(promotions(promoted, reasons, known_inputs, outputs, taken)):
@@ -396,10 +437,9 @@ def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted,
         else:
             unknown[d] = unit(n0 + j)
     boxes = [new_domain.get(s) or _box(s, domain, angles, DEFAULT_BOX) for s in new_states]
-    boxes += [tuple(map(float, params[q])) for q in pnames]
-    has_drift = bool(dynamics) and not _vanishes(drift, boxes)
+    boxes += [tuple(map(float, params[q])) for q in params]
     return Parts(states=new_states, outputs=out_fns, known=known, unknown=unknown,
-                 drift=drift if has_drift else None, domain=new_domain, angles=tuple(angles),
+                 drift=drift if has_drift(boxes) else None, domain=new_domain, angles=tuple(angles),
                  notes=tuple(notes), promoted=promoted)
 
 
@@ -556,8 +596,6 @@ def _measure(dynamics, outputs, zs, n0, P, nk):
 def _assemble_callable(states, dynamics, outputs, known_inputs, unknown_inputs, dropped, reasons, params,
                        domain, angles, notes):
     """:func:`_assemble` for callables: the System's functions on ``z = [x; promoted; p]``."""
-    from .._model.system import DEFAULT_BOX
-
     pnames = tuple(params)
     n0, nk = len(states), len(known_inputs)
     inputs = known_inputs + unknown_inputs
@@ -609,26 +647,12 @@ def _assemble_callable(states, dynamics, outputs, known_inputs, unknown_inputs, 
 
         return y
 
-    known = {v: field_of(rest.index(v)) for v in kept_known if v not in promoted}
-    unknown = {v: field_of(rest.index(v)) for v in kept_unknown if v not in promoted}
-    out_fns = {k: output_of(h) for k, h in outputs.items()}
-    new_domain = {k: tuple(b) for k, b in domain.items() if k in states}
+    def has_drift(boxes):
+        with jax.enable_x64(True):
+            vals = np.asarray(jax.jit(jax.vmap(drift))(jnp.asarray(affine_points(boxes, 1))))
+        finite = np.isfinite(vals).all(axis=1)
+        return not (finite.any() and not np.any(vals[finite] != 0.0))
+
     taken = set(states) | set(pnames) | set(inputs) | set(outputs)
-    notes = list(notes)
-    for j, (v, d, y, note) in enumerate(promotions(promoted, reasons, kept_known, outputs, taken)):
-        new_domain[v] = _box(v, domain, (), INPUT_BOX)
-        notes.append(note)
-        if v in kept_known:
-            known[d] = unit(n0 + j)
-            out_fns[y] = _reader(n0 + j)
-        else:
-            unknown[d] = unit(n0 + j)
-    boxes = [new_domain.get(s) or _box(s, domain, angles, DEFAULT_BOX) for s in new_states]
-    boxes += [tuple(map(float, params[q])) for q in pnames]
-    with jax.enable_x64(True):
-        vals = np.asarray(jax.jit(jax.vmap(drift))(jnp.asarray(affine_points(boxes, 1))))
-    finite = np.isfinite(vals).all(axis=1)
-    has_drift = not (finite.any() and not np.any(vals[finite] != 0.0))
-    return Parts(states=new_states, outputs=out_fns, known=known, unknown=unknown,
-                 drift=drift if has_drift else None, domain=new_domain, angles=tuple(angles),
-                 notes=tuple(notes), promoted=promoted)
+    return _parts(states, promoted, kept_known, kept_unknown, outputs, reasons, params, domain, angles, notes,
+                  taken, field_of=field_of, output_of=output_of, unit=unit, drift=drift, has_drift=has_drift)

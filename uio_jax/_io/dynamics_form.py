@@ -111,15 +111,7 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
     parts = split_callable(states, dyn, outs, known, unknown, boxes, domain, tuple(angles))
     wrap = _with_params if with_p else (lambda fn: fn)
     notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
-    return System(
-        parts.states,
-        {k: wrap(f) for k, f in parts.outputs.items()},
-        known={k: wrap(f) for k, f in parts.known.items()},
-        unknown={k: wrap(f) for k, f in parts.unknown.items()},
-        drift=None if parts.drift is None else wrap(parts.drift),
-        domain=parts.domain, angles=parts.angles, name=name, params=boxes,
-        notes=notes + tuple(parts.notes),
-    )
+    return parts.to_system(wrap, name=name, params=boxes, notes=notes)
 
 
 def _a(kind: str) -> str:

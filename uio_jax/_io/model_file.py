@@ -74,7 +74,6 @@ def build_system(spec: ModelSpec):
     Callables take ``x`` (shape ``(n,)``), or ``(x, p)`` when the spec has params; the
     spec is kept in ``System.source`` so that :func:`save_model` can write it back.
     """
-    from .._model.system import System
     from .affine import Parts, split_general, vector_function
     from .expression_functions import to_function
 
@@ -101,15 +100,7 @@ def build_system(spec: ModelSpec):
             domain=dict(spec.domain), angles=tuple(spec.angles),
         )
     wrap = _with_params if spec.params else _no_params
-    return System(
-        parts.states,
-        {k: wrap(f) for k, f in parts.outputs.items()},
-        known={k: wrap(f) for k, f in parts.known.items()},
-        unknown={k: wrap(f) for k, f in parts.unknown.items()},
-        drift=None if parts.drift is None else wrap(parts.drift),
-        domain=parts.domain, angles=parts.angles, name=spec.name,
-        params=dict(spec.params), source=spec, notes=tuple(spec.notes) + tuple(parts.notes),
-    )
+    return parts.to_system(wrap, name=spec.name, params=dict(spec.params), source=spec, notes=spec.notes)
 
 
 def _no_params(fn):
