@@ -176,6 +176,11 @@ class Experiment:
         sys_ = self.system
         if not isinstance(sys_, System):
             raise ModelError(f"experiment {self.name!r}: system must be a uio_jax.System")
+        if sys_.time is not None:
+            raise ModelError(
+                f"experiment {self.name!r}: time-varying systems are not simulated yet (System time="
+                f"{sys_.time!r}); the Monte Carlo filter takes a time-invariant System"
+            )
         if sys_.params:
             raise ModelError(
                 f"experiment {self.name!r}: the Monte Carlo filter does not take a System with "

@@ -11,6 +11,11 @@ returns shape ``(n,)`` and an output returns a scalar (shape ``()``).
 With unknown constant parameters ``theta`` (``params=``), every callable takes ``(x, p)``
 and the analyses run on the joint vector ``z = [x; theta]`` with ``theta' = 0``: a
 parameter is identifiable exactly when its coordinate is observable on ``z``.
+
+A time-varying system (``time="t"``) has callables ``f0(x, t)``, ``h(x, t)``, ... (``(x, p, t)``
+with parameters, ``t`` a scalar of shape ``()``); the analyses run on the autonomous System on
+``[x; p; t]`` with ``t' = 1`` and ``t`` measured (:meth:`System.autonomous`,
+:mod:`uio_jax._model.time`).
 """
 
 import contextlib
@@ -34,6 +39,11 @@ Scalar = Callable[[jax.Array], jax.Array]
 #: It stays away from 0, where many models have their singular set (1/r, atan2, norms);
 #: for analytic models the generic rank is the same on every open set of a connected domain.
 DEFAULT_BOX = (0.5, 1.5)
+#: Sampling box of the time variable (``System.time``) when ``domain`` does not list it, in
+#: seconds: the first second of an experiment that starts at t = 0. Any open interval gives the
+#: same generic ranks for an analytic model; list the time name in ``domain`` to move it (e.g.
+#: away from a singular instant such as the 0 of ``1/t``).
+DEFAULT_TIME_BOX = (0.0, 1.0)
 #: Sampling box of a state listed in ``System.angles``.
 ANGLE_BOX = (-math.pi, math.pi)
 #: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
@@ -94,11 +104,19 @@ class System:
             Systems built from Python callables.
         notes: remarks carried into every Report of this System (e.g. how an importer
             rewrote the model).
+        time: name of the time variable of a time-varying system (an identifier distinct
+            from every state, parameter, input and output name), or ``None`` (default:
+            time-invariant). When given, EVERY callable takes a trailing scalar time
+            argument: ``fn(x, t)``, or ``fn(x, p, t)`` with params (``t`` of shape ``()``, in
+            seconds). ``domain`` may list the time name: the box ``(lo, hi)`` where ``t`` is
+            sampled to certify ranks (default ``DEFAULT_TIME_BOX`` = (0.0, 1.0)). The analyses
+            run on :meth:`autonomous`: ``t`` becomes a state with ``t' = 1`` that is measured.
 
     Raises:
         ModelError: a one-line message naming the problem (wrong length, non-scalar
             output, duplicate or unknown name, non-callable entry, empty or inverted
-            domain box, a function that is NaN/inf on the whole domain, no outputs).
+            domain box, a function that is NaN/inf on the whole domain, no outputs, a time
+            name that is not an identifier or is taken by a state, parameter, input or output).
 
     Example:
         >>> import jax.numpy as jnp, uio_jax as uj
@@ -118,6 +136,7 @@ class System:
     params: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     source: object = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
+    time: str | None = None
 
     def __post_init__(self):
         states = _as_names(self.states, "states")
@@ -138,11 +157,13 @@ class System:
             raise ModelError(f"input {sorted(both)[0]!r} is declared both known and unknown")
         if self.drift is not None and not callable(self.drift):
             raise ModelError(f"drift must be callable, got {type(self.drift).__name__}")
-        object.__setattr__(self, "domain", _as_domain(self.domain, states, angles))
         if not isinstance(self.name, str):
             raise ModelError(f"name must be a string, got {type(self.name).__name__}")
         params = _as_params(self.params, states)
         object.__setattr__(self, "params", params)
+        time = _as_time(self.time, states, params, self.known, self.unknown, self.outputs)
+        object.__setattr__(self, "time", time)
+        object.__setattr__(self, "domain", _as_domain(self.domain, states, angles, time))
         if not _DERIVED.get():
             _check_input_names(self.known, self.unknown, states, params)
         notes = (self.notes,) if isinstance(self.notes, str) else tuple(self.notes or ())
@@ -153,6 +174,10 @@ class System:
             self._check_shapes()
         if params:
             object.__setattr__(self, "_joint", self._build_joint())  # validated there
+        elif time is not None:
+            from .time import build_autonomous
+
+            object.__setattr__(self, "_autonomous", build_autonomous(self))  # validated there
         elif not _DERIVED.get():
             self._check_finite()
 
@@ -178,6 +203,27 @@ class System:
         return lo, hi
 
     @property
+    def time_box(self) -> tuple[float, float] | None:
+        """Sampling box ``(lo, hi)`` of the time variable (seconds); ``None`` without ``time``."""
+        return None if self.time is None else self.domain[self.time]
+
+    @property
+    def time_name(self) -> str | None:
+        """Name of the time variable: ``time`` of a time-varying System, the name of the last
+        state of the System returned by :meth:`autonomous` (time made a state), else ``None``."""
+        return self.time if self.time is not None else getattr(self, "_time_name", None)
+
+    @property
+    def known_coordinates(self) -> int:
+        """Number of trailing state coordinates whose values are known (measured exactly).
+
+        1 on the System that :meth:`autonomous` returns for a time-varying System (the time
+        coordinate ``t``, with ``t' = 1``); 0 otherwise. The analyses keep the differentials
+        of these coordinates in the codistribution and leave them out of the verdicts.
+        """
+        return getattr(self, "_known_coordinates", 0)
+
+    @property
     def param_names(self) -> tuple[str, ...]:
         """Names of the unknown constant parameters (order of ``p``)."""
         return tuple(self.params)
@@ -195,9 +241,33 @@ class System:
 
         States are ``states + params``, every field is padded with ``p' = 0`` and every
         callable reads ``x = z[:n]``, ``p = z[n:]``; the parameter boxes become domains.
-        Returns ``self`` when there is no parameter.
+        Returns ``self`` when there is no parameter. Of a time-varying System, the joint
+        System is time-varying too (its callables take ``(z, t)``, ``domain`` keeps the time
+        box).
         """
         return getattr(self, "_joint", self)
+
+    def autonomous(self) -> "System":
+        """The System without parameters and without explicit time that the analyses run on.
+
+        For a time-varying System (``time`` set), the System on ``z = [x; p; t]``
+        (states: ``states``, then ``params``, then the time name; no params left) whose
+        callables take ``z`` only:
+
+        * drift ``[f0(x, p, t); 0; 1]`` (``[0; 0; 1]`` when there is no drift);
+        * known and unknown fields ``[f_i(x, p, t); 0; 0]``;
+        * outputs ``h(x, p, t)`` and one more output named like the time variable,
+          ``z[-1]`` (time is known: it is measured);
+        * ``domain``: the state boxes, the parameter boxes, then the time box.
+
+        It has ``known_coordinates == 1`` (the time coordinate, last) and ``time_name``,
+        ``joint_param_names`` the parameters. For a time-invariant System it is
+        :meth:`joint` (``known_coordinates == 0``). Built (and validated: finiteness at
+        states, parameters and times drawn in their boxes) with the System.
+        """
+        if self.time is None:
+            return self.joint()
+        return self.joint()._autonomous
 
     def with_known(self, names) -> "System":
         """A copy where the unknown inputs ``names`` are treated as known inputs."""
@@ -211,7 +281,7 @@ class System:
         with derived_system():  # the same (validated) functions
             return System(self.states, dict(self.outputs), known, unknown, self.drift,
                           dict(self.domain), self.angles, self.name, params=dict(self.params),
-                          notes=self.notes)
+                          notes=self.notes, time=self.time)
 
     def __repr__(self) -> str:
         parts = [f"states={self.states}", f"outputs={tuple(self.outputs)}"]
@@ -223,6 +293,10 @@ class System:
             parts.append("drift")
         if self.params:
             parts.append(f"params={tuple(self.params)}")
+        if self.time is not None:
+            parts.append(f"time={self.time!r}")
+        elif self.known_coordinates:
+            parts.append(f"known_coordinates={self.known_coordinates} ({self.time_name!r})")
         label = f"{self.name!r}, " if self.name else ""
         return f"System({label}{', '.join(parts)})"
 
@@ -235,26 +309,35 @@ class System:
             yield ("drift", self.drift, (self.n,))
 
     def _check_shapes(self):
-        """Trace every function once: it must run on ``x`` (or ``(x, p)``), return the right
-        shape and a real dtype; integer and boolean results are promoted to float."""
+        """Trace every function once: it must run on ``x`` (or ``(x, p)``, ``(x, t)``,
+        ``(x, p, t)``), return the right shape and a real dtype; integer and boolean results
+        are promoted to float."""
         promote = set()
         args = [jax.ShapeDtypeStruct((self.n,), jnp.float64)]
         on = f"a state vector of length {self.n}"
+        hint = "(with params, every function takes (x, p))"
         if self.params:
             args.append(jax.ShapeDtypeStruct((len(self.params),), jnp.float64))
             on = f"(x, p) of lengths ({self.n}, {len(self.params)})"
+        if self.time is not None:
+            args.append(jax.ShapeDtypeStruct((), jnp.float64))
+            sig = "(x, p, t)" if self.params else "(x, t)"
+            on = (f"(x, p, {self.time}) of shapes ({self.n},), ({len(self.params)},), ()" if self.params
+                  else f"(x, {self.time}) of shapes ({self.n},), ()")
+            hint = f"(with time {self.time!r}, every function takes {sig})"
         with jax.enable_x64(True):
             for what, fn, expected in self._named_functions():
                 try:
                     out = jax.eval_shape(fn, *args)
                 except Exception as exc:  # the user's function fails to trace
                     msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-                    if self.params and isinstance(exc, TypeError) and "argument" in msg:
-                        msg += " (with params, every function takes (x, p))"
+                    if (self.params or self.time is not None) and isinstance(exc, TypeError) and "argument" in msg:
+                        msg += " " + hint
                     raise ModelError(
                         f"{what} fails on {on}: {type(exc).__name__}: {msg}"
                     ) from None
-                _check_indexing(what, fn, self.n, len(self.params) if self.params else None)
+                _check_indexing(what, fn, self.n, len(self.params) if self.params else None,
+                                None if self.time is None else sum(self.time_box) / 2)
                 shape = getattr(out, "shape", None)
                 if shape is None:
                     raise ModelError(f"{what} must return an array, got {type(out).__name__}")
@@ -314,11 +397,18 @@ class System:
         """The System on ``z = [x; p]`` (see :meth:`joint`); it validates itself."""
         n, P = self.n, len(self.params)
 
-        def scalar(fn):
-            return lambda z: fn(z[:n], z[n:])
+        if self.time is None:
+            def scalar(fn):
+                return lambda z: fn(z[:n], z[n:])
 
-        def vector(fn):
-            return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
+            def vector(fn):
+                return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
+        else:  # a time-varying joint System: its callables take (z, t)
+            def scalar(fn):
+                return lambda z, t: fn(z[:n], z[n:], t)
+
+            def vector(fn):
+                return lambda z, t: jnp.concatenate([fn(z[:n], z[n:], t), jnp.zeros(P, dtype=z.dtype)])
 
         joint = System(
             self.states + tuple(self.params),
@@ -330,8 +420,11 @@ class System:
             angles=self.angles,
             name=self.name,
             notes=self.notes,
+            time=self.time,
         )
         object.__setattr__(joint, "_as_params", tuple(self.params))
+        if self.time is not None:  # built before the joint knew its parameters: mark it too
+            object.__setattr__(joint._autonomous, "_as_params", tuple(self.params))
         object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
         return joint
 
@@ -376,13 +469,16 @@ def _check_input_names(known, unknown, states, params):
                 raise ModelError(f"{kind} input {k!r} has the name of a parameter")
 
 
-def _check_indexing(what, fn, n, n_params=None):
+def _check_indexing(what, fn, n, n_params=None, t=None):
     """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
 
-    The function is called once on a plain numpy vector, where out-of-range indexing raises
-    IndexError; any other failure is left to the traced checks.
+    The function is called once on a plain numpy vector (and parameter vector, and time
+    ``t`` when given), where out-of-range indexing raises IndexError; any other failure is
+    left to the traced checks.
     """
     args = (np.full(n, 0.75),) if n_params is None else (np.full(n, 0.75), np.full(n_params, 0.75))
+    if t is not None:
+        args += (np.float64(t),)
     try:
         fn(*args)
     except IndexError as exc:
@@ -465,13 +561,31 @@ def _box(box, what: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _as_domain(domain, states, angles) -> Mapping[str, tuple[float, float]]:
+def _as_domain(domain, states, angles, time=None) -> Mapping[str, tuple[float, float]]:
     out = {}
     for k, box in _mapping(domain, "domain", "state -> (lo, hi)").items():
-        if k not in states:
-            raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)})")
+        if k not in states and k != time:
+            extra = f", time: {time}" if time is not None else ""
+            raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)}{extra})")
         out[k] = _box(box, f"domain of {k!r}")
     for s in states:
         if s not in out:
             out[s] = ANGLE_BOX if s in angles else DEFAULT_BOX
+    if time is not None and time not in out:
+        out[time] = DEFAULT_TIME_BOX
     return MappingProxyType(out)
+
+
+def _as_time(time, states, params, known, unknown, outputs) -> str | None:
+    """The time name: None, or an identifier that names nothing else of the System."""
+    if time is None:
+        return None
+    if not isinstance(time, str) or not time.isidentifier() or keyword.iskeyword(time):
+        raise ModelError(f"time must be the name of the time variable (an identifier such as 't'), "
+                         f"got {time!r}")
+    for what, table in (("state", states), ("parameter", params), ("known input", known),
+                        ("unknown input", unknown), ("output", outputs)):
+        if time in table:
+            raise ModelError(f"time {time!r} has the name of {'an' if what[0] in 'aeiou' else 'a'} {what} "
+                             "(the time variable needs its own name)")
+    return time
