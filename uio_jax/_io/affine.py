@@ -89,24 +89,60 @@ class Parts:
     notes: tuple = ()
     promoted: tuple = field(default=())
 
-    def to_system(self, wrap, *, name, params, source=None, notes=()):
+    def to_system(self, wrap, *, name, params, source=None, notes=(), time=None, time_box=None):
         """The :class:`uio_jax.System` of these parts, every function passed through ``wrap``
-        (``fn(z)`` -> the System's callable: ``x`` as is, or ``(x, p)`` with params).
+        (``fn(z)`` -> the System's callable: ``x`` as is, ``(x, p)`` with params, ``(x, t)``
+        or ``(x, p, t)`` with time; see :func:`system_callables`).
 
-        ``name``, ``params`` (name -> box) and ``source`` go to the System as given; its
-        notes are ``notes`` followed by those of the parts.
+        ``name``, ``params`` (name -> box), ``source`` and ``time`` (the time name, or None)
+        go to the System as given; ``time_box`` (None: the System's default) is added to its
+        domain under the time name; its notes are ``notes`` followed by those of the parts.
         """
         from .._model.system import System
 
+        domain = dict(self.domain)
+        if time is not None and time_box is not None:
+            domain[time] = tuple(time_box)
         return System(
             self.states,
             {k: wrap(f) for k, f in self.outputs.items()},
             known={k: wrap(f) for k, f in self.known.items()},
             unknown={k: wrap(f) for k, f in self.unknown.items()},
             drift=None if self.drift is None else wrap(self.drift),
-            domain=self.domain, angles=self.angles, name=name, params=params, source=source,
-            notes=tuple(notes) + tuple(self.notes),
+            domain=domain, angles=self.angles, name=name, params=params, source=source,
+            notes=tuple(notes) + tuple(self.notes), time=time,
         )
+
+
+def system_callables(with_params: bool, with_time: bool):
+    """The ``wrap`` of :meth:`Parts.to_system`: ``fn(z)`` -> the System's callable.
+
+    ``z`` is ``[x; p; t]`` (shape ``(n + P + 1,)``; ``p`` only ``with_params``, ``t`` only
+    ``with_time``); the callable takes ``x`` (shape ``(n,)``), ``(x, p)``, ``(x, t)`` or
+    ``(x, p, t)`` (``t`` a scalar) and returns ``fn`` of their concatenation. On numpy
+    arguments the concatenation is numpy (one-off evaluations without JAX dispatch).
+    """
+
+    def join(*parts):
+        if all(isinstance(a, (np.ndarray, np.generic)) for a in parts):
+            return np.concatenate([np.reshape(a, -1) for a in parts]).astype(np.float64)
+        return jnp.concatenate([jnp.reshape(jnp.asarray(a), -1) for a in parts])
+
+    def wrap(fn):
+        if with_params and with_time:
+            def f(x, p, t):
+                return fn(join(x, p, t))
+        elif with_params:
+            def f(x, p):
+                return fn(join(x, p))
+        elif with_time:
+            def f(x, t):
+                return fn(join(x, t))
+        else:
+            return fn
+        return f
+
+    return wrap
 
 
 def _rows(exprs: Mapping[str, Expr], rows: Sequence[str], names: Sequence[str], constants):

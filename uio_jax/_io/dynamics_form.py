@@ -3,12 +3,14 @@
 
 A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i(x) u_i +
 sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
-``f(x, p, u, w)`` with parameters), split by the same code as model files
+``f(x, p, u, w)`` with parameters, with a trailing time argument ``f(x, u, w, t)`` /
+``f(x, p, u, w, t)`` for a time-varying model), split by the same code as model files
 (:func:`uio_jax._io.affine.split_callable`: the Hessian in the inputs at the same samples
 and threshold, the same promotions of inputs that enter non-affinely or appear in an
 output, the same notes).
 """
 
+import keyword
 from collections.abc import Mapping
 
 import jax
@@ -22,7 +24,7 @@ _SOURCE = "from_dynamics"
 
 
 def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), params=None, domain=None,
-                         angles=(), name="", notes=()) -> System:
+                         angles=(), name="", notes=(), time=None) -> System:
     """Build a System from ``x' = f(x, u, w)``, ``y = h(x, u, w)`` (JAX callables).
 
     Example::
@@ -47,20 +49,26 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
         angles: state names that are angles.
         name: name shown in reports.
         notes: remarks copied into every report.
+        time: name of the time variable of a time-varying model (``None``: time-invariant).
+            Then ``dynamics`` and the outputs take a trailing scalar ``t``: ``f(x, u, w, t)``
+            (``f(x, p, u, w, t)`` with params), ``domain`` may give its box (default
+            ``(0.0, 1.0)``), and the System's callables take ``(x, t)`` / ``(x, p, t)``
+            (see ``System.time``). The affinity test samples ``t`` in its box.
 
     Returns:
         A :class:`uio_jax.System` in the control-affine form: drift ``f(x, 0, 0)``, fields
         ``d f / d u_i`` and ``d f / d w_j`` at ``u = w = 0``. An input that enters
         non-affinely or appears in an output becomes a state (``v' = d_v``; a known one is
         also an output), an input that appears nowhere is dropped, each with a note in
-        ``System.notes``. With params its callables take ``(x, p)``.
+        ``System.notes``. With params its callables take ``(x, p)``, with time ``(x, t)``
+        or ``(x, p, t)``.
 
     Raises:
         ModelError: one line naming the problem (bad or clashing name, a callable that
             fails or returns the wrong shape or a complex value, dynamics not finite at
             any sampled point).
     """
-    from .affine import split_callable
+    from .affine import split_callable, system_callables
 
     states = _names(states, "states")
     known = _names(known, "known")
@@ -75,9 +83,13 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
         from .._model.system import DEFAULT_BOX
 
         boxes = {k: DEFAULT_BOX for k in pnames}
+    if time is not None and (not isinstance(time, str) or not time.isidentifier() or keyword.iskeyword(time)):
+        raise ModelError(f"{_SOURCE}: time {time!r} is not a valid name of the time variable (letters, digits "
+                         "and _, not starting with a digit, not a Python keyword)")
+    tname = () if time is None else (time,)
     taken = {}
     for kind, group in (("state", states), ("parameter", pnames), ("known input", known),
-                        ("unknown input", unknown)):
+                        ("unknown input", unknown), ("time variable", tname)):
         for nm in group:
             if nm in taken:
                 raise ModelError(f"{_SOURCE}: {kind} {nm!r} has the name of {_a(taken[nm])}")
@@ -94,24 +106,40 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
     domain = dict(domain or {})
     for k in domain:
         if k not in taken or taken[k] == "parameter":
-            raise ModelError(f"{_SOURCE}: domain given for {k!r}, which is neither a state nor an input")
+            raise ModelError(f"{_SOURCE}: domain given for {k!r}, which is neither a state nor an input"
+                             + (" nor the time" if time is not None else ""))
     n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
-    with_p = bool(pnames)
+    with_p, with_t = bool(pnames), time is not None
+    # the split sees the time as one more parameter, last: q = [p; t]
+    extra = {}
+    if with_t:
+        from .._model.system import DEFAULT_TIME_BOX
 
-    def full(fn):  # always (x, p, u, w)
+        extra = {time: tuple(domain.pop(time, DEFAULT_TIME_BOX))}
+
+    def full(fn):  # always (x, q, u, w), q = [p; t]
+        if with_t:
+            if with_p:
+                return lambda x, q, u, w: fn(x, q[:P], u, w, q[P])
+            return lambda x, q, u, w: fn(x, u, w, q[0])
         return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
 
-    args = "(x, p, u, w)" if with_p else "(x, u, w)"
+    args = "(x, p, u, w" if with_p else "(x, u, w"
+    args += f", {time})" if with_t else ")"
     lengths = f"x ({n}), p ({P}), u ({nk}), w ({nw})" if with_p else f"x ({n}), u ({nk}), w ({nw})"
+    if with_t:
+        lengths += f", {time} (a scalar)"
     dyn = full(dynamics)
     outs = {k: full(h) for k, h in outputs.items()}
-    _check("dynamics", dyn, (n,), args, lengths, n, P, nk, nw)
+    Q = P + len(extra)
+    _check("dynamics", dyn, (n,), args, lengths, n, Q, nk, nw)
     for k, h in outs.items():
-        _check(f"output {k!r}", h, (), args, lengths, n, P, nk, nw)
-    parts = split_callable(states, dyn, outs, known, unknown, boxes, domain, tuple(angles))
-    wrap = _with_params if with_p else (lambda fn: fn)
+        _check(f"output {k!r}", h, (), args, lengths, n, Q, nk, nw)
+    parts = split_callable(states, dyn, outs, known, unknown, {**boxes, **extra}, domain, tuple(angles))
+    wrap = system_callables(with_p, with_t)
     notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
-    return parts.to_system(wrap, name=name, params=boxes, notes=notes)
+    return parts.to_system(wrap, name=name, params=boxes, notes=notes, time=time,
+                           time_box=extra.get(time))
 
 
 def _a(kind: str) -> str:
@@ -162,15 +190,6 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
     if np.issubdtype(dtype, np.complexfloating):
         raise ModelError(f"{_SOURCE}: {what} returns a complex value ({dtype}); the dynamics and outputs "
                          "must be real")
-
-
-def _with_params(fn):
-    """``fn(z)`` on ``z = [x; p]`` -> the System's callable ``(x, p)``."""
-
-    def f(x, p):
-        return fn(jnp.concatenate([jnp.asarray(x), jnp.asarray(p)]))
-
-    return f
 
 
 def _from_dynamics(cls, *args, **kwargs) -> System:

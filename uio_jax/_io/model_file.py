@@ -9,6 +9,7 @@ A model file holds data only; its expressions go through the whitelisted parser 
     notes = ["..."]                                # copied into every report
     states = ["r", "phi", "theta"]                 # order of the state vector
     angles = ["phi", "theta"]                      # sampled in [-pi, pi), wrapped by the EKF
+    time = "t"        # a time-varying model: expressions may use t (box: domain.t, default [0, 1])
 
     [params]          # unknown constant parameters -> sampling box [lo, hi]
     k = [0.5, 1.5]    # (or: params = ["k", "c"], each in the default box [0.5, 1.5])
@@ -39,10 +40,13 @@ A model file holds data only; its expressions go through the whitelisted parser 
     phi = "v*sin(theta - phi)/r"
     theta = "omega"
 
-Expressions may use the states, params, constants (and, in the general form, the inputs),
-numbers, ``pi``, ``E``, ``+ - * / **`` and the functions of
-:data:`uio_jax._io.expressions.FUNCTIONS`. Names (states, params, constants, inputs) must be
-Python identifiers, distinct from each other. Numbers may also be given for expressions.
+Expressions may use the states, params, constants, the time variable when ``time`` names
+one (and, in the general form, the inputs), numbers, ``pi``, ``E``, ``+ - * / **`` and the
+functions of :data:`uio_jax._io.expressions.FUNCTIONS`. Names (states, params, constants,
+inputs, time) must be Python identifiers, distinct from each other; no name is reserved for
+time: a ``t`` that is not declared (by ``time = "t"`` or otherwise) is an unknown name. An
+output may not be named like the time variable (time is measured: the analyses add that
+output, see :meth:`uio_jax.System.autonomous`). Numbers may also be given for expressions.
 
 In the general form an input that enters non-affinely is promoted to a state (see
 :mod:`uio_jax._io.affine`); the System's notes say so.
@@ -56,9 +60,6 @@ StrikePy imports); Systems made of Python functions cannot be written.
 import json
 import os
 
-import jax.numpy as jnp
-import numpy as np
-
 from .._errors import LoadError, ModelError
 from .expressions import Num, parse_expression
 from .model_spec import ModelSpec, spec_from_dict
@@ -71,14 +72,21 @@ _SUFFIXES = (".toml", ".json")
 def build_system(spec: ModelSpec):
     """The :class:`uio_jax.System` of a spec (expressions compiled to JAX, general form split).
 
-    Callables take ``x`` (shape ``(n,)``), or ``(x, p)`` when the spec has params; the
-    spec is kept in ``System.source`` so that :func:`save_model` can write it back.
+    Callables take ``x`` (shape ``(n,)``), or ``(x, p)`` when the spec has params, with a
+    trailing scalar ``t`` when it has a time variable (``(x, t)``, ``(x, p, t)``); the spec is
+    kept in ``System.source`` so that :func:`save_model` can write it back.
     """
-    from .affine import Parts, split_general, vector_function
+    from .._model.system import DEFAULT_TIME_BOX
+    from .affine import Parts, split_general, system_callables, vector_function
     from .expression_functions import to_function
 
     names = spec.inputs_known + spec.inputs_unknown
-    base = tuple(spec.states) + tuple(spec.params)
+    time, time_box = spec.time, None
+    extra = {}  # the coordinates after the parameters in z: the time, sampled in its box
+    if time is not None:
+        time_box = tuple(spec.domain.get(time, DEFAULT_TIME_BOX))
+        extra = {time: time_box}
+    base = tuple(spec.states) + tuple(spec.params) + tuple(extra)
     consts = dict(spec.constants)
     allowed = base + tuple(consts) + names
 
@@ -89,7 +97,8 @@ def build_system(spec: ModelSpec):
 
     if spec.general:
         parts = split_general(spec.states, trees(spec.dynamics), trees(spec.outputs), spec.inputs_known,
-                              spec.inputs_unknown, dict(spec.params), consts, dict(spec.domain), spec.angles)
+                              spec.inputs_unknown, {**spec.params, **extra}, consts, dict(spec.domain),
+                              spec.angles)
     else:
         parts = Parts(
             states=tuple(spec.states),
@@ -97,26 +106,11 @@ def build_system(spec: ModelSpec):
             known={k: vector_function(trees(f), spec.states, base, consts) for k, f in spec.known.items()},
             unknown={k: vector_function(trees(f), spec.states, base, consts) for k, f in spec.unknown.items()},
             drift=vector_function(drift, spec.states, base, consts) if drift else None,
-            domain=dict(spec.domain), angles=tuple(spec.angles),
+            domain={k: b for k, b in spec.domain.items() if k != time}, angles=tuple(spec.angles),
         )
-    wrap = _with_params if spec.params else _no_params
-    return parts.to_system(wrap, name=spec.name, params=dict(spec.params), source=spec, notes=spec.notes)
-
-
-def _no_params(fn):
-    """``fn(z)`` with ``z = x``: the System's callable as is."""
-    return fn
-
-
-def _with_params(fn):
-    """``fn(z)`` on ``z = [x; p]`` -> the System's callable ``(x, p)``."""
-
-    def f(x, p):
-        if isinstance(x, np.ndarray) and isinstance(p, np.ndarray):  # one-off numpy evaluation
-            return fn(np.concatenate([x, p]).astype(np.float64))
-        return fn(jnp.concatenate([jnp.asarray(x), jnp.asarray(p)]))
-
-    return f
+    wrap = system_callables(bool(spec.params), time is not None)
+    return parts.to_system(wrap, name=spec.name, params=dict(spec.params), source=spec, notes=spec.notes,
+                           time=time, time_box=time_box)
 
 
 # ----------------------------------------------------------------------------- files

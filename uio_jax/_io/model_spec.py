@@ -15,7 +15,7 @@ from types import MappingProxyType
 from .._errors import ExpressionError, ModelError
 from .expressions import parse_expression
 
-_TOP_KEYS = ("name", "description", "notes", "states", "angles", "params", "constants", "domain",
+_TOP_KEYS = ("name", "description", "notes", "states", "angles", "time", "params", "constants", "domain",
              "outputs", "drift", "known", "unknown", "inputs", "dynamics")
 
 
@@ -26,8 +26,10 @@ class ModelSpec:
     ``dynamics is None`` for the control-affine form (``drift``, ``known``, ``unknown``:
     state -> text, input -> {state -> text}); otherwise the general form with
     ``dynamics`` (state -> text) and the input names ``inputs_known``/``inputs_unknown``.
-    Mappings are read-only and keep their order. Build it with :func:`spec_from_dict`,
-    which validates everything (names, boxes, expressions).
+    ``time`` names the time variable of a time-varying model (expressions may use it;
+    ``domain`` may give its box), ``None`` for a time-invariant one. Mappings are read-only
+    and keep their order. Build it with :func:`spec_from_dict`, which validates everything
+    (names, boxes, expressions).
     """
 
     states: tuple
@@ -45,6 +47,7 @@ class ModelSpec:
     dynamics: Mapping | None = None
     inputs_known: tuple = ()
     inputs_unknown: tuple = ()
+    time: str | None = None
 
     @property
     def general(self) -> bool:
@@ -63,6 +66,8 @@ class ModelSpec:
         d["states"] = list(self.states)
         if self.angles:
             d["angles"] = list(self.angles)
+        if self.time is not None:
+            d["time"] = self.time
         if self.params:
             d["params"] = {k: list(v) for k, v in self.params.items()}
         if self.constants:
@@ -134,6 +139,11 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
             raise w.error("angles", f"{a!r} is not a state (states: {', '.join(states)})")
     params = _params(data.get("params", {}), w, taken)
     constants = _constants(data.get("constants", {}), w, taken)
+    time = None
+    if "time" in data:
+        time = _string(data["time"], "time", w)
+        _identifier(time, "time", w)
+        _claim(time, "time variable", taken, "time", w)
     general = "dynamics" in data
     if general:
         mixed = [k for k in ("drift", "known", "unknown") if k in data]
@@ -155,14 +165,17 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
         ik, iu = (), ()
     domain = _boxes(_table(data.get("domain", {}), "domain", w), "domain", w)
     for k in domain:
-        if k not in states and k not in ik + iu:
-            raise w.error(f"domain.{k}", f"{k!r} is not a state{' or an input' if general else ''} "
-                                        f"(states: {', '.join(states)})")
-    base_names = states + tuple(params) + tuple(constants)
+        if k not in states and k not in ik + iu and k != time:
+            what = "a state" + (" or an input" if general else "") + (" or the time" if time else "")
+            raise w.error(f"domain.{k}", f"{k!r} is not {what} (states: {', '.join(states)})")
+    base_names = states + tuple(params) + tuple(constants) + ((time,) if time else ())
     input_names = ik + iu
     outputs = _exprs(data["outputs"], "outputs", w, base_names + input_names, rows=None)
     if not outputs:
         raise w.error("outputs", "must define at least one output")
+    if time in outputs:
+        raise w.error(f"outputs.{time}", f"output {time!r} has the name of the time variable (time is "
+                                         "measured: the analyses add that output themselves)")
     drift, known, unknown, dynamics = {}, {}, {}, None
     if general:
         dynamics = _exprs(data["dynamics"], "dynamics", w, base_names + input_names, rows=states)
@@ -178,7 +191,7 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
         states=states, outputs=ro(outputs), name=name, description=description, notes=tuple(notes),
         angles=angles, params=ro(params), constants=ro(constants), domain=ro(domain), drift=ro(drift),
         known=ro({k: ro(v) for k, v in known.items()}), unknown=ro({k: ro(v) for k, v in unknown.items()}),
-        dynamics=None if dynamics is None else ro(dynamics), inputs_known=ik, inputs_unknown=iu,
+        dynamics=None if dynamics is None else ro(dynamics), inputs_known=ik, inputs_unknown=iu, time=time,
     )
 
 

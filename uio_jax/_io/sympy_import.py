@@ -26,7 +26,7 @@ def _sympy():
 
 
 def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, dynamics=None, params=None,
-                      constants=None, domain=None, angles=(), name="", notes=()):
+                      constants=None, domain=None, angles=(), name="", notes=(), time=None):
     """Build a System from sympy symbols and expressions.
 
     Control-affine form ``x' = f0(x, p) + sum_i f_i(x, p) u_i + sum_j g_j(x, p) w_j``::
@@ -59,9 +59,13 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
         angles: state symbols that are angles.
         name: name shown in reports.
         notes: remarks copied into every report.
+        time: the time symbol (or name) of a time-varying model: expressions may use it,
+            ``domain`` may give its box (default ``(0.0, 1.0)``); ``None`` (default): a
+            symbol in no role is an unknown name, as in model files.
 
     Returns:
-        A :class:`uio_jax.System`; with params its callables take ``(x, p)``.
+        A :class:`uio_jax.System`; with params its callables take ``(x, p)``, with time
+        ``(x, t)`` or ``(x, p, t)``.
 
     Raises:
         ModelError: sympy is missing, a name is not a valid identifier, an expression is
@@ -81,6 +85,8 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
         data["notes"] = [notes] if isinstance(notes, str) else list(notes)
     if angles:
         data["angles"] = [conv.name(a, "angles") for a in _seq(angles, "angles")]
+    if time is not None:
+        data["time"] = conv.name(time, "time")
     if params is not None:
         if isinstance(params, Mapping):
             data["params"] = {conv.name(k, "params"): list(v) for k, v in params.items()}
