@@ -71,7 +71,8 @@ _NONSMOOTH = {"abs", "Abs", "sign", "min", "max", "Min", "Max"}
 # ----------------------------------------------------------------------------- split
 @dataclass(frozen=True)
 class Parts:
-    """A control-affine model as functions of ``z = [x; p]`` (shape ``(n + n_params,)``).
+    """A control-affine model as functions of ``z = [x; p]`` (shape ``(n + n_params,)``; a
+    time-varying model's time is one more coordinate after ``p``, see :func:`system_callables`).
 
     ``outputs``: name -> scalar function; ``drift`` (or None), ``known``, ``unknown``:
     functions returning shape ``(n,)``. ``states``, ``domain`` and ``angles`` describe
