@@ -102,6 +102,9 @@ def test_finiteness_is_checked_at_times_drawn_in_the_time_box():
     s = uj.System(states=("x",), outputs={"y": lambda x, t: x[0] * jnp.sqrt(t - 0.9)}, time="t")
     assert any("output 'y' is finite on only" in n for n in s.notes)
     assert s.notes == s.autonomous().notes
+    sp = uj.System(states=("x",), outputs={"y": lambda x, p, t: x[0] * jnp.sqrt(t - 0.9)}, params=["k"], time="t")
+    assert any("output 'y' is finite on only" in n for n in sp.notes)
+    assert sp.notes == sp.joint().notes == sp.autonomous().notes
     with pytest.raises(uj.ModelError) as exc:  # NaN for every t of the box [0, 1]
         uj.System(states=("x",), outputs={"y": lambda x, t: x[0] * jnp.sqrt(t - 2.0)}, time="t")
     assert "output 'y' returns NaN/inf at every one of" in _one_line(exc)
