@@ -8,6 +8,8 @@ from .._errors import OptionError
 from .._model.system import System
 from .context import Context
 from .eorc import eorc_report
+from .general_ui import check_applicable as general_ui_applicable
+from .general_ui import general_ui_report
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
@@ -31,6 +33,7 @@ def analyze(
     rtol: float | None = DEFAULTS["rtol"],
     max_order: int | None = DEFAULTS["max_order"],
     k_max: int | None = DEFAULTS["k_max"],
+    known_inputs: str = DEFAULTS["known_inputs"],
 ):
     """Which states of ``system`` are observable: the observable codistribution.
 
@@ -38,15 +41,20 @@ def analyze(
         system: a :class:`~uio_jax.System`.
 
     Other arguments:
-        method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"eorc"``,
-            ``"series"`` or ``"fast"``.
-            ``"auto"`` picks, in order: no unknown input -> ``"orc"`` (Hermann-Krener);
-            one unknown input and no drift -> ``"single_ui"`` (Martinelli's analytic
-            solution); otherwise ``"eorc"`` (extended observability rank criterion,
-            sufficient only). ``"series"`` (every input known): rank of the output Taylor
-            coefficients along a generic known input (STRIKE-GOLDD's test, see
-            :mod:`uio_jax._analysis.series`): the ORC's final verdict without nested brackets, much
-            faster on large models, but per-order dims that are not the ORC's steps.
+        method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"general_ui"``,
+            ``"eorc"``, ``"series"`` or ``"fast"``.
+            ``"auto"`` picks, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
+            ``"general_ui"``'s closure along the drift when the known inputs are smooth);
+            one unknown input, no drift, and no known input or switchable ones ->
+            ``"single_ui"`` (Martinelli's analytic solution); known inputs that are
+            switchable with a drift or several unknown inputs -> ``"eorc"`` (extended
+            observability rank criterion, sufficient only: no exact solution is known for
+            that meaning); otherwise ``"general_ui"`` (Martinelli's general solution: any
+            number of unknown inputs, drift, smooth known inputs; exact). ``"series"``
+            (every input known): rank of the output Taylor coefficients along a generic
+            known input (STRIKE-GOLDD's test, see :mod:`uio_jax._analysis.series`): the
+            ORC's final verdict without nested brackets, much faster on large models, but
+            per-order dims that are not the ORC's steps.
             ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``; where the
             series engine cannot expand the model (a primitive without a Taylor rule, e.g.
             ``lax.sort``) it runs the ORC instead and says so in a note
@@ -60,6 +68,13 @@ def analyze(
             :func:`uio_jax.default_rtol`, 1e-8).
         max_order: optional cap on the number of steps m of the ORC / single_ui recursion.
         k_max: highest order k of the EORC (default n + 2); ignored by the other methods.
+        known_inputs: what a known input is: ``"switchable"`` (default; it may be chosen
+            freely and may jump, the meaning of Martinelli's single-input papers and of the
+            classical ORC/EORC) or ``"smooth"`` (a generic smooth function of time, known
+            with its derivatives: TUIO6's meaning). They can give different, legitimate
+            answers: the polar unicycle of 004 section 11.1.1 has dim 2 switchable, 1
+            smooth. Systems without known inputs have one meaning. ``Report.known_inputs``
+            records it.
 
     Returns:
         :class:`~uio_jax.Report`. For a System with ``params``, the analysis runs on
@@ -82,15 +97,22 @@ def analyze(
     if not isinstance(system, System):
         raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
-                         max_order=max_order, k_max=k_max)
+                         max_order=max_order, k_max=k_max, known_inputs=known_inputs)
     samples, seed, rtol = opts["samples"], opts["seed"], opts["rtol"]
-    max_order, k_max = opts["max_order"], opts["k_max"]
+    max_order, k_max, known_inputs = opts["max_order"], opts["k_max"], opts["known_inputs"]
 
-    chosen, why = _choose(system, method)
-    system = system.joint()  # parameters -> states with zero derivative
+    # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
+    system = system.autonomous()
+    chosen, why = _choose(system, method, known_inputs)
+    notes = [why] if why else []
     if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself
-        return eorc_report(system, samples=samples, seed=seed, rtol=rtol,
-                           k_max=k_max, notes=[why] if why else [])
+        return eorc_report(system, samples=samples, seed=seed, rtol=rtol, k_max=k_max,
+                           notes=notes, known_inputs=known_inputs)
+    if chosen == "general_ui":
+        check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
+                     advice="lower samples")
+        return general_ui_report(system, samples=samples, seed=seed, rtol=rtol,
+                                 known_inputs=known_inputs, notes=notes)
     check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
                  advice="lower samples")
     with jax.enable_x64(True):
@@ -128,24 +150,34 @@ def _series_error(exc) -> OptionError:
                        "use method='orc' (or 'fast', which falls back to it)")
 
 
-def _choose(system, method):
-    """The analysis to run and, for ``auto``, why."""
+def _choose(system, method, known_inputs="switchable"):
+    """The analysis to run on ``system`` (autonomous) and, for ``auto``, why."""
     n_unknown = len(system.unknown)
+    smooth = known_inputs == "smooth" and bool(system.known)
     if method == "fast":
-        if n_unknown == 0:
+        if n_unknown == 0 and not smooth:
             return "series", "fast: no unknown input -> series (generic-input output series; ORC's verdict)"
-        chosen, why = _choose(system, "auto")
+        chosen, why = _choose(system, "auto", known_inputs)
         return chosen, why.replace("auto:", "fast:", 1)
     if method == "auto":
         if n_unknown == 0:
+            if smooth:
+                return "general_ui", "auto: no unknown input, smooth known inputs -> general_ui"
             return "orc", "auto: no unknown input -> ORC"
-        if n_unknown == 1 and system.drift is None:
+        if n_unknown == 1 and system.drift is None and not smooth:
             return "single_ui", "auto: one unknown input, no drift -> single_ui"
-        return "eorc", (
-            f"auto: {n_unknown} unknown input{'s' if n_unknown != 1 else ''}"
-            + (" and a drift" if system.drift else "")
-            + " -> EORC"
-        )
+        inputs = f"{n_unknown} unknown input{'s' if n_unknown != 1 else ''}" + (
+            " and a drift" if system.drift else "")
+        if system.known and not smooth:
+            return "eorc", (f"auto: {inputs} with switchable known inputs -> EORC (no exact "
+                            "solution is known for that meaning; known_inputs='smooth' gives "
+                            "the exact general solution for smooth ones)")
+        return "general_ui", f"auto: {inputs} -> general_ui"
+    if method == "single_ui" and smooth:
+        raise OptionError("method 'single_ui' answers for switchable known inputs; for "
+                          "known_inputs='smooth' use method='general_ui' (or 'auto')")
+    if method == "general_ui":
+        general_ui_applicable(system, known_inputs)
     if method in ("orc", "series") and n_unknown:
         raise OptionError(
             f"method {method!r} needs every input known, but {', '.join(system.unknown)} "

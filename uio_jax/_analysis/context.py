@@ -5,6 +5,7 @@ by n + 2); inside a step the new candidate generators are evaluated in one jitte
 vmapped call and pruned by :class:`~uio_jax._rank.Codistribution`.
 """
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Protocol
 
@@ -15,8 +16,10 @@ import numpy as np
 from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
+from .._model.smooth_inputs import known_coordinates
+from .._model.system import DEFAULT_BOX
 from .rank import Codistribution
-from .report import Certificate, Report, Step
+from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
@@ -60,6 +63,53 @@ class Context:
         sub.samples = min(int(samples), self.samples)
         sub._start(self.xs[:sub.samples], self.codist.rtol)
         return sub
+
+    def fork(self) -> "Context":
+        """A fresh Context on the same samples (empty codistribution, no decisions) that
+        shares this one's builder and gradient cache: a second span over the same states,
+        e.g. a closure that may be discarded."""
+        sub = Context.__new__(Context)
+        sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
+        sub._start(self.xs, self.codist.rtol)
+        sub._grads = self._grads
+        return sub
+
+    def coordinates(self, count: int, n: int, meanwhile=None):
+        """Which unit covectors lie in the span, and its dimension on the first ``n``
+        coordinates, certified.
+
+        ``e_1..e_count`` are tested once (:meth:`~uio_jax._analysis.rank.Codistribution.test_units`);
+        the dimension of the span intersected with ``span{dz_1..dz_n}`` is ::
+
+            dim = rank(Omega) + n - rank([Omega; e_1..e_n]),
+
+        for which ``e_1..e_n`` are absorbed one by one into a copy of the span (each one
+        that raises the generic rank removes one dimension). Every decision is recorded
+        in :attr:`memberships` for the certificate. ``meanwhile()`` is called once the
+        memberships are known and the dimension must be computed (the EORC starts its next
+        order there, so that it computes during this host-side rank work).
+
+        Returns:
+            ``(members, dim)``: ``count`` booleans, and the dimension (``n`` when the first
+            ``n`` are all members).
+        """
+        codist = self.codist
+        tested = codist.test_units(count)
+        results = codist.contains(None, tested)
+        self.memberships.extend(results)
+        members = [m for m, _ in results]
+        if all(members[:n]):
+            return members, n
+        if meanwhile is not None:
+            meanwhile()
+        if codist.rank == 0:
+            return members, 0
+        fork = codist.copy()
+        units = [Node(f"e_{i}", None, "scalar") for i in range(n)]
+        added = fork.absorb(units, None, tested.first(n))
+        self.memberships += [(False, d) for d in fork.acceptances]
+        self.memberships += [(True, d) for d in fork.rejections]
+        return members, n - len(added)
 
     # -------------------------------------------------------------- nodes
     def output_nodes(self) -> list[Node]:
@@ -184,13 +234,27 @@ class Context:
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,
-               system=None, dim=None, observable=None, space=None) -> Report:
+               system=None, dim=None, observable=None, space=None,
+               known_inputs="switchable") -> Report:
         """Build the Report: certificate, weak-certificate note, generators.
 
         ``system``, ``dim``, ``observable`` and ``space`` default to this context's own
         (the EORC passes the original system and its projections of the extended space).
+        On a System with known coordinates (the time of :meth:`System.autonomous`) the
+        defaults leave them out: the verdicts and the dimension are about the first
+        ``n - known_coordinates`` coordinates. ``known_inputs``: the meaning of the known
+        inputs the analysis took (``"none"`` is recorded when the System has none).
         """
-        system = system or self.system
+        own = self.system
+        known = known_coordinates(own)
+        if system is None and known:
+            n = own.n - known
+            members, dim = self.coordinates(own.n, n)
+            observable = dict(zip(own.states[:n], members[:n]))
+            space = SampledSpace(self, n=n, dim=dim, fill=0.5 * sum(DEFAULT_BOX))
+            history = [dataclasses.replace(st, dim=st.dim - known) for st in history]
+            system = report_view(own, n)
+        system = system or own
         if observable is None:
             observable = self.observable_states()
         notes = list(system.notes) + list(notes)
@@ -219,8 +283,33 @@ class Context:
             details=details or {},
             system_name=system.name,
             params=system.joint_param_names,
+            known_inputs=known_inputs if own.known or system_known(system) else "none",
+            semantics=SEMANTICS_SMOOTH if known_inputs == "smooth" else SEMANTICS,
             _space=SampledSpace(self) if space is None else space,
         )
+
+
+@dataclasses.dataclass(frozen=True)
+class ReportView:
+    """What a Report reads of a System (names only): the first ``n`` states of a System
+    whose other coordinates are known or extension coordinates (:func:`report_view`)."""
+
+    states: tuple
+    name: str
+    notes: tuple
+    joint_param_names: tuple
+    known: tuple
+
+
+def report_view(system, n) -> ReportView:
+    """The :class:`ReportView` of the first ``n`` coordinates of ``system``."""
+    return ReportView(tuple(system.states[:n]), system.name, tuple(system.notes),
+                      tuple(system.joint_param_names), tuple(system.known))
+
+
+def system_known(system) -> bool:
+    """Whether the (original) System behind a report has known inputs."""
+    return bool(getattr(system, "known", ()))
 
 
 class Space(Protocol):

@@ -83,6 +83,20 @@ class StopReason(enum.Enum):
     EXTENSION_CLOSED = ("Omega-bar_{k} = Omega-bar_{prev}: no higher order (in any extension) "
                         "adds a generator")
 
+    #: general_ui, no unknown input: the closure of the outputs along the drift converged.
+    CLOSURE_CONVERGED = "closure along the drift converged at iteration {m}"
+    #: general_ui: canonic (m = m_w); the closure under the rescaled fields converged.
+    CANONIC_CLOSURE = "canonic at iteration {m}: the closure under the rescaled fields converged"
+    #: general_ui: every unreconstructed field G~_k vanishes; the closure converged.
+    REMAINING_UIS_VANISH = ("iteration {m}: every unreconstructed unknown-input field vanishes; "
+                            "the closure under the rescaled fields converged")
+    #: general_ui: the guarded closure met no generator moved by an unreconstructed input.
+    GUARD_PASSED = "iteration {m}: the guarded closure converged without meeting an unreconstructed input"
+    #: general_ui: m = 0 and the closure of the UI-free generators added nothing.
+    GENERAL_STALLED = "iteration {m}: no progress (m = 0 and nothing new); no convergence certified"
+    #: general_ui: the bound on the iterations of the main loop.
+    GENERAL_CAP = "no convergence within {cap} iterations"
+
     def stop(self, **values) -> "Stop":
         """This reason with its values, e.g. ``StopReason.FULL_RANK.stop(n=3, m=2)``."""
         stop = Stop(self, tuple(sorted(values.items())))
@@ -92,7 +106,8 @@ class StopReason(enum.Enum):
     @property
     def converged(self) -> bool:
         """Whether the recursion reached its final codistribution (not a cap)."""
-        return self not in (StopReason.MAX_ORDER, StopReason.STEP_CAP, StopReason.K_MAX)
+        return self not in (StopReason.MAX_ORDER, StopReason.STEP_CAP, StopReason.K_MAX,
+                            StopReason.GENERAL_STALLED, StopReason.GENERAL_CAP)
 
     def _pattern(self):
         parts = re.split(r"\{(\w+)\}", self.value)

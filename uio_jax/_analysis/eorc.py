@@ -71,10 +71,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._calculus.blocks import Stream, blocks_for
-from .._calculus.generators import Node
 from .._errors import ModelError
+from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
-from .context import Context, SampledSpace
+from .context import Context, SampledSpace, report_view
 from .driver import Recursion, StopReason, iterate
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report, Step
@@ -188,7 +188,8 @@ class _Eorc(Recursion):
     def __init__(self, system, K, samples, seed, rtol):
         self.system = system
         self.K = K
-        self.n = system.n
+        self.N = system.n  # coordinates before the unknown-input ones
+        self.n = system.n - known_coordinates(system)  # those reported on (not known ones)
         self.mw = len(system.unknown)
         self.ext = extended_system(system, K)
         self.names = input_names(system, K)
@@ -198,7 +199,6 @@ class _Eorc(Recursion):
         known = tuple(builder.field(k, f) for k, f in self.ext.known.items())
         self.blocks = blocks_for(self.ext, builder, drift, known)
         self.stream = Stream(self.blocks, self.ctx.xs, K)
-        self.extra_decisions = []  # (member, RankDecision) of the dim-on-x tests
         self.compile_s = []  # seconds spent tracing + compiling, per order
         self.steps = []  # per order: frontier size, candidates, compile and eval seconds
         self.frontier = []  # the generators kept at the last order
@@ -241,7 +241,7 @@ class _Eorc(Recursion):
         states, inputs, dim = self.coordinates(k, start_next)
         extra = {
             "augmented_rank": self.ctx.dim,
-            "augmented_dim": self.n + k * self.mw,
+            "augmented_dim": self.N + k * self.mw,
             "observable_states": tuple(states),
             "observable_inputs": tuple(inputs),
         }
@@ -293,27 +293,13 @@ class _Eorc(Recursion):
             ``(states, inputs, dim)``: names of the states and of the input coordinates
             (orders < k) whose ``e`` lies in Omega-bar, and ``dim_k``.
         """
-        codist = self.ctx.codist
         n = self.n
-        N_k = n + k * self.mw
-        tested = codist.test_units(N_k)
-        results = codist.contains(None, tested)
-        self.ctx.memberships.extend(results)
+        N_k = self.N + k * self.mw
+        members, dim = self.ctx.coordinates(N_k, n, meanwhile)
         names = self.ext.states[:N_k]
-        states = [s for s, (m, _) in zip(names[:n], results[:n]) if m]
-        inputs = [s for s, (m, _) in zip(names[n:], results[n:]) if m]
-        if len(states) == n:
-            return states, inputs, n
-        if meanwhile is not None:
-            meanwhile()
-        if codist.rank == 0:
-            return states, inputs, 0
-        fork = codist.copy()
-        units = [Node(f"e_{s}", None, "scalar") for s in self.system.states]
-        added = fork.absorb(units, None, tested.first(n))
-        self.extra_decisions += [(False, d) for d in fork.acceptances]
-        self.extra_decisions += [(True, d) for d in fork.rejections]
-        return states, inputs, n - len(added)
+        states = [s for s, m in zip(names[:n], members[:n]) if m]
+        inputs = [s for s, m in zip(names[self.N:], members[self.N:]) if m]
+        return states, inputs, dim
 
 
 def check_eorc_memory(system, samples: int, K: int) -> int:
@@ -355,7 +341,8 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
     return run, out.history, out.stop.message, out.m
 
 
-def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
+def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
+                known_inputs="switchable") -> Report:
     """The EORC of ``system`` as a :class:`~uio_jax.Report` (called by ``analyze``).
 
     Args:
@@ -363,6 +350,10 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
         samples, seed, rtol: sampling certificate options (see :func:`uio_jax.analyze`).
         k_max: highest order (default ``n + 2``).
         notes: notes to carry (e.g. why ``auto`` chose the EORC).
+        known_inputs: ``"switchable"`` (close under every raw known field, the papers'
+            EORC) or ``"smooth"`` (the known inputs are generic smooth functions of time:
+            their jets to order ``k_max - 1`` enter the drift, :mod:`uio_jax._model.smooth_inputs`,
+            and are known coordinates).
 
     Returns:
         Report on the ORIGINAL state: ``dim`` = dim of ``Omega-bar_k`` intersected with
@@ -376,18 +367,25 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
     """
     if k_max is not None and (isinstance(k_max, bool) or int(k_max) < 1):
         raise ModelError(f"k_max must be a positive integer, got {k_max!r}")
+    K = default_k_max(system) if k_max is None else int(k_max)
+    smooth = known_inputs == "smooth" and bool(system.known)
+    working = with_input_jets(system, K - 1) if smooth else system
     with jax.enable_x64(True):
-        run, history, reason, k = run_eorc(system, samples=samples, seed=seed, rtol=rtol,
-                                           k_max=k_max)
+        run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
+                                           k_max=K)
         ctx = run.ctx
         last = history[-1]
-        observable = {s: s in last.extra["observable_states"] for s in system.states}
+        view = report_view(system, run.n)  # the known coordinates (time) left out
+        observable = {s: s in last.extra["observable_states"] for s in view.states}
         first_seen = {}
         for st in history:
             for nm in st.extra["observable_inputs"]:
                 first_seen.setdefault(nm, st.m)
-        ctx.memberships.extend(run.extra_decisions)
     notes = list(notes)
+    if smooth:
+        notes.append(
+            "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
+            f"their derivatives up to order {K - 1} are known coordinates of the drift")
     if not all(observable.values()):
         hidden = [s for s, v in observable.items() if not v]
         notes.append(
@@ -401,13 +399,14 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=()) -> Report:
     details = {
         "k": k,
         "k_max": run.K,
-        "extended_state": list(run.ext.states[: run.n + max(k, 1) * run.mw]),
+        "extended_state": list(run.ext.states[: run.N + max(k, 1) * run.mw]),
         "augmented_ranks": [st.extra["augmented_rank"] for st in history],
         "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
         "inputs_observable_at": first_seen,
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
-    space = SampledSpace(ctx, n=system.n, dim=last.dim, fill=0.5 * sum(DEFAULT_BOX))
-    return ctx.report("eorc", history, reason, notes=notes, details=details, system=system,
-                      dim=last.dim, observable=observable, space=space)
+    space = SampledSpace(ctx, n=run.n, dim=last.dim, fill=0.5 * sum(DEFAULT_BOX))
+    return ctx.report("eorc", history, reason, notes=notes, details=details, system=view,
+                      dim=last.dim, observable=observable, space=space,
+                      known_inputs=known_inputs)

@@ -5,14 +5,19 @@ import numbers
 
 from .._engine.threefry import check_seed
 from .._errors import OptionError
+from .._model.smooth_inputs import KNOWN_INPUT_MEANINGS
 from .rank import default_rtol
 
 #: The analyses ``method`` may name (``analyze``'s docstring says what each one does).
-METHODS = ("auto", "orc", "single_ui", "eorc", "series", "fast")
+METHODS = ("auto", "orc", "single_ui", "general_ui", "eorc", "series", "fast")
+
+#: The meanings of a known input (``known_inputs``): may jump, or generic smooth in time.
+KNOWN_INPUTS = KNOWN_INPUT_MEANINGS
 
 #: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.rank.default_rtol`;
 #: ``max_order`` None: no cap; ``k_max`` None: ``n + 2``).
-DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None}
+DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None,
+            "known_inputs": "switchable"}
 
 #: Smallest sample count: fewer random states cannot certify a rank.
 MIN_SAMPLES = 8
@@ -27,15 +32,16 @@ def check_options(**options) -> dict:
             (:func:`~uio_jax._analysis.memory.check_memory`).
 
     Returns:
-        dict of all six: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
+        dict of all seven: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
         (float; None resolved to :func:`~uio_jax._analysis.rank.default_rtol`),
-        ``max_order`` and ``k_max`` (int, or None).
+        ``max_order`` and ``k_max`` (int, or None), ``known_inputs`` (str).
 
     Raises:
         OptionError: an unknown option name, an unknown method, ``samples`` not an integer
             >= 8, ``seed`` not an integer in ``[0, 2**64)`` (:func:`check_seed`), ``rtol``
             not a finite number in (0, 1) (NaN refused),
-            ``max_order`` not a non-negative integer, ``k_max`` not a positive integer.
+            ``max_order`` not a non-negative integer, ``k_max`` not a positive integer,
+            ``known_inputs`` not one of :data:`KNOWN_INPUTS`.
     """
     unknown = set(options) - set(DEFAULTS)
     if unknown:
@@ -56,7 +62,12 @@ def check_options(**options) -> dict:
         raise OptionError(f"max_order must be a non-negative integer, got {max_order!r}")
     if k_max is not None and (not _is_int(k_max) or k_max < 1):
         raise OptionError(f"k_max must be a positive integer, got {k_max!r}")
+    known_inputs = opts["known_inputs"]
+    if known_inputs not in KNOWN_INPUTS:
+        raise OptionError(f"unknown known_inputs {known_inputs!r}; choose one of "
+                          f"{', '.join(KNOWN_INPUTS)}")
     return {"method": method, "samples": int(samples), "seed": seed, "rtol": float(rtol),
+            "known_inputs": known_inputs,
             "max_order": None if max_order is None else int(max_order),
             "k_max": None if k_max is None else int(k_max)}
 

@@ -22,6 +22,16 @@ SEMANTICS = (
     "a polynomial in time of fixed degree, which answers a different question."
 )
 
+#: The same, for known inputs that are generic smooth functions of time (``known_inputs="smooth"``).
+SEMANTICS_SMOOTH = (
+    "Unknown inputs are smooth (analytic) functions of time and known inputs are generic "
+    "smooth functions of time, known with their derivatives (TUIO6's meaning): a direction "
+    "that a smooth unknown input can hide for a generic smooth known input counts as "
+    "unobservable, even if a jump of the known input would reveal it. Tools such as "
+    "STRIKE-GOLDD/StrikePy by default model an unknown input as a polynomial in time of "
+    "fixed degree, which answers a different question."
+)
+
 
 @dataclass(frozen=True)
 class Step:
@@ -129,7 +139,10 @@ class Report:
         stop_reason: why the recursion stopped.
         notes: remarks (method choice, sufficiency of the EORC, corrections applied).
         details: method-specific results (``m_prime``, ``m_star``, ``k``, ...).
-        semantics: what "unknown input" means in this answer.
+        semantics: what "unknown input" and "known input" mean in this answer.
+        known_inputs: the meaning of the known inputs the answer is for: ``"switchable"``
+            (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``
+            (the System has no known input: one meaning).
         system_name: name of the analyzed System.
     """
 
@@ -147,6 +160,7 @@ class Report:
     system_name: str = ""
     params: tuple[str, ...] = ()
     identifiable: Mapping[str, bool] = field(default_factory=dict)
+    known_inputs: str = "switchable"
     _space: object = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -455,6 +469,8 @@ class Report:
             "details": dict(self.details),
             "notes": list(self.notes),
             "semantics": self.semantics,
+            "exact": self.exact,
+            "known_inputs": self.known_inputs,
             **(self._directions_dict() if self.params else {}),
         })
 
@@ -483,7 +499,11 @@ class Report:
         only: "observable" is proven, "not observable" means not shown.
         """
         capped = any(t in self.stop_reason for t in ("reached before convergence",
-                                                     "no convergence certified"))
+                                                     "no convergence certified",
+                                                     "no convergence within"))
+        if self.method == "general_ui" and self.details.get("exact") is False and not capped:
+            return ("not certified exact (general_ui: the jets of the known inputs may have "
+                    "been truncated, see the notes): 'observable' is proven")
         if self.method == "eorc":
             return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
                     "not shown observable up to the last order k")
@@ -492,9 +512,18 @@ class Report:
                     "'observable' is proven; 'not observable' means not shown")
         what = {"orc": "observability rank condition, no unknown input",
                 "series": "rank of the output series, the ORC's final codistribution",
-                "single_ui": "Martinelli's observable codistribution, one unknown input"}
-        return (f"exact ({what.get(self.method, self.method)}): the observable functions "
-                "at generic states of the domain")
+                "single_ui": "Martinelli's observable codistribution, one unknown input",
+                "general_ui": "Martinelli's general solution, any number of unknown inputs"}
+        meaning = {"smooth": "; known inputs generic smooth functions of time",
+                   "switchable": "; known inputs switchable (may jump)"}.get(self.known_inputs, "")
+        return (f"exact ({what.get(self.method, self.method)}{meaning}): the observable "
+                "functions at generic states of the domain")
+
+    @property
+    def exact(self) -> bool:
+        """Whether the verdicts are exact (observable and unobservable both certain at generic
+        states), not a sufficient condition (:meth:`answer_kind`)."""
+        return self.answer_kind().startswith("exact")
 
     def to_json(self, **kw) -> str:
         """``json.dumps(self.to_dict())``."""

@@ -1,0 +1,129 @@
+"""Known inputs as generic smooth functions of time: their jets as known coordinates.
+
+Two meanings of a known input ``u`` in ``x' = f0 + sum_i u_i f_i + sum_j w_j g_j``:
+
+* **switchable** (the default, Martinelli's single-input papers and the classical ORC/EORC):
+  ``u`` may be chosen freely and may jump, so the analyses close under every raw field
+  ``f_i`` separately;
+* **smooth** (TUIO6, Martinelli's general solution): ``u`` is a generic smooth function of
+  time, known with all its derivatives. Its jet ``u, u^(1), .., u^(R)`` enters the drift
+  ``g0 = f0 + sum_i u_i f_i``, and the analyses take total time derivatives along ``g0``::
+
+      D theta = L_g0 theta + sum_{i, r} u_i^(r+1) d theta / d u_i^(r).
+
+This module builds the autonomous System on ``[z; u_1^(0..R); ..]`` (``z`` the System's own
+coordinates) whose drift is ``[g0; u^(1..R); 0]``: a Lie derivative along it IS the total
+derivative ``D``, exact up to order ``R + 1`` (only ``D`` of a function of ``u^(R)`` needs
+the truncated ``u^(R+1)``). Every jet coordinate is measured (an output), because a known
+input is known at every time with its derivatives; gradients then need no special
+treatment: the span of ``dz`` part of a codistribution that holds ``du^(r)`` for every
+``r`` is the codistribution taken "with respect to the state only" (the jets are known
+quantities), which is what the papers define.
+"""
+
+import jax.numpy as jnp
+
+from .system import DEFAULT_BOX, System, derived_system
+
+#: The two meanings of a known input (``analyze(known_inputs=...)``).
+KNOWN_INPUT_MEANINGS = ("switchable", "smooth")
+
+
+def jet_names(system: System, order: int) -> tuple[str, ...]:
+    """Names of the jet coordinates ``u_i^(r)``, ``r = 0..order`` (input-major).
+
+    Order 0 keeps the input's name, order r gets ``^(r)``; a clash with a state name gets a
+    ``'`` appended.
+    """
+    taken = set(system.states)
+    out = []
+    for u in system.known:
+        for r in range(order + 1):
+            nm = u if r == 0 else f"{u}^({r})"
+            while nm in taken:
+                nm += "'"
+            taken.add(nm)
+            out.append(nm)
+    return tuple(out)
+
+
+def with_input_jets(system: System, order: int) -> System:
+    """The System whose drift carries the known inputs as jets up to ``order``.
+
+    Args:
+        system: a parameter-free System (``System.joint()``) with ``N`` states, ``mu``
+            known inputs.
+        order: ``R``, the highest jet order (``>= 0``).
+
+    Returns:
+        A System on ``N + mu (R + 1)`` states (``states + jet_names``): drift
+        ``[f0 + sum_i u_i f_i; u^(1); ..; u^(R); 0]`` per input, the unknown fields padded
+        with zeros, NO known field, and outputs = the System's outputs plus one output per
+        jet coordinate (its value). Attribute ``known_coordinates``: the trailing
+        coordinates that are known quantities, ``mu (R + 1)`` plus those of ``system``
+        (its time, :func:`known_coordinates`). A System without known inputs is returned
+        unchanged.
+    """
+    mu = len(system.known)
+    if mu == 0:
+        return system
+    N = system.n
+    R = int(order)
+    names = jet_names(system, R)
+    drift, fs = system.drift, tuple(system.known.values())
+
+    def g0(Z):
+        z, jets = Z[:N], Z[N:].reshape((mu, R + 1))
+        dz = jnp.zeros(N, dtype=Z.dtype) if drift is None else drift(z)
+        for i, f in enumerate(fs):
+            dz = dz + jets[i, 0] * f(z)
+        chain = jnp.concatenate([jets[:, 1:], jnp.zeros((mu, 1), dtype=Z.dtype)], axis=1)
+        return jnp.concatenate([dz, chain.reshape(-1)])
+
+    def pad_field(g):
+        return lambda Z: jnp.concatenate([g(Z[:N]), jnp.zeros(mu * (R + 1), dtype=Z.dtype)])
+
+    def pad_output(h):
+        return lambda Z: h(Z[:N])
+
+    outputs = {k: pad_output(h) for k, h in system.outputs.items()}
+    jet_outputs = []
+    for j, nm in enumerate(names):
+        key = nm
+        while key in outputs:
+            key += "'"
+        outputs[key] = lambda Z, j=j: Z[N + j]
+        jet_outputs.append(key)
+    domain = dict(system.domain)
+    domain.update({nm: DEFAULT_BOX for nm in names})
+    with derived_system():  # the validated System's functions, padded
+        out = System(
+            states=system.states + names,
+            outputs=outputs,
+            unknown={k: pad_field(g) for k, g in system.unknown.items()},
+            drift=g0,
+            domain=domain,
+            angles=system.angles,
+            name=system.name,
+            notes=system.notes,
+        )
+    object.__setattr__(out, "_known_coordinates", known_coordinates(system) + mu * (R + 1))
+    object.__setattr__(out, "_as_params", system.joint_param_names)
+    object.__setattr__(out, "_known_outputs", known_outputs(system) + tuple(jet_outputs))
+    return out
+
+
+def known_coordinates(system: System) -> int:
+    """How many trailing coordinates of ``system`` are known quantities (time, jets of
+    smooth known inputs): 0 for a user's System."""
+    return int(getattr(system, "known_coordinates", 0))
+
+
+def known_outputs(system: System) -> tuple[str, ...]:
+    """Names of the outputs of ``system`` that measure its known coordinates (the time
+    of :meth:`System.autonomous`, the jets of :func:`with_input_jets`)."""
+    own = getattr(system, "_known_outputs", None)
+    if own is not None:
+        return tuple(own)
+    name = getattr(system, "time_name", None)
+    return (name,) if known_coordinates(system) and name in system.outputs else ()
