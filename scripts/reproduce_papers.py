@@ -2,7 +2,9 @@
 
 Each zoo file under ``systems/`` carries a ``PUBLISHED`` dict next to its models
 (``{function: {"source", "method", "dim", "dims", "m_prime", "m_star", "observable",
-"symmetries", ...}}``). This script analyzes every entry and compares each published
+"symmetries", "k_max", ...}}``; ``k_max``, where given, is the EORC's highest order, passed
+to :func:`uio_jax.analyze`: the order a paper computed to, where the default ``n + 2`` would
+run far past it). This script analyzes every entry and compares each published
 quantity with ours; it prints a table and writes it as markdown. Exit code 1 on any
 disagreement.
 
@@ -111,7 +113,7 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             try:
                 rep = uj.analyze(system, method=pub.get("method", "auto"), samples=args.samples,
-                                 seed=args.seed)
+                                 seed=args.seed, k_max=pub.get("k_max"))
             except uj.UioJaxError as exc:
                 table.append((pub["source"], entry, "analysis", "-", f"error: {exc}", False))
                 failures += 1
