@@ -198,3 +198,55 @@ def get(spec: str) -> SympyModel:
         return MODELS[spec]()
     except KeyError:
         raise KeyError(f"no sympy model for {spec!r}; known: {', '.join(sorted(MODELS))}") from None
+
+
+# --------------------------------------------------------------------------------------
+# Several unknown inputs, drift, UI extension (zoo: systems/multi_ui.py). Equations from
+# TUIO6's initialize_system.m, 004 section 11.2.1 and the hand-made cases of the zoo file.
+# --------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TimedSympyModel(SympyModel):
+    """A :class:`SympyModel` whose fields/outputs may contain an explicit time symbol."""
+
+    time: sp.Symbol | None = None
+
+
+def _multi_ui(name: str) -> SympyModel:
+    if name in ("tac2025", "guarded_full_rank"):
+        x1, x2, x3, x4, x5 = sp.symbols("x1 x2 x3 x4 x5", real=True)
+        drift = _col(x3, x5, 0, 0, 0)
+        w1, w2 = _col(0, 1, x4, 0, 0), _col(0, 1, x4, x4, x5)
+        if name == "tac2025":
+            return SympyModel(f"multi_ui:{name}", (x1, x2, x3, x4, x5), {"y1": x1, "y2": x2}, {},
+                              {"w1": w1, "w2": w2}, drift)
+        return SympyModel(f"multi_ui:{name}", (x2, x3, x4, x5), {"y1": x3, "y2": x2}, {},
+                          {"w1": w1[1:, :], "w2": w2[1:, :]}, drift[1:, :])
+    if name == "hiv":
+        Tu, Ti, V, lam, rho, delta, N, c = X = sp.symbols("T_u T_i V lambda rho delta N c", real=True)
+        return SympyModel("multi_ui:hiv", X, {"V": V, "T_total": Tu + Ti}, {},
+                          {"eta": _col(-Tu * V, Tu * V, 0, 0, 0, 0, 0, 0)},
+                          _col(lam - rho * Tu, -delta * Ti, N * delta * Ti - c * V, 0, 0, 0, 0, 0))
+    x1, x2, x3, x4 = sp.symbols("x1 x2 x3 x4", real=True)
+    if name == "trivial_drift":
+        return SympyModel("multi_ui:trivial_drift", (x1, x2), {"y": x1}, {}, {"w": _col(0, 1)}, _col(x2, 0))
+    if name == "time_varying":
+        t = sp.Symbol("t", real=True)
+        return TimedSympyModel("multi_ui:time_varying", (x1, x2), {"y": x1 + t * x2}, {}, {"w": _col(0, 1)},
+                               _col(1, 0), time=t)
+    if name == "gps_inputs_unknown":
+        m = _gps(("v", "omega"), name)
+        return SympyModel(f"multi_ui:{name}", m.states, m.outputs, {}, m.unknown, None, m.domain)
+    if name in ("extension_kept", "extension_dropped"):
+        g2 = _col(0, 0, 0, 1) if name == "extension_kept" else _col(0, 0, 1, 0)
+        return SympyModel(f"multi_ui:{name}", (x1, x2, x3, x4), {"y1": x1, "y2": x2}, {},
+                          {"w1": _col(0, 1, x4, 0), "w2": g2}, _col(x3, 0, 0, 0))
+    if name in ("known_gain_smooth", "known_gain_switchable"):
+        return SympyModel(f"multi_ui:{name}", (x1, x2), {"y": x1 + x2}, {"u": _col(x2, 0)}, {"w": _col(0, 1)})
+    raise KeyError(name)
+
+
+MULTI_UI = ("tac2025", "guarded_full_rank", "hiv", "trivial_drift", "time_varying", "gps_inputs_unknown",
+            "extension_kept", "extension_dropped", "known_gain_smooth", "known_gain_switchable")
+for _name in MULTI_UI:
+    MODELS[f"systems/multi_ui.py:{_name}"] = lambda nm=_name: _multi_ui(nm)
