@@ -174,7 +174,7 @@ SORT_MODEL = """
                          known={"u": lambda x: jnp.stack([x[1], 0.0 * x[0]])},
                          domain={"a": (0.5, 1.0), "b": (2.0, 3.0)})
     """
-EORC_MODEL = f"{zoo_path('gps')}:inputs_unknown"  # two unknown inputs: auto -> EORC
+EORC_MODEL = f"{zoo_path('gps')}:inputs_unknown"  # two unknown inputs (run with --method eorc)
 
 
 @pytest.mark.parametrize(
@@ -184,7 +184,7 @@ EORC_MODEL = f"{zoo_path('gps')}:inputs_unknown"  # two unknown inputs: auto -> 
         (["batch", GOOD, "--seed", str(2**64)], "seed must be a non-negative integer below 2**64"),
         (["analyze", GOOD, "--samples", str(10**9)],
          "samples=1000000000 x 3 states needs about 384 GB"),
-        (["analyze", EORC_MODEL, "--k-max", "1000"], "the EORC to k_max=1000 (samples=4096 x N=2003"),
+        (["analyze", EORC_MODEL, "--method", "eorc", "--k-max", "1000"], "the EORC to k_max=1000 (samples=4096 x N=2003"),
         (["analyze", GOOD, "--max-order", "-1"], "max_order must be a non-negative integer"),
         (["analyze", GOOD, "--k-max", "0"], "k_max must be a positive integer"),
         (["analyze", GOOD, "--rtol", "nan"], "rtol must be a number in (0, 1)"),

@@ -221,17 +221,17 @@ def test_huge_samples_are_refused_before_allocating(monkeypatch, no_allocation, 
 
 def test_huge_k_max_is_refused_before_allocating(monkeypatch, no_allocation):
     monkeypatch.setenv(memory.ENV, "8G")
-    gps = zoo("gps", "inputs_unknown")  # auto -> EORC (two unknown inputs)
+    gps = zoo("gps", "inputs_unknown")  # two unknown inputs
     with pytest.raises(uj.OptionError) as e:
-        uj.analyze(gps, k_max=1000)
+        uj.analyze(gps, k_max=1000, method="eorc")
     msg = str(e.value)
     N = gps.n + 1000 * len(gps.unknown)
     assert f"the EORC to k_max=1000 (samples=4096 x N={N} coordinates" in msg
     assert f"lower k_max (default {default_k_max(gps)})" in msg and "rank basis alone" in msg
     with pytest.raises(uj.OptionError, match="lower samples and k_max"):
-        uj.analyze(gps, k_max=1000, samples=10**9)
+        uj.analyze(gps, k_max=1000, samples=10**9, method="eorc")
     with pytest.raises(uj.OptionError, match="lower samples$"):
-        uj.analyze(gps, samples=10**9)
+        uj.analyze(gps, samples=10**9, method="eorc")
     # the EORC chosen by name, on a one-input model, is checked the same way
     with pytest.raises(uj.OptionError, match="k_max=1000"):
         uj.analyze(polar(), method="eorc", k_max=1000)

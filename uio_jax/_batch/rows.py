@@ -29,6 +29,10 @@ class BatchRow:
             step its analysis had decided, e.g. ``"k=5, dim 4/7"`` (``k`` an EORC order,
             ``m`` a step of the other analyses; dim of the codistribution / n); None when
             no step was decided or the model was not stopped.
+        exact: whether the verdicts are exact (``Report.exact``); False for a sufficient
+            condition only (the EORC, a capped recursion); None for a failed model.
+        inputs: the unknown inputs shown observable (the general solution's
+            ``unknown_inputs_observable``, or the EORC's observable input coordinates).
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
     """
@@ -45,6 +49,8 @@ class BatchRow:
     seconds: float = 0.0
     error: str | None = None
     reached: str | None = None
+    exact: bool | None = None
+    inputs: tuple[str, ...] = ()
     report: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -65,7 +71,8 @@ class BatchRow:
             "observable": list(self.observable), "params": list(self.params),
             "identifiable": list(self.identifiable), "fraction": _num(self.fraction),
             "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
-            "error": self.error, "reached": self.reached,
+            "error": self.error, "reached": self.reached, "exact": self.exact,
+            "observable_inputs": list(self.inputs),
         }
         return d
 
@@ -197,7 +204,8 @@ class BatchResult:
                 cells = [r.model, r.method or "-", "-", "-"] + (["-"] if has_params else [])
                 cells += ["-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
             else:
-                cells = [r.model, r.method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
+                method = r.method + ("" if r.exact is not False else " (suff.)")
+                cells = [r.model, method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
                 if has_params:
                     cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
                 cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
@@ -222,7 +230,18 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         observable=tuple(s for s, ok in rep.observable.items() if ok),
         params=params, identifiable=tuple(p for p in params if ident.get(p)),
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
+        exact=bool(rep.exact), inputs=_observable_inputs(rep),
     )
+
+
+def _observable_inputs(rep) -> tuple[str, ...]:
+    """The unknown inputs a report shows observable (general_ui: the final unknown inputs;
+    EORC: the input coordinates observable at the last order)."""
+    details = rep.details
+    if "unknown_inputs_observable" in details:
+        return tuple(k for k, v in details["unknown_inputs_observable"].items() if v)
+    last = rep.history[-1].extra.get("observable_inputs", ()) if rep.history else ()
+    return tuple(last)
 
 
 def verdict(row: BatchRow) -> str:

@@ -87,7 +87,7 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             (the rows finished so far, in the given order; ``partial`` set until the last
             one) after each finished model.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
-            ``seed``, ``rtol``, ``max_order``, ``k_max``).
+            ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``).
 
     Returns:
         :class:`~uio_jax.BatchResult`, a sequence of :class:`~uio_jax.BatchRow` in the

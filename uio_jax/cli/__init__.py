@@ -15,7 +15,7 @@ the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is 
 import sys
 
 from .._analysis.memory import ENV as MEMORY_ENV
-from .._analysis.options import DEFAULTS, METHODS, MIN_SAMPLES
+from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
 from . import analyze, batch, montecarlo
@@ -50,6 +50,9 @@ def _analysis_options(p):
     p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k), >= 0")
     p.add_argument("--k-max", type=int, default=d["k_max"],
                    help="highest order k of the EORC, >= 1 (default n + 2)")
+    p.add_argument("--known-inputs", default=d["known_inputs"], choices=KNOWN_INPUTS,
+                   help="what a known input is: switchable (default: it may jump, the papers' "
+                        "meaning) or smooth (a generic smooth function of time, TUIO6's)")
 
 
 def main(argv=None) -> int:

@@ -29,7 +29,8 @@ def run(args) -> int:
     from .._progress import StepPrinter, step_listener
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max)  # before loading the model
+                  max_order=args.max_order, k_max=args.k_max,
+                  known_inputs=args.known_inputs)  # before loading the model
     if args.plot:
         from .._analysis.plots import check_figure_path
 
@@ -39,7 +40,8 @@ def run(args) -> int:
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with step_listener(printer):
         rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
+                  known_inputs=args.known_inputs)
     print(rep)
     if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
         try:

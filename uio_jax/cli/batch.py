@@ -52,7 +52,8 @@ def run(args) -> int:
     from .._batch.run import BatchInterrupted, batch_analyze
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max)  # before any model is found
+                  max_order=args.max_order, k_max=args.k_max,
+                  known_inputs=args.known_inputs)  # before any model is found
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"))
@@ -65,7 +66,8 @@ def run(args) -> int:
                                keep_reports=False, import_python=args.import_python,
                                on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
                                method=args.method, samples=args.samples,
-                               seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max)
+                               seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
+                  known_inputs=args.known_inputs)
     except BatchInterrupted as exc:
         result, code = exc.result, EXIT_INTERRUPTED
         print(f"uio-jax: {result.partial}", file=sys.stderr)
