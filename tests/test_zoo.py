@@ -18,7 +18,7 @@ def test_published_entries_load_and_cite_a_source(module, name):
     assert isinstance(system, uj.System)
     pub = zoo_module(module).PUBLISHED[name]
     assert pub["source"] and "dim" in pub
-    assert pub.get("method", "auto") in ("auto", "orc", "single_ui", "eorc")
+    assert pub.get("method", "auto") in ("auto", "orc", "single_ui", "general_ui", "eorc")
 
 
 @pytest.mark.parametrize("spec, unknown, known_any", [
