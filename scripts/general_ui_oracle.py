@@ -28,11 +28,12 @@ known inputs as jets in ``F0``, no separate known fields).
 state) gets an independent random rational ``p/q`` (``1 <= p <= 97``, ``1 <= q <= 13``) at each
 of ``K = 3`` points. For rational models (every expression a rational function with rational
 coefficients) values are exact rationals and ranks come from exact Gaussian elimination; for
-other models values have 60 significant digits and a row counts as zero when what is left of it
-after elimination is below ``1e-30`` of its norm. The generic rank of a list of functions is the
-maximum over the points of the rank of their state gradients; a function is generically zero
-when it vanishes at every point. A point that hits a pole restarts the whole analysis with new
-points (``seed + 1``, up to 5 tries).
+other models values have 60 significant digits, a gradient entry below ``1e-30`` is round-off,
+and a row counts as zero when what is left of it after elimination is below ``1e-30`` of its norm.
+The generic rank of a list of functions is the maximum over the points of the rank of their state
+gradients; a function is generically zero when it vanishes at every point. A point that hits a
+pole restarts the whole analysis with new points (seed + 1000, up to 5 tries; the result's
+``seed`` says which).
 
 Usage::
 
@@ -62,8 +63,12 @@ __all__ = ["general_ui", "general_ui_model", "eorc", "eorc_model", "Pole", "DPS"
 POINTS = 3
 #: Significant digits of the evaluation of non-rational models.
 DPS = 60
-#: A row (or a value) counts as zero below this size relative to its own norm (non-rational models).
+#: Non-rational models: what is left of a row after elimination counts as zero below this size
+#: relative to the row, and a value counts as zero below it relative to its largest term.
 ZERO_REL = mpmath.mpf("1e-30")
+#: Non-rational models: a gradient entry below this absolute size is round-off (the values at the
+#: points are of order 1e-3 .. 1e3; a cancelling sum that is identically zero leaves ~1e-60).
+ZERO_ABS = mpmath.mpf("1e-30")
 #: Safety bound of the main loop (note section 5, step 2).
 MAX_ITER = 30
 #: Restarts with new points after a pole.
@@ -202,8 +207,13 @@ class _Ctx:
         return sp.expand(sp.Add(out, *extra))
 
     def row(self, e, states, k, grad=None):
+        """The gradient of ``e`` at point ``k``; in 60-digit mode an entry below ``ZERO_ABS`` is set
+        to 0 (round-off of an identically zero derivative written as a cancelling sum)."""
         grad = self.grad(e, states) if grad is None else grad
-        return [self.evaluate(d, k) for d in grad]
+        vals = [self.evaluate(d, k) for d in grad]
+        if not self.exact:
+            vals = [mpmath.mpf(0) if abs(v) < ZERO_ABS else v for v in vals]
+        return vals
 
 
 class _Span:
@@ -406,7 +416,7 @@ def _vec(field, n, what):
     return v
 
 
-def _prepare(states, f0, known, unknown, outputs, t, seed):
+def _prepare(states, f0, known, unknown, outputs, t, seed, arithmetic="auto"):
     states = [sp.sympify(s) for s in states]
     n = len(states)
     f0 = _vec(f0, n, "f0")
@@ -414,7 +424,12 @@ def _prepare(states, f0, known, unknown, outputs, t, seed):
     unknown = {k: _vec(v, n, f"unknown field {k!r}") for k, v in (unknown or {}).items()}
     outputs = [sp.sympify(h) for h in (outputs.values() if isinstance(outputs, dict) else outputs)]
     exprs = f0 + [e for v in known.values() for e in v] + [e for v in unknown.values() for e in v] + outputs
-    exact = all(_is_rational_expr(e) for e in exprs)
+    if arithmetic not in ("auto", "exact", "float"):
+        raise ValueError(f"arithmetic must be 'auto', 'exact' or 'float', not {arithmetic!r}")
+    rational = all(_is_rational_expr(e) for e in exprs)
+    if arithmetic == "exact" and not rational:
+        raise ValueError("arithmetic='exact' needs rational expressions with rational coefficients")
+    exact = rational and arithmetic != "float"
     ctx = _Ctx(exact, seed, t=t)
     taken = set(states) | ({t} if t is not None else set())
     for e in exprs:
@@ -438,7 +453,8 @@ def _restarting(fn, seed):
 # The general solution (note section 5)
 # --------------------------------------------------------------------------------------
 
-def general_ui(states, f0, known: dict, unknown: dict, outputs, *, t=None, seed: int = 0) -> dict:
+def general_ui(states, f0, known: dict, unknown: dict, outputs, *, t=None, seed: int = 0,
+               arithmetic: str = "auto") -> dict:
     """Martinelli's general analytic solution of unknown-input observability (note section 5).
 
     Args:
@@ -451,6 +467,8 @@ def general_ui(states, f0, known: dict, unknown: dict, outputs, *, t=None, seed:
         outputs: output expressions (list, or dict name -> expression).
         t: optional time symbol appearing explicitly in the fields/outputs.
         seed: seed of the random points.
+        arithmetic: ``"auto"`` (exact for rational models, 60 digits otherwise), ``"exact"`` or
+            ``"float"`` (60 digits even for a rational model: a cross-check of the two routes).
 
     Returns:
         dict with ``dim`` (dimension of the observable codistribution on the original state,
@@ -463,11 +481,12 @@ def general_ui(states, f0, known: dict, unknown: dict, outputs, *, t=None, seed:
         ``extension_states``, ``extension_states_observable``, ``exact`` (rational arithmetic),
         ``generators`` (Omega), ``final_states`` and ``trace`` (one dict per step).
     """
-    return _restarting(lambda s: _general_ui(states, f0, known, unknown, outputs, t, s), seed)
+    return _restarting(lambda s: _general_ui(states, f0, known, unknown, outputs, t, s, arithmetic), seed)
 
 
-def _general_ui(states, f0, known, unknown, outputs, t, seed):
-    ctx, X, _f0, _known, unknown, h, g0, _jets = _prepare(states, f0, known, unknown, outputs, t, seed)
+def _general_ui(states, f0, known, unknown, outputs, t, seed, arithmetic):
+    ctx, X, _f0, _known, unknown, h, g0, _jets = _prepare(states, f0, known, unknown, outputs, t, seed,
+                                                          arithmetic)
     n = len(X)
     X = list(X)
     g = [list(v) for v in unknown.values()]
@@ -662,7 +681,7 @@ def _outputs(ctx, X, n, E, omega, g0, g, labels, m, mw, extended, initially_cano
 # --------------------------------------------------------------------------------------
 
 def eorc(states, f0, known: dict, unknown: dict, outputs, *, k_max: int, known_inputs: str = "switchable",
-         t=None, seed: int = 0) -> dict:
+         t=None, seed: int = 0, arithmetic: str = "auto") -> dict:
     """Extended observability rank criterion per order k = 0..k_max (004 sections 4-6).
 
     Extended state ``x^(K) = [x; w; w^(1); ..; w^(K-1)]`` with ``K = k_max`` and extended drift
@@ -673,7 +692,8 @@ def eorc(states, f0, known: dict, unknown: dict, outputs, *, k_max: int, known_i
     with ``v`` in ``{D_F0, L_F1, .., L_Fmu}`` (``known_inputs="switchable"``, meaning S2: each raw
     known field ``F_i = [f_i; 0]`` separately) or ``v = D_F0`` only (``"smooth"``, meaning S1:
     ``F0`` holds ``u_i f_i`` with the jets of ``u_i`` as free known symbols). D adds ``d/dt`` and
-    the jet terms (module docstring). Gradients are taken on the extended state.
+    the jet terms (module docstring). Gradients are taken on the extended state. ``t``, ``seed``
+    and ``arithmetic`` as in :func:`general_ui`.
 
     Returns:
         ``{"dims": [dim_k on the original state], "ranks": [rank of Omega-bar_k], "observable":
@@ -685,11 +705,12 @@ def eorc(states, f0, known: dict, unknown: dict, outputs, *, k_max: int, known_i
         raise ValueError(f"known_inputs must be 'switchable' or 'smooth', not {known_inputs!r}")
     if k_max < 0:
         raise ValueError("k_max must be >= 0")
-    return _restarting(lambda s: _eorc(states, f0, known, unknown, outputs, k_max, known_inputs, t, s), seed)
+    return _restarting(lambda s: _eorc(states, f0, known, unknown, outputs, k_max, known_inputs, t, s,
+                                       arithmetic), seed)
 
 
-def _eorc(states, f0, known, unknown, outputs, k_max, mode, t, seed):
-    ctx, X, f0v, known, unknown, h, g0, _ = _prepare(states, f0, known, unknown, outputs, t, seed)
+def _eorc(states, f0, known, unknown, outputs, k_max, mode, t, seed, arithmetic):
+    ctx, X, f0v, known, unknown, h, g0, _ = _prepare(states, f0, known, unknown, outputs, t, seed, arithmetic)
     n = len(X)
     mw = len(unknown)
     K = max(k_max, 1)
