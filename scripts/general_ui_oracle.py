@@ -57,7 +57,8 @@ from fractions import Fraction
 import mpmath
 import sympy as sp
 
-__all__ = ["general_ui", "general_ui_model", "eorc", "eorc_model", "Pole", "DPS", "ZERO_REL"]
+__all__ = ["general_ui", "general_ui_model", "eorc", "eorc_model", "random_two_ui_system", "Pole", "DPS",
+           "ZERO_REL"]
 
 #: Number of random points of every generic-rank decision.
 POINTS = 3
@@ -771,6 +772,39 @@ def _eorc(states, f0, known, unknown, outputs, k_max, mode, t, seed, arithmetic)
         if not new and closed_at is None:
             closed_at = k
     return {"dims": dims, "ranks": ranks, "observable": observ, "closed_at": closed_at, "exact": ctx.exact}
+
+
+# --------------------------------------------------------------------------------------
+# Random test systems
+# --------------------------------------------------------------------------------------
+
+def random_two_ui_system(seed: int):
+    """A random rational test system: 4 states ``x1..x4``, outputs ``(x1, x2)``, a sparse polynomial
+    drift (each component 0 with probability 0.4, else +-1 or 2 times a monomial of degree <= 2) and
+    two unknown inputs whose fields have 1 or 2 nonzero components of degree <= 1.
+
+    Returns the positional arguments of :func:`general_ui` / :func:`eorc`:
+    ``(states, f0, known={}, unknown={"w1": g1, "w2": g2}, outputs)``. Deterministic in ``seed``.
+    """
+    rng = random.Random(seed)
+    X = list(sp.symbols("x1:5"))
+
+    def mono(p0, degrees):
+        if rng.random() < p0:
+            return sp.Integer(0)
+        e = sp.Integer(rng.choice([1, 2, -1]))
+        for _ in range(rng.choice(degrees)):
+            e *= rng.choice(X)
+        return e
+
+    f0 = [mono(0.4, (0, 1, 1, 2)) for _ in X]
+    g = []
+    for _ in range(2):
+        v = [sp.Integer(0)] * 4
+        for i in rng.sample(range(4), rng.choice([1, 2])):
+            v[i] = mono(0.0, (0, 1))
+        g.append(v)
+    return X, f0, {}, {"w1": g[0], "w2": g[1]}, [X[0], X[1]]
 
 
 # --------------------------------------------------------------------------------------

@@ -11,7 +11,6 @@ equal to it where the EORC has stabilised). They also check that the zoo's JAX t
 """
 
 import os
-import random
 import sys
 
 import jax.numpy as jnp
@@ -200,29 +199,10 @@ def test_bad_arguments_raise():
 # Random two-UI systems against the exact EORC
 # --------------------------------------------------------------------------------------
 
-_RX = sp.symbols("x1:5")
-
-
 def _random_system(seed):
-    """4 states, y = (x1, x2), a sparse polynomial drift and two sparse UI fields."""
-    rng = random.Random(seed)
-
-    def mono(p0, degrees):
-        if rng.random() < p0:
-            return 0
-        e = rng.choice([1, 2, -1])
-        for _ in range(rng.choice(degrees)):
-            e *= rng.choice(_RX)
-        return e
-
-    f0 = [mono(0.4, (0, 1, 1, 2)) for _ in _RX]
-    g = []
-    for _ in range(2):
-        v = [0] * 4
-        for i in rng.sample(range(4), rng.choice([1, 2])):
-            v[i] = mono(0.0, (0, 1))
-        g.append(v)
-    return list(_RX), f0, {}, {"w1": g[0], "w2": g[1]}, [_RX[0], _RX[1]]
+    """4 states, y = (x1, x2), a sparse polynomial drift and two sparse UI fields (the oracle's
+    :func:`random_two_ui_system`, also usable by the JAX route's tests)."""
+    return oracle.random_two_ui_system(seed)
 
 
 RANDOM_SEEDS = list(range(40))
