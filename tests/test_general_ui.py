@@ -174,3 +174,31 @@ def test_cli_analyze_general_ui_with_smooth_known_inputs(capsys):
     assert code == 0 and "(general_ui)" in out and "answer: exact" in out
     assert "unknown_inputs_reconstructable: ['v']" in out
     assert main(["analyze", zoo("unicycle_polar.py:range_v_unknown"), "--known-inputs", "x"]) == 2
+
+
+# ------------------------------------------------------------------ the multi-UI zoo
+def _multi_ui():
+    from helpers import zoo_module
+
+    return zoo_module("multi_ui").PUBLISHED
+
+
+#: Entries whose first analysis takes more than ~10 s on 2 cores (UI extensions, n >= 5).
+HEAVY_MULTI_UI = ("tac2025", "guarded_full_rank", "hiv", "extension_kept", "extension_dropped")
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.slow) if n in HEAVY_MULTI_UI else n for n in sorted(_multi_ui())])
+def test_multi_ui_zoo_entry_matches_its_derived_verdict(name):
+    """Every entry of ``systems/multi_ui.py`` (verdicts derived by hand or by the exact sympy
+    oracle and an EORC that stabilises, stated in the file): dim, observable set, and the
+    extension/canonic flags of the general solution."""
+    pub = _multi_ui()[name]
+    system = uj.load_system(zoo(f"multi_ui.py:{name}"))
+    rep = uj.analyze(system, samples=SAMPLES, method=pub["method"],
+                     known_inputs=pub.get("known_inputs", "switchable"))
+    assert rep.dim == pub["dim"]
+    assert {s for s, ok in rep.observable.items() if ok} == set(pub["observable"])
+    for flag in ("ui_extension", "canonic"):
+        if flag in pub:
+            assert rep.details[flag] is pub[flag], flag
