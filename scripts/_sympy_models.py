@@ -241,12 +241,18 @@ def _multi_ui(name: str) -> SympyModel:
         g2 = _col(0, 0, 0, 1) if name == "extension_kept" else _col(0, 0, 1, 0)
         return SympyModel(f"multi_ui:{name}", (x1, x2, x3, x4), {"y1": x1, "y2": x2}, {},
                           {"w1": _col(0, 1, x4, 0), "w2": g2}, _col(x3, 0, 0, 0))
+    if name == "extension_two_kept":
+        x5, x6 = sp.symbols("x5 x6", real=True)
+        return SympyModel(f"multi_ui:{name}", (x1, x2, x3, x4, x5, x6), {"y1": x1, "y2": x2}, {},
+                          {"w1": _col(0, 1, x4, 0, 0, 0), "w2": _col(0, 0, 0, 0, x6, 0), "w3": _col(0, 0, 0, 0, 0, 1)},
+                          _col(x3, 0, 0, x5, 0, 0))
     if name in ("known_gain_smooth", "known_gain_switchable"):
         return SympyModel(f"multi_ui:{name}", (x1, x2), {"y": x1 + x2}, {"u": _col(x2, 0)}, {"w": _col(0, 1)})
     raise KeyError(name)
 
 
 MULTI_UI = ("tac2025", "guarded_full_rank", "hiv", "trivial_drift", "time_varying", "gps_inputs_unknown",
-            "extension_kept", "extension_dropped", "known_gain_smooth", "known_gain_switchable")
+            "extension_kept", "extension_dropped", "extension_two_kept", "known_gain_smooth",
+            "known_gain_switchable")
 for _name in MULTI_UI:
     MODELS[f"systems/multi_ui.py:{_name}"] = lambda nm=_name: _multi_ui(nm)

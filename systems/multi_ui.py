@@ -12,8 +12,8 @@ bound, the hand-made family of indistinguishable states an upper bound.
 
 Public examples: the TAC-2025 case study, the HIV model, the "trivial" and the time-varying
 example of TUIO6's ``initialize_system.m`` (TUIO6 prints no verdict: they are derived here), the GPS
-unicycle of 004 section 11.2.1 (published). Hand-made: the three UI-extension branches
-(``extension_kept``, ``extension_dropped``, ``guarded_full_rank``) and the known-input
+unicycle of 004 section 11.2.1 (published). Hand-made: the UI-extension branches
+(``extension_kept``, ``extension_dropped``, ``extension_two_kept``, ``guarded_full_rank``) and the known-input
 semantics example (``known_gain_*``).
 
 Unknown constant parameters are states with zero dynamics (as in TUIO6).
@@ -189,6 +189,32 @@ def extension_dropped():
     )
 
 
+def extension_two_kept():
+    """Hand-made, 3 unknown inputs, never canonic: the extension keeps v and v'::
+
+        x1' = x3,  x2' = w1,  x3' = x4 w1,  x4' = x5,  x5' = x6 w2,  x6' = w3,  y = (x1, x2).
+
+    By hand: x3 = y1', x4 = y1'' / y2' (y1'' = x4 w1, w1 = y2'), x5 = x4'; then x5' = x6 w2 with w2
+    free hides x6 (any x6 != 0, w2 = x5' / x6), and w3 = x6' is never seen: dim 5, x6
+    unobservable. The general solution: m = 1, the guarded closure aborts at ord 3 (root x1);
+    theta_v = D^3 x1 = v x5 + v' x4 depends on v^(1), so v^(0), v^(1) are kept; then m = 2 and the
+    guarded closure ends without abort (the system stays non-canonic: w3 is not reconstructable).
+    Exact EORC (smooth): 2, 3, 4, 5, 5, 5 for k = 0..5.
+    """
+    def drift(x):
+        z = _z(x)
+        return jnp.stack([x[2], z, z, x[4], z, z])
+
+    return uj.System(
+        states=("x1", "x2", "x3", "x4", "x5", "x6"),
+        outputs={"y1": lambda x: x[0], "y2": lambda x: x[1]},
+        unknown={"w1": lambda x: jnp.stack([_z(x), 1.0 + _z(x), x[3], _z(x), _z(x), _z(x)]),
+                 "w2": lambda x: jnp.stack([_z(x), _z(x), _z(x), _z(x), x[5], _z(x)]),
+                 "w3": lambda x: jnp.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])},
+        drift=drift, name="multi_ui:extension_two_kept",
+    )
+
+
 def _known_gain(name):
     return uj.System(
         states=("x1", "x2"), outputs={"y": lambda x: x[0] + x[1]},
@@ -240,6 +266,9 @@ PUBLISHED = {
     "extension_dropped": {"source": "hand derivation (docstring); oracle and exact EORC", "method": "general_ui",
                           "dim": 3, "observable": ["x1", "x2", "x3"], "ui_extension": True,
                           "canonic": True},
+    "extension_two_kept": {"source": "hand derivation (docstring); oracle and exact EORC", "method": "general_ui",
+                           "dim": 5, "observable": ["x1", "x2", "x3", "x4", "x5"], "ui_extension": True,
+                           "canonic": False},
     "known_gain_smooth": {"source": "shared/notes/general_ui.md section 6; by hand (docstring)",
                           "method": "general_ui", "known_inputs": "smooth", "dim": 1, "observable": [],
                           "ui_extension": False, "canonic": True},

@@ -119,6 +119,20 @@ def test_extension_deletes_the_chain_when_theta_v_has_no_v():
     assert res["ui_observable"] == [True, False]
 
 
+def test_extension_keeps_a_longer_chain_and_may_end_non_canonic():
+    """``extension_two_kept`` (by hand: x4 = y1'' / y2', x5 = x4', x6 hidden by w2): dim 5 of 6.
+    theta_v = D^3 x1 = v x5 + v' x4 keeps v^(0) and v^(1); the guarded closure then ends without
+    abort while w3 is still not reconstructable (final m = 2 < 3)."""
+    res = oracle.general_ui_model(_multi("extension_two_kept"))
+    assert res["dim"] == 5 and res["observable"] == [0, 1, 2, 3, 4]
+    ext = [s for s in res["trace"] if s["step"] == "ui extension"]
+    assert len(ext) == 1 and (ext[0]["ord"], ext[0]["chains"]) == (3, {0: 1}) and len(ext[0]["states_added"]) == 2
+    assert res["trace"][-1]["step"] == "guarded closure, no abort"
+    assert not res["canonic"] and res["ui_degree"] == 2 and res["ui_reconstructable"] == [0, 1]
+    assert res["extension_states_observable"]
+    assert oracle.eorc_model(_multi("extension_two_kept"), k_max=4, known_inputs="smooth")["dims"] == [2, 3, 4, 5, 5]
+
+
 @pytest.mark.parametrize("name, dim, observable", [
     ("tac2025", 4, ["x1", "x2", "x3"]),
     ("guarded_full_rank", 3, ["x2", "x3"]),
