@@ -46,13 +46,14 @@ inputs that are generic smooth functions of time (``known_inputs="smooth"``); sy
 known inputs have one meaning only.
 """
 
+import contextlib
 import dataclasses
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._calculus.generators import Node
+from .._calculus.generators import Node, builder_for
 from .._calculus.rescaled import rescaled_fields
 from .._errors import OptionError
 from .._model.smooth_inputs import jet_names, known_coordinates, known_outputs, with_input_jets
@@ -74,6 +75,11 @@ JET_MARGIN = 3
 
 #: How many times the jet order is doubled before the report says it may be truncated.
 JET_RETRIES = 2
+
+#: Programs of the general solution above this many equations are compiled at XLA
+#: optimization level 0: each runs once, and level 0 halves the compile time of the large
+#: ones (TUIO6's TAC-2025 case: 120 s -> 74 s cold; ``docs/benchmarks/general_ui.md``).
+LARGE_GRAPH = 1000
 
 
 def check_applicable(system: System, known_inputs: str):
@@ -168,12 +174,35 @@ def _start(system, jet_order, samples, seed, rtol) -> Working:
         sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
                                known_coordinates(sys0), sys0.joint_param_names)
-    ctx = Context(sys0, samples, seed, rtol)
+    own = sys0 is not with_input_jets(system, jet_order)
+    # the System's builder is shared with the other analyses: see _one_off_programs
+    ctx = _context(sys0, samples, seed, rtol) if own else Context(sys0, samples, seed, rtol)
     b = ctx.builder
     drift = b.field("g0", sys0.drift)
     uis = [ctx.field_node(k) for k in sys0.unknown]
     return Working(sys0, ctx, drift, uis, list(range(len(uis))), ctx.output_nodes(),
                    system.n - known_coordinates(system), known=frozenset(known_outputs(sys0)))
+
+
+def _context(system, samples, seed, rtol) -> Context:
+    """A Context on one of the algorithm's own Systems, whose builder compiles large
+    programs at level 0 (:data:`LARGE_GRAPH`)."""
+    ctx = Context(system, samples, seed, rtol)
+    ctx.builder.large_graph = LARGE_GRAPH
+    return ctx
+
+
+@contextlib.contextmanager
+def _one_off_programs(system):
+    """While the block runs, the builder of the System the analysis starts on (possibly the
+    user's, shared with the other analyses) compiles at :data:`LARGE_GRAPH`; restored after."""
+    builder = builder_for(system)
+    before = builder.large_graph
+    builder.large_graph = LARGE_GRAPH
+    try:
+        yield
+    finally:
+        builder.large_graph = before
 
 
 # ------------------------------------------------------------------ Close
@@ -338,7 +367,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     star = _lift(theta_star.fn, N)
     full = _working_system(sysw.states + tuple(flat), {"theta*": star}, drift_full, {}, domain,
                            sysw.angles, sysw.name, known_coordinates(sysw), sysw.joint_param_names)
-    ctx_full = Context(full, samples, seed, rtol)
+    ctx_full = _context(full, samples, seed, rtol)
     b = ctx_full.builder
     theta_v = b.power(b.field("F'", drift_full), b.scalar("theta*", star), order)
     grad = ctx_full.gradients([theta_v])[:, 0]  # (S, N + m L)
@@ -401,7 +430,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
                               domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
                               sysw.joint_param_names)
-    ctx = Context(new_sys, samples, seed, rtol)
+    ctx = _context(new_sys, samples, seed, rtol)
     nb = ctx.builder
     uis = [ctx.field_node(k) for k in new_uis]
     theta = ctx.output_nodes()
@@ -535,7 +564,7 @@ def observable_inputs(out: Outcome) -> dict:
     if not w.uis:
         return {}
     ext = extended_system(w.system, 1)
-    ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
+    ctx = _context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
     N = w.system.n
     b = ctx.builder
     lifted = [b.scalar(nd.label, _lift(nd.fn, N)) for nd in out.omega.codist.nodes]
@@ -574,7 +603,8 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     jet = n + JET_MARGIN
     with jax.enable_x64(True):
         for attempt in range(JET_RETRIES + 1):
-            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet)
+            with _one_off_programs(with_input_jets(system, jet)):
+                out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet)
             if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
                 break
             jet = 2 * jet

@@ -8,6 +8,7 @@ caches keyed on function identity keep hitting across steps and across calls of
 cached the same way.
 """
 
+import functools
 import hashlib
 import math
 import weakref
@@ -54,6 +55,10 @@ class Builder:
         self._compiled: dict[tuple, object] = {}
         self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
         self.stats: list[CompileStat] = []
+        #: Programs with more jaxpr equations than this are compiled at XLA optimization
+        #: level 0 (:data:`LARGE_GRAPH` by default; an analysis whose programs all run once
+        #: may lower it).
+        self.large_graph = LARGE_GRAPH
 
     def _get(self, key, make):
         node = self._nodes.get(key)
@@ -188,7 +193,8 @@ class Builder:
                     parts = [""]  # not keyable without the model's fingerprint
                 compiled, t = _program_cache.compile_program(
                     system, parts, lambda batch: _program_cache.vmapped(make(), batch),
-                    example, _streamed_options if streamed else _large_graph_options)
+                    example, functools.partial(_streamed_options if streamed else _large_graph_options,
+                                               threshold=self.large_graph))
                 self._compiled[ck] = compiled
                 self.stats.append(CompileStat(_key_label(key), t.eqns, t.trace_s, t.compile_s, t.from_disk))
             if streamed:
@@ -294,16 +300,18 @@ def _in_batches(compiled, xs, batch):
     return np.concatenate([np.asarray(o) for o in outs])[:count]
 
 
-def _streamed_options(traced):
-    """``(eqns, XLA options)`` of a streamed program (level 0 too above LARGE_GRAPH)."""
-    eqns, options = _large_graph_options(traced)
+def _streamed_options(traced, threshold=None):
+    """``(eqns, XLA options)`` of a streamed program (level 0 too above the threshold)."""
+    eqns, options = _large_graph_options(traced, threshold)
     return eqns, {**(options or {}), **STREAM_OPTIONS}
 
 
-def _large_graph_options(traced):
-    """``(eqns, XLA options)``: optimization level 0 above :data:`LARGE_GRAPH` equations."""
+def _large_graph_options(traced, threshold=None):
+    """``(eqns, XLA options)``: optimization level 0 above ``threshold`` (default
+    :data:`LARGE_GRAPH`) equations."""
     eqns = _count_eqns(traced.jaxpr.jaxpr)
-    return eqns, ({"xla_backend_optimization_level": 0} if eqns > LARGE_GRAPH else None)
+    limit = LARGE_GRAPH if threshold is None else threshold
+    return eqns, ({"xla_backend_optimization_level": 0} if eqns > limit else None)
 
 
 def _sig(op, *operands) -> str:

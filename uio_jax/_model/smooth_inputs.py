@@ -21,9 +21,13 @@ treatment: the span of ``dz`` part of a codistribution that holds ``du^(r)`` for
 quantities), which is what the papers define.
 """
 
+import weakref
+
 import jax.numpy as jnp
 
 from .system import DEFAULT_BOX, System, derived_system
+
+_WITH_JETS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # System -> {R: System}
 
 #: The two meanings of a known input (``analyze(known_inputs=...)``).
 KNOWN_INPUT_MEANINGS = ("switchable", "smooth")
@@ -62,11 +66,15 @@ def with_input_jets(system: System, order: int) -> System:
         jet coordinate (its value). Attribute ``known_coordinates``: the trailing
         coordinates that are known quantities, ``mu (R + 1)`` plus those of ``system``
         (its time, :func:`known_coordinates`). A System without known inputs is returned
-        unchanged.
+        unchanged. Cached per System and order (the same System reuses its compiled
+        programs).
     """
     mu = len(system.known)
     if mu == 0:
         return system
+    cached = _WITH_JETS.setdefault(system, {}).get(int(order))
+    if cached is not None:
+        return cached
     N = system.n
     R = int(order)
     names = jet_names(system, R)
@@ -110,6 +118,7 @@ def with_input_jets(system: System, order: int) -> System:
     object.__setattr__(out, "_known_coordinates", known_coordinates(system) + mu * (R + 1))
     object.__setattr__(out, "_as_params", system.joint_param_names)
     object.__setattr__(out, "_known_outputs", known_outputs(system) + tuple(jet_outputs))
+    _WITH_JETS[system][R] = out
     return out
 
 
