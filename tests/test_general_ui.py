@@ -184,7 +184,8 @@ def _multi_ui():
 
 
 #: Entries whose first analysis takes more than ~10 s on 2 cores (UI extensions, n >= 5).
-HEAVY_MULTI_UI = ("tac2025", "guarded_full_rank", "hiv", "extension_kept", "extension_dropped")
+HEAVY_MULTI_UI = ("tac2025", "guarded_full_rank", "hiv", "extension_kept", "extension_dropped",
+                  "extension_two_kept")
 
 
 @pytest.mark.parametrize("name", [
