@@ -1,7 +1,7 @@
 """An exact, independent oracle of Martinelli's general unknown-input solution, and of the EORC.
 
 Plain sympy + numpy + mpmath; it does not import ``uio_jax``. It implements the algorithm of
-``shared/notes/general_ui.md`` (A. Martinelli's TUIO6 toolbox, arXiv 2201.07610
+``docs/general_ui.md`` (A. Martinelli's TUIO6 toolbox, arXiv 2201.07610
 Algorithm 5.1/6.1) as stated there, for systems ::
 
     x' = f0(x, t) + sum_i u_i(t) f_i(x, t) + sum_j w_j(t) g_j(x, t),     y = h(x, t)

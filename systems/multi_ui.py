@@ -2,7 +2,7 @@
 """Several unknown inputs, drift, UI extension: test cases of the general analytic solution.
 
 Martinelli's general solution (arXiv 2201.07610; toolbox TUIO6, ``github.com/agomartinelli/TUIO6``;
-statement in ``shared/notes/general_ui.md``) for ``x' = f0 + sum u_i f_i + sum w_j g_j``,
+statement in ``docs/general_ui.md``) for ``x' = f0 + sum u_i f_i + sum w_j g_j``,
 ``y = h(x)``. Known inputs are generic smooth functions of time ("smooth" meaning) unless an
 entry says ``known_inputs = "switchable"``. Every verdict below was derived by hand (the
 derivation is in the factory's docstring) and checked with the exact oracle
@@ -269,10 +269,10 @@ PUBLISHED = {
     "extension_two_kept": {"source": "hand derivation (docstring); oracle and exact EORC", "method": "general_ui",
                            "dim": 5, "observable": ["x1", "x2", "x3", "x4", "x5"], "ui_extension": True,
                            "canonic": False},
-    "known_gain_smooth": {"source": "shared/notes/general_ui.md section 6; by hand (docstring)",
+    "known_gain_smooth": {"source": "docs/general_ui.md section 6; by hand (docstring)",
                           "method": "general_ui", "known_inputs": "smooth", "dim": 1, "observable": [],
                           "ui_extension": False, "canonic": True},
-    "known_gain_switchable": {"source": "shared/notes/general_ui.md section 6; by hand (docstring)",
+    "known_gain_switchable": {"source": "docs/general_ui.md section 6; by hand (docstring)",
                               "method": "eorc", "known_inputs": "switchable", "dim": 2,
                               "observable": ["x1", "x2"]},
 }

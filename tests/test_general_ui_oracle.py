@@ -3,7 +3,7 @@
 The oracle is plain sympy (no ``uio_jax``): exact rational arithmetic at 3 random points for
 rational models, 60 digits otherwise. These tests check it against verdicts derived by hand
 (``systems/multi_ui.py`` docstrings), against the semantics table of
-``shared/notes/general_ui.md`` section 6 (polar unicycle of 004 section 11.1, EORC under both
+``docs/general_ui.md`` section 6 (polar unicycle of 004 section 11.1, EORC under both
 meanings of known inputs), against the published GPS case (004 section 11.2.1), and against the
 exact EORC on random two-UI systems (the EORC is a lower bound of the general solution's answer,
 equal to it where the EORC has stabilised). They also check that the zoo's JAX transcriptions of
