@@ -595,7 +595,8 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         :class:`~uio_jax.Report` with ``method="general_ui"``; ``details``: ``m`` (final
         degree of reconstructability), ``initially_canonic``, ``canonic``, ``ui_extension``,
         ``unknown_inputs_reconstructable`` (original names), ``unknown_inputs_observable``
-        (final unknown inputs -> bool), ``trace`` (one entry per iteration),
+        (final unknown inputs -> bool), ``final_unknown_inputs`` (final unknown input ->
+        the original one it stands for), ``trace`` (one entry per iteration),
         ``jet_order`` (with known inputs).
     """
     check_applicable(system, known_inputs)
@@ -632,6 +633,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         "ui_extension": out.extended,
         "unknown_inputs_reconstructable": reconstructable,
         "unknown_inputs_observable": ui_obs,
+        "final_unknown_inputs": {k: names[out.w.origin[i]] for i, k in enumerate(ui_obs)},
         "zero_tests": len(zero_tests),
         "zero_test_min_fraction": weakest,
         "trace": out.trace,
