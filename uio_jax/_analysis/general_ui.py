@@ -557,12 +557,19 @@ def _field_zero(w, val) -> bool:
 
 
 # ------------------------------------------------------------------ observable UIs
-def observable_inputs(out: Outcome) -> dict:
+def observable_inputs(out: Outcome, full: bool = False) -> dict:
     """Which final unknown inputs ``w~_k`` can be computed: ``dw~_k`` in
-    ``span{d theta, d(D theta + sum_j w~_j L_{g_j} theta): theta in Omega}`` on ``[z; w~]``."""
+    ``span{d theta, d(D theta + sum_j w~_j L_{g_j} theta): theta in Omega}`` on ``[z; w~]``.
+
+    ``full``: every original state is observable (then, with a canonic system, every final
+    unknown input is, without the test)."""
     w = out.w
     if not w.uis:
         return {}
+    if out.canonic and full:
+        # canonic (B invertible, m = m_w) and every coordinate observable: D h~ = a + B w~
+        # gives w~ = B^-1 (D h~ - a), a function of observable quantities
+        return {k: True for k in w.system.unknown}
     ext = extended_system(w.system, 1)
     ctx = _context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
     N = w.system.n
@@ -610,9 +617,9 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
                 break
             jet = 2 * jet
         truncated = bool(system.known) and _top_jet_used(out, system, jet)
-        ui_obs = observable_inputs(out)
         omega = out.omega
         members, dim = omega.coordinates(out.w.system.n, n)
+        ui_obs = observable_inputs(out, full=all(members))
         for spent in out.spent:
             omega.memberships += [(False, d) for d in spent.codist.acceptances]
             omega.memberships += [(True, d) for d in spent.codist.rejections]
