@@ -10,7 +10,11 @@ To refresh after a change that is meant to move numbers: rerun the script, read 
 (``--compare`` prints it), and commit the new file with the reason.
 
 The four visual-inertial models (12-15 states, the EORC to k = 10) take about ten minutes
-together; they are left to the script (``--only visual_inertial``).
+together; they are left to the script (``--only visual_inertial``). So are the multi-UI
+models of the general solution (``multi_ui.py``: 10 minutes cold; each is compared with its
+derived verdict by ``tests/test_general_ui.py``) and the Vi-SfM with partial input knowledge
+(``visual_inertial_partial.py``: the EORC to k = 7 on 47 coordinates; checked by
+``tests/test_visual_inertial_partial.py``), which has no snapshot.
 """
 
 import importlib.util
@@ -25,7 +29,9 @@ import uio_jax as uj
 
 with open(os.path.join(ROOT, "tests", "data", "zoo_reports.json")) as _fh:
     SNAPSHOT = json.load(_fh)
-HEAVY = ("visual_inertial.py",)
+HEAVY = ("visual_inertial.py", "multi_ui.py", "visual_inertial_partial.py")
+#: Heavy files whose reports are not in the snapshot at all (too long to write it).
+UNRECORDED = ("visual_inertial_partial.py",)
 
 
 def _script():
@@ -59,7 +65,7 @@ def entries():
 
 
 def test_the_snapshot_covers_the_zoo(entries):
-    assert sorted(entries) == sorted(SNAPSHOT)
+    assert sorted(k for k in entries if not k.startswith(UNRECORDED)) == sorted(SNAPSHOT)
 
 
 @pytest.mark.slow
