@@ -239,3 +239,22 @@ def test_random_two_ui_systems_equal_the_exact_oracle(seed):
     got = {origin[k]: v for k, v in rep.details["unknown_inputs_observable"].items()}
     ui_names = list(unknown)
     assert got == {ui_names[i]: v for i, v in zip(exact["final_uis"], exact["ui_observable"])}
+
+
+def test_an_unreconstructed_field_that_vanishes_up_to_round_off_is_zero():
+    """``x1' = x2^2 + a(x) w1 + a(x)^2 e^(x1) w2``, ``x2' = 0``, ``y = x1`` with
+    ``a = x2 (1 + sin x1)``: both inputs move x1 only, so ``m = 1`` (identifier y) and
+    ``G~_2 = g_2 - g^_1 L_{g_2} y = 0`` (in floating point, round-off): the closure under
+    ``g^0 = 0`` and ``g^_1`` gives Omega = span{dx1}, dim 1, at iteration 0 with no UI
+    extension (a guard that took the round-off for a field would abort at order 0)."""
+    def a(x):
+        return x[1] * jnp.sin(x[0]) + x[1]
+
+    system = uj.System(states=("x1", "x2"), outputs={"y": lambda x: x[0]},
+                       unknown={"w1": lambda x: jnp.stack([a(x), 0 * x[0]]),
+                                "w2": lambda x: jnp.stack([a(x) ** 2 * jnp.exp(x[0]), 0 * x[0]])},
+                       drift=lambda x: jnp.stack([x[1] ** 2, 0 * x[0]]))
+    rep = uj.analyze(system, samples=SAMPLES)
+    assert rep.method == "general_ui" and rep.dim == 1 and dict(rep.observable) == {"x1": True, "x2": False}
+    assert len(rep.details["trace"]) == 1 and not rep.details["ui_extension"]
+    assert rep.details["trace"][0]["action"].startswith("every unreconstructed field vanishes")

@@ -217,7 +217,7 @@ class Closed:
     passes: int = 0
 
 
-def close(w: Working, theta0, fields, guard=(), filter_fields=()) -> Closed:
+def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=None) -> Closed:
     """``Close(Theta_0, fields; guard, filter)`` of the module docstring on a fresh span.
 
     Args:
@@ -229,6 +229,9 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=()) -> Closed:
             ``L_{G~_k} theta`` not identically zero.
         filter_fields: field nodes ``g_j``: differentiate only the generators with every
             ``L_{g_j} theta`` identically zero.
+        guard_scale: per guard field, the ``(S,)`` norms it is compared with (default its
+            own): the raw ``g_k`` behind ``G~_k``, so that a ``G~_k`` that vanishes up to
+            round-off is not taken for a field.
 
     Returns:
         :class:`Closed`.
@@ -243,7 +246,7 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=()) -> Closed:
     while frontier:
         if guard:
             for theta in frontier:
-                if _any_nonzero(w, ctx, theta, guard):
+                if _any_nonzero(w, ctx, theta, guard, guard_scale):
                     return Closed(ctx, True, root[theta], r, r)
         active = frontier
         if filter_fields:
@@ -259,13 +262,17 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=()) -> Closed:
     return Closed(ctx, passes=r)
 
 
-def _any_nonzero(w: Working, ctx: Context, theta, fields) -> bool:
-    """Whether some ``L_v theta`` (v in ``fields``) is not identically zero at the samples."""
+def _any_nonzero(w: Working, ctx: Context, theta, fields, scales=None) -> bool:
+    """Whether some ``L_v theta`` (v in ``fields``) is not identically zero at the samples,
+    relative to ``|d theta| |v|`` (``|v|``: ``scales[k]``, default the field's own norm)."""
     grad = ctx.gradients([theta])[:, 0]
     gnorm = np.linalg.norm(grad, axis=-1)
-    for v, val in zip(fields, w.field_values(fields)):
+    values = w.field_values(fields)
+    if scales is None:
+        scales = [np.linalg.norm(val, axis=-1) for val in values]
+    for v, val, vnorm in zip(fields, values, scales):
         lie = np.einsum("sn,sn->s", grad, val)
-        nonzero, frac = _nonzero_votes(lie, gnorm * np.linalg.norm(val, axis=-1), ctx.codist.valid)
+        nonzero, frac = _nonzero_votes(lie, gnorm * vnorm, ctx.codist.valid)
         w.zero_tests.append(ZeroTest(f"L_{v.label} {theta.label}", not nonzero, frac))
         if nonzero:
             return True
@@ -510,13 +517,14 @@ def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
             return Outcome(w, omega, trace, history, StopReason.CANONIC_CLOSURE.stop(m=it),
                            initially, True, extended, m, spent)
         tilde_vals = w.field_values(tildes)
-        if all(_field_zero(w, v) for v in tilde_vals):
+        raw_norms = [np.linalg.norm(v, axis=-1) for v in w.field_values(fields_ordered[m:])]
+        if all(_field_zero(w, v, ref) for v, ref in zip(tilde_vals, raw_norms)):
             entry["action"] = "every unreconstructed field vanishes: closure"
             omega = close(w, w.theta, [hat0] + hats).ctx
             history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
             return Outcome(w, omega, trace, history, StopReason.REMAINING_UIS_VANISH.stop(m=it),
                            initially, False, extended, m, spent)
-        guarded = close(w, w.theta, [hat0] + hats, guard=tildes)
+        guarded = close(w, w.theta, [hat0] + hats, guard=tildes, guard_scale=raw_norms)
         spent.append(guarded.ctx)
         if not guarded.aborted:
             entry["action"] = "guarded closure converged"
@@ -548,11 +556,12 @@ def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
                    initially, False, extended, trace[-1]["m"], spent)
 
 
-def _field_zero(w, val) -> bool:
-    """A field identically zero at the samples (relative to the largest field value)."""
+def _field_zero(w, val, ref) -> bool:
+    """A field ``G~_k`` identically zero at the samples: ``|G~_k| <= ZERO_ROW_RTOL |g_k|``
+    (``ref``: the ``(S,)`` norms of the raw field ``g_k`` it was projected from) by majority."""
     norms = np.linalg.norm(val, axis=-1)
-    ref = max(float(np.nanmax(norms)) if norms.size else 0.0, 1e-300)
-    nz, _ = _nonzero_votes(norms, np.full_like(norms, ref), w.ctx.codist.valid)
+    nz, frac = _nonzero_votes(norms, ref, w.ctx.codist.valid)
+    w.zero_tests.append(ZeroTest("G~ vanishes", not nz, frac))
     return not nz
 
 
