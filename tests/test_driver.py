@@ -25,6 +25,17 @@ TEXTS = [  # the texts reports carry (compared bit for bit with older reports)
     (R.K_MAX.stop(k_max=4), "k_max=4 reached"),
     (R.EXTENSION_CLOSED.stop(k=10, prev=9),
      "Omega-bar_10 = Omega-bar_9: no higher order (in any extension) adds a generator"),
+    (R.CLOSURE_CONVERGED.stop(m=0), "closure along the drift converged at iteration 0"),
+    (R.CANONIC_CLOSURE.stop(m=1),
+     "canonic at iteration 1: the closure under the rescaled fields converged"),
+    (R.REMAINING_UIS_VANISH.stop(m=0),
+     "iteration 0: every unreconstructed unknown-input field vanishes; the closure under the "
+     "rescaled fields converged"),
+    (R.GUARD_PASSED.stop(m=2),
+     "iteration 2: the guarded closure converged without meeting an unreconstructed input"),
+    (R.GENERAL_STALLED.stop(m=3),
+     "iteration 3: no progress (m = 0 and nothing new); no convergence certified"),
+    (R.GENERAL_CAP.stop(cap=30), "no convergence within 30 iterations"),
 ]
 
 
@@ -38,7 +49,8 @@ def test_each_reason_formats_the_report_text_and_parses_back(stop, text):
 
 def test_every_reason_is_covered_and_caps_are_not_convergence():
     assert {s.reason for s, _ in TEXTS} == set(StopReason)
-    assert {r for r in StopReason if not r.converged} == {R.MAX_ORDER, R.STEP_CAP, R.K_MAX}
+    assert {r for r in StopReason if not r.converged} == {R.MAX_ORDER, R.STEP_CAP, R.K_MAX,
+                                                          R.GENERAL_STALLED, R.GENERAL_CAP}
 
 
 def test_a_missing_value_fails_when_the_stop_is_made():
