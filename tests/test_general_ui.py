@@ -222,7 +222,7 @@ def _oracle():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 5, 13, 14, 16, 20, 29, 36])  # extensions, dim 2 and 3
+@pytest.mark.parametrize("seed", [1, 14, 16, 20, 29])  # UI extensions or not, dim 2 and 3
 def test_random_two_ui_systems_equal_the_exact_oracle(seed):
     """Random rational systems (4 states, y = (x1, x2), a sparse polynomial drift, two sparse
     unknown-input fields: ``random_two_ui_system`` of the sympy oracle, an independent exact
