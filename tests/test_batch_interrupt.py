@@ -16,6 +16,7 @@ import pytest
 import uio_jax as uj
 from uio_jax._batch import workers
 from uio_jax._batch.discovery import Entry
+from uio_jax._batch.executor import Executor, drive
 
 SAMPLES = 64
 
@@ -171,13 +172,44 @@ def test_a_worker_sends_every_decided_step(tmp_path):
                              drift=lambda x: jnp.stack([x[1], x[2], 0.0 * x[0]]))
         """)
     conn = _Conn()
-    row = workers._worker_run(f"{zoo}:chain", f"{zoo}:chain", "spec", {"samples": SAMPLES}, conn=conn)
+    row = workers.worker_run(f"{zoo}:chain", f"{zoo}:chain", "spec", {"samples": SAMPLES}, conn=conn)
     assert row["dim"] == 3 and row["reached"] is None
     assert conn.sent == [("step", "m=0, dim 1/3"), ("step", "m=1, dim 2/3"), ("step", "m=2, dim 3/3")]
 
 
+class _ScriptedExecutor(Executor):
+    """Runs nothing: each submitted model starts and reaches ``k=5, dim 4/7``, then its
+    worker dies (``die``) or it hangs until killed."""
+
+    def __init__(self, die):
+        self.die, self.out, self.busy, self.killed = die, [], False, []
+
+    def free(self):
+        return 0 if self.busy else 1
+
+    def submit(self, i, task):
+        self.busy = True
+        self.out += [("started", i), ("step", i, "k=5, dim 4/7")] + ([("lost", i, "exit code -9")] if self.die else [])
+
+    def events(self, wait_s):
+        out, self.out = self.out, []
+        if out and out[-1][0] == "lost":
+            self.busy = False
+        if not out:
+            time.sleep(wait_s or 0)
+        return out
+
+    def kill(self, i):
+        self.killed.append(i)
+        self.busy = False
+
+    def close(self):
+        pass
+
+
 def test_a_stopped_model_names_the_last_step_reached():
-    """Timed out or dead: the row's error and ``reached`` name the last step received."""
+    """Timed out or dead: the row's error and ``reached`` name the last step received; a
+    model whose worker dies is sent once more, then its row says so."""
     rows = {}
 
     class Tracker:
@@ -187,23 +219,20 @@ def test_a_stopped_model_names_the_last_step_reached():
         def finish(self, i, row):
             rows[i] = row
 
-    pool = workers._Pool([Entry("m.py:f", "m.py:f")], [0], 1, 30.0, {}, Tracker())
-
-    class Stub:
-        task, reached, since = 0, "k=5, dim 4/7", 0.0
-        where = workers._Worker.where
-        elapsed = lambda self: 30.5  # noqa: E731
-        stop = lambda self: -9  # noqa: E731
-
-    pool.slots = [Stub()]
-    pool._time_out(0, pool.slots[0])
-    assert rows[0].error == "timed out after 30 s at order k=5, dim 4/7 (worker stopped)"
-    assert rows[0].reached == "k=5, dim 4/7"
+    entries = [Entry("m.py:f", "m.py:f")]
+    ex = _ScriptedExecutor(die=False)
+    drive(ex, entries, [0], 0.2, {}, Tracker())
+    assert ex.killed == [0]
+    assert rows[0].error == "timed out after 0.2 s at order k=5, dim 4/7 (worker stopped)"
+    assert rows[0].reached == "k=5, dim 4/7" and rows[0].seconds >= 0.2
     assert uj.BatchResult((rows[0],)).to_dict()["models"][0]["reached"] == "k=5, dim 4/7"
     assert "k=5, dim 4/7" in uj.BatchResult((rows[0],)).to_csv().splitlines()[1]
-    pool.slots = [Stub()]
-    pool._died(0, pool.slots[0])
-    assert rows[0].error == "worker process died (exit code -9) at order k=5, dim 4/7"
+    ex = _ScriptedExecutor(die=True)
+    submitted = []
+    ex.submit = lambda i, task, f=ex.submit: (submitted.append(i), f(i, task))
+    drive(ex, entries, [0], None, {}, Tracker())
+    assert submitted == [0, 0]  # retried once on a fresh worker
+    assert rows[0].error == "worker process died twice (exit code -9) at order k=5, dim 4/7"
 
 
 @pytest.mark.slow

@@ -1,5 +1,7 @@
-"""The worker processes of a parallel batch: a pool of spawned processes, one model at a
-time each, a fresh worker in place of one killed on timeout or dead.
+"""The worker processes of a parallel batch on one machine: a pool of spawned processes,
+one model at a time each, a fresh worker in place of one killed on timeout or dead. The
+pool is an :class:`~uio_jax._batch.executor.Executor`: the driver that hands it the models,
+times them and writes the rows of stopped ones is the one a Dask cluster uses.
 
 Each worker is spawned (its own JAX), uses the persistent cache directory of the caller,
 and is bound to one CPU when there are several (:func:`~uio_jax._batch.pinning.pin_to_one_cpu`).
@@ -12,12 +14,12 @@ model stopped on timeout says how far it got; then the row's fields (a dict).
 
 import multiprocessing
 import signal
-import time
 from multiprocessing.connection import wait
 
 from .._engine.compile_cache import cache_dir_in_use, enable_compile_cache
 from .._progress import step_listener
 from .discovery import Entry, Skipped
+from .executor import Executor, drive
 from .one_model import run_entry
 from .pinning import pin_to_one_cpu
 from .rows import BatchRow
@@ -28,107 +30,99 @@ def run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, tracker):
     processes; ``tracker.finish(i, row)`` receives each model's :class:`BatchRow` (or
     :class:`Skipped`), ``tracker.start(i)`` is told when it is sent.
 
-    Each worker takes one model at a time through a pipe (its clock starts when the model is
+    The driver is :func:`uio_jax._batch.executor.drive` (shared with a Dask cluster): each
+    worker takes one model at a time through a pipe (its clock starts when the model is
     sent, after the worker has imported JAX and said it is ready). A model that runs longer
     than ``timeout`` seconds (None: no limit) has its worker killed and gets a row saying
-    so; a worker that dies (memory, signal) gives its model a row with the exit code. A
-    fresh worker replaces a killed or dead one, so the other models go on; such a row
-    names the last step the model's analysis had decided (``row.reached``). Every worker
-    is stopped on the way out, Ctrl-C included.
+    so; a model whose worker dies (memory, signal) is sent once more to a fresh worker,
+    then gets a row with the exit code. A fresh worker replaces a killed or dead one, so
+    the other models go on; such a row names the last step the model's analysis had
+    decided (``row.reached``). Every worker is stopped on the way out, Ctrl-C included.
     """
-    pool = _Pool(entries, todo, jobs, timeout, analyze_kwargs, tracker)
-    try:
-        while pool.step():
-            pass
-    finally:
-        pool.close()
+    drive(ProcessPool(min(jobs, len(todo))), entries, todo, timeout, analyze_kwargs, tracker)
 
 
-class _Pool:
-    """The worker slots of one parallel run, the models still to send, and their rows."""
+class ProcessPool(Executor):
+    """The :class:`~uio_jax._batch.executor.Executor` of one machine: ``jobs`` spawned
+    worker processes (started on demand), one model at a time each, each bound to one CPU
+    when there are several; a killed or dead worker is replaced by a fresh one."""
 
-    def __init__(self, entries, todo, jobs, timeout, analyze_kwargs, tracker):
+    def __init__(self, jobs, cache_dir=None):
         self.ctx = multiprocessing.get_context("spawn")
-        self.cache_dir = cache_dir_in_use()
-        self.entries, self.timeout, self.kwargs, self.tracker = entries, timeout, analyze_kwargs, tracker
-        self.pending = list(todo)[::-1]  # popped from the end: in order
-        self.slots = [None] * min(jobs, len(self.pending))
+        self.cache_dir = cache_dir if cache_dir is not None else cache_dir_in_use()
+        self.slots = [None] * max(int(jobs), 1)
+        self.held = {}  # slot -> (i, task) submitted before its worker was ready
+        self.queued = []  # events produced outside events() (a model sent on "ready")
 
-    def step(self) -> bool:
-        """Start workers, send models, handle what the next event brings; False when done."""
-        self._feed()
-        live = [w for w in self.slots if w is not None and (w.task is not None or not w.ready)]
-        if not live:
-            return False
-        ready = wait([w.conn for w in live], self._wait_s(live))
+    def free(self) -> int:
+        """Slots without a model (their worker is started when a model comes)."""
+        return sum(w is None or (w.task is None and k not in self.held) for k, w in enumerate(self.slots))
+
+    def submit(self, i, task):
+        """Hand model ``i`` to the first free slot (a worker is started there if needed);
+        it is sent as soon as the worker is ready."""
+        k = next(k for k, w in enumerate(self.slots) if w is None or (w.task is None and k not in self.held))
+        if self.slots[k] is None:
+            self.slots[k] = _Worker(self.ctx, self.cache_dir, k if len(self.slots) > 1 else None)
+        self.held[k] = (i, task)
+        self._send_held(k)
+
+    def _send_held(self, k):
+        w = self.slots[k]
+        if k in self.held and w is not None and w.ready and w.task is None:
+            i, task = self.held.pop(k)
+            w.send(i, task)
+            self.queued.append(("started", i))
+
+    def events(self, wait_s):
+        """Messages of the workers (ready, steps, rows) and their deaths, as events."""
+        out, self.queued = self.queued, []
+        live = [w for w in self.slots if w is not None]
+        if out or not live:
+            wait_s = 0.0
+        ready = wait([w.conn for w in live], wait_s)
         for k, w in enumerate(self.slots):
-            if w not in live:
+            if w is None or w.conn not in ready:
                 continue
-            if w.conn in ready:
-                self._receive(k, w)
-            elif w.task is not None and self.timeout is not None and w.elapsed() >= self.timeout:
-                self._time_out(k, w)
-        return True
-
-    def _feed(self):
-        """A worker in every empty slot; the next model to every ready idle worker."""
-        for k, w in enumerate(self.slots):
-            if w is None and self.pending:
-                self.slots[k] = w = _Worker(self.ctx, self.cache_dir, k if len(self.slots) > 1 else None)
-            if w is not None and w.task is None and w.ready and self.pending:
-                i = self.pending.pop()
-                e = self.entries[i]
-                w.send(i, (e.label, e.spec, e.kind, self.kwargs, e.deferred))
-                self.tracker.start(i)
-
-    def _wait_s(self, live):
-        """Seconds until the first running model's time limit (None: no limit)."""
-        deadlines = [w.since + self.timeout - time.monotonic() for w in live
-                     if self.timeout is not None and w.task is not None]
-        return max(0.0, min(deadlines)) if deadlines else None
-
-    def _finish(self, i, row):
-        self.tracker.finish(i, row)
-
-    def _receive(self, k, w):
-        """A message from the worker in slot ``k``: ready, a step, a row, or its death."""
-        msg = w.receive()
-        if msg is _Worker.DIED:
-            self._died(k, w)
-        elif msg == "ready":
-            w.ready = True
-        elif isinstance(msg, tuple) and msg[0] == "step":
-            w.reached = msg[1]
-        else:
-            skip = msg.get("skipped")
-            self._finish(w.task, Skipped(self.entries[w.task].spec, skip) if skip else BatchRow(**msg))
-            w.task = None
+            msg = w.receive()
+            if msg is _Worker.DIED:
+                out.extend(self._died(k, w))
+            elif msg == "ready":
+                w.ready = True
+                self._send_held(k)
+            elif isinstance(msg, tuple) and msg[0] == "step":
+                out.append(("step", w.task, msg[1]))
+            else:
+                out.append(("row", w.task, msg))
+                w.task = None
+        out.extend(self.queued)
+        self.queued = []
+        return out
 
     def _died(self, k, w):
         code = w.stop()
         self.slots[k] = None
         if w.task is not None:
-            self._finish(w.task, BatchRow(self.entries[w.task].label, seconds=w.elapsed(),
-                                          error=f"worker process died (exit code {code}){w.where()}",
-                                          reached=w.reached))
-            return
-        while self.pending:  # died while starting: the others would too
-            i = self.pending.pop()
-            self._finish(i, BatchRow(self.entries[i].label,
-                                     error=f"batch worker process failed to start (exit code {code})"))
+            return [("lost", w.task, f"exit code {code}")]
+        if not w.ready:  # died while starting: the others would too
+            self.held.pop(k, None)
+            return [("failed", f"batch worker process failed to start (exit code {code})")]
+        return []
 
-    def _time_out(self, k, w):
-        w.stop()
-        self.slots[k] = None
-        self._finish(w.task, BatchRow(self.entries[w.task].label, seconds=w.elapsed(),
-                                      error=f"timed out after {self.timeout:g} s{w.where()} (worker stopped)",
-                                      reached=w.reached))
+    def kill(self, i):
+        """Kill the worker running model ``i``; its slot gets a fresh worker for the next model."""
+        for k, w in enumerate(self.slots):
+            if w is not None and w.task == i:
+                w.stop()
+                self.slots[k] = None
 
     def close(self):
         """Stop every worker still there."""
         for w in self.slots:
             if w is not None:
                 w.close()
+        self.slots = [None] * len(self.slots)
+        self.held.clear()
 
 
 class _Worker:
@@ -143,24 +137,11 @@ class _Worker:
         there.close()
         self.ready = False
         self.task = None  # index of the entry being analysed
-        self.reached = None  # the last step its analysis decided ("k=5, dim 4/7")
-        self.since = time.monotonic()
 
     def send(self, i, task):
-        """Hand the worker entry ``i`` (its ``task`` tuple); its clock starts now."""
+        """Hand the worker entry ``i`` (its ``task`` tuple)."""
         self.conn.send(task)
-        self.task, self.since, self.reached = i, time.monotonic(), None
-
-    def where(self) -> str:
-        """`` at order k=5, dim 4/7`` (`` at step m=...`` outside the EORC), or '' before
-        the first decided step."""
-        if self.reached is None:
-            return ""
-        return f" at {'order' if self.reached.startswith('k=') else 'step'} {self.reached}"
-
-    def elapsed(self) -> float:
-        """Seconds since the current model was sent (or since the worker was started)."""
-        return time.monotonic() - self.since
+        self.task = i
 
     def receive(self):
         """The worker's next message, or :attr:`DIED` when its pipe is closed."""
@@ -202,7 +183,7 @@ def _worker_main(conn, cache_dir, slot=None):
             return
         if task is None:
             return
-        conn.send(_worker_run(*task, conn=conn))
+        conn.send(worker_run(*task, conn=conn))
 
 
 def step_text(step, n=None) -> str:
@@ -212,7 +193,7 @@ def step_text(step, n=None) -> str:
     return f"{name}={step.m}, dim {step.dim}" + (f"/{n}" if n is not None else "")
 
 
-def _worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> dict:
+def worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> dict:
     """Analyse one model in a worker; returns the row's fields (no Report), or
     ``{"skipped": reason}`` for a deferred zoo function that gave no System. Every step
     the analysis decides is sent on ``conn`` as ``("step", step_text)``."""
