@@ -20,6 +20,11 @@ killed (its row says so) and a fresh worker goes on with the others. Only models
 path can go to a worker; ``System`` objects run in the calling process. The workers take
 the models longest first by their recorded times (:mod:`uio_jax._batch.timing`).
 
+**On a Dask cluster** (``client``, :mod:`uio_jax._batch.cluster`): the same driver
+(:mod:`uio_jax._batch.executor`) hands the models to the cluster's workers instead of the
+local pool: same rows, order, time limits and progress; a model whose worker dies is
+re-run by Dask on another worker, then is an error row.
+
 **Progress, partial results, Ctrl-C.** The progress display (:class:`uio_jax._progress.CountProgress`)
 is a bar on a terminal and one line per finished model elsewhere, with an ETA from the
 recorded times. ``on_row`` receives the partial result after every finished model (the
@@ -28,6 +33,7 @@ command line rewrites its ``--json/--csv/--markdown`` files there). On Ctrl-C
 rows finished so far (``result.partial`` says "interrupted after 3 of 12 models").
 """
 
+import contextlib
 import math
 import numbers
 
@@ -53,7 +59,7 @@ class BatchInterrupted(KeyboardInterrupt):
 
 
 def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_reports: bool = True,
-                  import_python: bool = False, on_row=None, **analyze_kwargs) -> BatchResult:
+                  import_python: bool = False, on_row=None, client=None, **analyze_kwargs) -> BatchResult:
     """Analyse many models; one failing model is one row with its error, the others go on.
 
     Main arguments:
@@ -86,6 +92,12 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
         on_row: None, or a function called with the partial :class:`~uio_jax.BatchResult`
             (the rows finished so far, in the given order; ``partial`` set until the last
             one) after each finished model.
+        client: None (default: this machine), or a Dask cluster: a ``distributed.Client``
+            or a scheduler address (``"tcp://host:8786"``). The models given by path run
+            as tasks on its workers (:mod:`uio_jax._batch.cluster`), one per worker thread,
+            longest first, with the same rows, time limits and progress as ``jobs``
+            worker processes; the workers must see the model files and the cache directory
+            at the same paths. Not with ``jobs > 1``. Needs the extra ``uio_jax[cluster]``.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
             ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``).
 
@@ -94,24 +106,38 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
         order the models were given (zoo files in the order their functions are defined).
 
     Raises:
-        OptionError: no model given, a path that matches nothing, impossible options
-            (checked before any model runs).
+        OptionError: no model given, a path that matches nothing, impossible options, a
+            cluster that cannot be reached or has no worker (checked before any model runs).
         BatchInterrupted: Ctrl-C (a KeyboardInterrupt carrying the partial result).
     """
-    _check_batch_options(jobs, timeout, analyze_kwargs)
+    _check_batch_options(jobs, timeout, analyze_kwargs, client)
+    with contextlib.ExitStack() as stack:
+        if client is not None:
+            from .._filter.cluster import cluster_client, wait_for_workers
+
+            client = stack.enter_context(cluster_client(client))
+            slots = wait_for_workers(client)
+        return _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row, client,
+                      slots if client is not None else jobs, analyze_kwargs)
+
+
+def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row, client, slots,
+           analyze_kwargs):
+    """:func:`batch_analyze` once its options are checked (``slots``: models at once)."""
     # models that may run in worker processes are built there: not here first as well
-    entries, skipped = discover(models, build=jobs == 1 and timeout is None, import_python=import_python)
+    entries, skipped = discover(models, build=jobs == 1 and timeout is None and client is None,
+                                import_python=import_python)
     keys = [time_key(e, analyze_kwargs) for e in entries]
     recorded = recorded_seconds(keys)
     remote = sum(e.spec is not None and e.error is None for e in entries)
-    parallel = (jobs > 1 and remote > 1) or (timeout is not None and remote > 0)
+    parallel = client is not None or (jobs > 1 and remote > 1) or (timeout is not None and remote > 0)
     bar = CountProgress(len(entries), enabled=progress, expected=recorded,
-                        workers=min(jobs, max(remote, 1)) if parallel else 1)
+                        workers=min(slots, max(remote, 1)) if parallel else 1)
     options = {k: v for k, v in analyze_kwargs.items() if v is not None}
     tracker = Tracker(entries, skipped, bar, options, on_row)
     try:
         if parallel:
-            _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded)
+            _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded, client)
         else:
             _run_here(entries, analyze_kwargs, keep_reports, tracker)
     except KeyboardInterrupt:
@@ -125,10 +151,13 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
     return tracker.result()
 
 
-def _check_batch_options(jobs, timeout, analyze_kwargs):
+def _check_batch_options(jobs, timeout, analyze_kwargs, client=None):
     """Options that would make every model fail: refused before any model runs."""
     if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
         raise OptionError(f"jobs must be a positive integer, got {jobs!r}")
+    if client is not None and jobs > 1:
+        raise OptionError(f"jobs={jobs} and a cluster client exclude each other (the cluster's "
+                          "workers run the models; jobs counts processes on this machine)")
     check_options(**analyze_kwargs)
     if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, numbers.Real)
                                 or not (timeout > 0 and math.isfinite(timeout))):
@@ -144,13 +173,20 @@ def _run_here(entries, analyze_kwargs, keep_reports, tracker):
         tracker.finish(i, row)
 
 
-def _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded=()):
-    """Entries with a spec go to worker processes (longest recorded time first, see
-    :func:`~uio_jax._batch.timing.longest_first`); in-memory Systems and known errors run here."""
+def _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded=(), client=None):
+    """Entries with a spec go to worker processes, or to the workers of a Dask ``client``
+    (longest recorded time first, see :func:`~uio_jax._batch.timing.longest_first`);
+    in-memory Systems and known errors run here."""
     remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
     local = set(range(len(entries))) - set(remote)
     for i, e in enumerate(entries):
         if i in local:
             tracker.start(i)
             tracker.finish(i, run_entry(e, analyze_kwargs, keep_report=False))
-    run_in_workers(entries, longest_first(remote, recorded), jobs, timeout, analyze_kwargs, tracker)
+    todo = longest_first(remote, recorded)
+    if client is not None:
+        from .cluster import run_on_cluster
+
+        run_on_cluster(entries, todo, client, timeout, analyze_kwargs, tracker)
+    else:
+        run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, tracker)

@@ -282,7 +282,7 @@ def _check_model(exp):
 
 
 def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, keep: int = 4,
-                   devices=None, progress=None, filter: str = "fast") -> MonteCarloResult:
+                   devices=None, progress=None, filter: str = "fast", client=None) -> MonteCarloResult:
     """Run ``trials`` independent simulations of an experiment, each filtered by the EKF.
 
     Every trial: truth by Euler at ``experiment.dt``; known inputs read with noise every
@@ -299,12 +299,19 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
         seed: integer in ``[0, 2**64)``.
         keep: number of trials (the first ones) whose full trajectories (truth, dead
             reckoning, EKF and its sigma, at every epoch) are kept, for plots.
-        devices: JAX devices to shard the trials over (default: all of them).
+        devices: JAX devices to shard the trials over (default: all of them; not with
+            ``client``).
         progress: ``True``/``False`` forces the stderr progress bar on/off; ``None``
             (default) shows it when the run lasts more than a few seconds.
         filter: ``"fast"`` (default): the EKF's fast kernels; ``"reference"``: the same
             filter as plain matrix equations (:mod:`uio_jax._filter.reference_ekf`; equal
             to round-off, several times slower), to check a result against.
+        client: None (default: this process), or a Dask cluster: a ``distributed.Client``
+            or a scheduler address (``"tcp://host:8786"``). The trials are split over its
+            workers (:mod:`uio_jax._filter.cluster`); every trial keeps its key, so the
+            records equal those of a one-process run with the same seed bit for bit, and
+            the statistics are computed once over all of them. Needs the extra
+            ``uio_jax[cluster]``.
 
     Returns:
         :class:`MonteCarloResult` (host numpy arrays; ``errors`` has shape
@@ -313,7 +320,8 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
     Raises:
         OptionError: trials <= 0, seed outside ``[0, 2**64)``, negative keep, an unknown
             filter, a run whose records would not fit in memory
-            (:meth:`~uio_jax.Experiment.check_memory`), all before any work.
+            (:meth:`~uio_jax.Experiment.check_memory`), ``devices`` with ``client``, a
+            cluster that cannot be reached or has no worker, all before any work.
         ModelError: the model is NaN at the start, or the filter became NaN/inf.
 
     Warns:
@@ -327,21 +335,81 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
     seed = threefry.check_seed(seed)
     keep = min(_check_int(keep, "keep", 0), B)
     filter = _check_filter(filter)
+    if client is not None and devices is not None:
+        raise OptionError("run_montecarlo takes devices or client, not both (a cluster's "
+                          "workers use their own devices)")
     exp = experiment
     exp.check_memory(B, keep)
+    label = exp.name.split(":")[-1]
+    t0 = time.perf_counter()
+    with jax.enable_x64(True):
+        _check_model(exp)
+    check_s = time.perf_counter() - t0
+    if client is not None:
+        from .cluster import run_trials_on_cluster
+
+        stats, traj, timings = run_trials_on_cluster(exp, B, seed=seed, keep=keep, filter=filter,
+                                                     client=client, progress=progress,
+                                                     simulate_trials=simulate_trials, trajectories=trajectories)
+        _check_finite(exp, stats)
+    else:
+        bars = []
+
+        def started():
+            bars.append(Progress(B * exp.n_steps, enabled=progress,
+                                 delay=0.0 if progress else 3.0, label=label))
+
+        try:
+            stats, timings = simulate_trials(exp, 0, B, seed=seed, filter=filter, devices=devices,
+                                             on_start=started, on_chunk=lambda steps: bars[0].update(steps))
+        finally:
+            for bar in bars:
+                bar.close()
+        _check_finite(exp, stats)
+        with jax.enable_x64(True):
+            traj = trajectories(exp, range(keep), seed=seed, filter=filter) if keep else None
+    timings["compile_s"] += check_s
+    timings.update({"trial_steps": B * exp.n_steps,
+                    "trial_steps_per_s": B * exp.n_steps / max(timings["run_s"], 1e-12),
+                    "loadavg": os.getloadavg()})
+    t = np.arange(stats.shape[1]) * exp.record_every * exp.epoch_steps * exp.dt
+    return MonteCarloResult(exp, B, seed, t, stats, traj, timings)
+
+
+def simulate_trials(exp: Experiment, first: int, count: int, *, seed: int, filter: str = "fast",
+                    devices=None, on_start=None, on_chunk=None):
+    """Records of trials ``first .. first + count - 1`` of ``exp`` in this process.
+
+    The trials are split over ``devices`` (default: all of this process's JAX devices),
+    padded to a multiple of their number (the padding trials are computed and dropped).
+    Trial ``i`` uses the key ``fold_in(key(seed), i)``: its records do not depend on
+    ``first``, ``count`` or the devices, which is what lets a cluster split a run
+    (:mod:`uio_jax._filter.cluster`) and merge it back bit for bit.
+
+    Args:
+        exp: the experiment (checked by the caller: options, memory, model at x0).
+        first, count: the trials (``count >= 1``).
+        seed: the run's seed. filter: ``"fast"`` or ``"reference"``.
+        devices: JAX devices to shard over (default: all).
+        on_start: None, or called once when the programs are compiled, before the first chunk.
+        on_chunk: None, or called with the trial-steps of ``count`` trials done by each chunk.
+
+    Returns:
+        ``(stats, timings)``: ``(count, n_records + 1, S)`` float32 records and
+        ``{"compile_s", "run_s", "process_s", "setup_process_s", "devices", "device_kind"}``.
+    """
     with jax.enable_x64(True):
         t0 = time.perf_counter()  # compile_s: from here to both programs compiled
         p0 = time.process_time()
-        _check_model(exp)
         devices = list(jax.devices() if devices is None else devices)
         nd = len(devices)
-        per_dev = -(-B // nd)
+        per_dev = -(-count // nd)
         Bp = per_dev * nd
         n_rec_chunk, n_rec = _chunk_records(exp, Bp)
         init_j, chunk_j, sharding = _compiled(exp, devices, per_dev, n_rec_chunk, filter)
         root = threefry.seed_key(seed)
-        ids = jax.device_put(np.arange(Bp, dtype=np.uint32), sharding)  # host arrays: no
-        j0 = np.asarray(0, np.int32)                                     # dispatch, no compile
+        ids = jax.device_put(np.arange(first, first + Bp, dtype=np.uint32), sharding)  # host arrays:
+        j0 = np.asarray(0, np.int32)                                     # no dispatch, no compile
         # the chunk program compiles in a thread while init compiles and runs (XLA's
         # compiler releases the GIL; the compile time saved: docs/benchmarks/ekf.md, run 7)
         replicated = NamedSharding(sharding.mesh, P())  # what JAX gives empty arrays
@@ -356,8 +424,8 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
             chunk_c = _compile_chunk(chunk_j, carry, j0)  # placed otherwise: compiled for it
         compile_s = time.perf_counter() - t0
         steps_chunk = n_rec_chunk * exp.record_every * exp.epoch_steps
-        bar = Progress(B * exp.n_steps, enabled=progress,
-                       delay=0.0 if progress else 3.0, label=exp.name.split(":")[-1])
+        if on_start is not None:
+            on_start()
         records = []
         t1 = time.perf_counter()
         p1 = time.process_time()
@@ -365,24 +433,15 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
             j0 = np.asarray(c * n_rec_chunk * exp.record_every, np.int32)
             carry, (start, rec) = chunk_c(carry, j0)
             if c == 0:
-                records.append(np.asarray(start)[:B, None])  # t = 0
-            records.append(np.asarray(rec)[:B])
-            bar.update(B * steps_chunk)
+                records.append(np.asarray(start)[:count, None])  # t = 0
+            records.append(np.asarray(rec)[:count])
+            if on_chunk is not None:
+                on_chunk(count * steps_chunk)
         run_s = time.perf_counter() - t1
         run_p = time.process_time() - p1
-        bar.close()
-        stats = np.concatenate(records, axis=1)  # (B, n_rec + 1, S)
-        _check_finite(exp, stats)
-        traj = trajectories(exp, range(keep), seed=seed, filter=filter) if keep else None
-    timings = {
-        "compile_s": compile_s, "run_s": run_s, "process_s": run_p,
-        "setup_process_s": p1 - p0, "trial_steps": B * exp.n_steps,
-        "trial_steps_per_s": B * exp.n_steps / max(run_s, 1e-12),
-        "devices": nd, "device_kind": devices[0].platform,
-        "loadavg": os.getloadavg(),
-    }
-    t = np.arange(n_rec + 1) * exp.record_every * exp.epoch_steps * exp.dt
-    return MonteCarloResult(exp, B, seed, t, stats, traj, timings)
+    stats = np.concatenate(records, axis=1)  # (count, n_rec + 1, S)
+    return stats, {"compile_s": compile_s, "run_s": run_s, "process_s": run_p,
+                   "setup_process_s": p1 - p0, "devices": nd, "device_kind": devices[0].platform}
 
 
 def _check_finite(exp, stats):

@@ -31,6 +31,10 @@ def add_parser(subparsers, analysis_options):
                    help="time limit per model: a model over it is stopped and reported as timed out, "
                         "with the last order it reached (runs models in worker processes; default: "
                         "no limit)")
+    b.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the models on the workers of a running Dask cluster (tcp://host:8786; "
+                        "needs uio_jax[cluster]); the workers must see the model files and the cache "
+                        "directory at the same paths; not with --jobs")
     b.add_argument("--import-python", action="store_true",
                    help="also import .py files of directories and globs without the "
                         "'# uio-jax: models' marker (runs their top-level code)")
@@ -45,8 +49,10 @@ def run(args) -> int:
     """Run the sub-command; returns the exit code (errors propagate as UioJaxError).
 
     The ``--json/--csv/--markdown`` files are rewritten (atomically) after every finished
-    model. On Ctrl-C the workers are stopped, the partial table is printed and written
-    (marked "interrupted after K of N models") and the exit code is 130.
+    model. ``--scheduler ADDRESS`` sends the models to a Dask cluster (a scheduler that
+    cannot be reached is a one-line error, exit code 2). On Ctrl-C the workers are
+    stopped, the partial table is printed and written (marked "interrupted after K of N
+    models") and the exit code is 130.
     """
     from .._analysis.options import check_options
     from .._batch.run import BatchInterrupted, batch_analyze
@@ -57,11 +63,14 @@ def run(args) -> int:
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"))
+    if args.scheduler is not None and args.jobs != 1:
+        raise UsageError(f"--jobs {args.jobs} and --scheduler exclude each other (the cluster's workers "
+                         "run the models)")
     outputs = [(path, fmt) for path, fmt in ((args.json, "json"), (args.csv, "csv"),
                                               (args.markdown, "markdown")) if path]
     code = None
     try:
-        result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout,
+        result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout, client=args.scheduler,
                                progress=False if args.no_progress else None,
                                keep_reports=False, import_python=args.import_python,
                                on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,

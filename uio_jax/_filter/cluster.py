@@ -1,0 +1,342 @@
+"""A Dask cluster for the Monte Carlo trials (and the connection the batch shares).
+
+**Connecting** (:func:`cluster_client`): ``client`` is a ``distributed.Client`` (used as
+it is, left open) or a scheduler address (``tcp://host:8786``; a client is opened for the
+run and closed after). An address is checked before anything is sent: its form, that
+something listens there, that it is a Dask scheduler; each failure is one
+:class:`~uio_jax.OptionError` line. Dask distributed is the optional extra
+``pip install "uio_jax[cluster]"``; without it a cluster run is refused in one line.
+
+**Monte Carlo over the workers** (:func:`run_trials_on_cluster`): the trials ``0..B-1`` are
+cut into one contiguous shard per worker thread of the cluster, all of the same size
+``S = ceil(B / shards)`` (the last one padded past ``B`` and its extra trials dropped, as
+the devices of one process are padded), so every worker compiles one program. A shard
+runs :func:`uio_jax._filter.montecarlo.simulate_trials` on the worker's own JAX devices:
+trial ``i`` uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are
+those of a one-process run with the same seed, bit for bit (a trial's numbers depend on
+``(seed, i)`` only, not on the batch it is computed in; ``tests/test_cluster_montecarlo.py``).
+The shards send back their float32 per-trial records; the caller puts them in trial order
+and computes every statistic once over all trials (RMSE as ``sqrt(sum e^2 / B)``, NEES
+mean and median, divergent fraction): nothing is an average of averages. The worker that
+runs trial 0 also computes the ``keep`` full trajectories. Progress: each worker reports
+its trial-steps after every chunk (Dask's event log); one bar adds them up.
+
+**Why not ``jax.distributed``**: it runs one SPMD program across hosts, launched in
+lockstep on every host (``mpirun``, SLURM), for collectives between devices. Trials are
+independent and only their records travel, so a worker per host (using all the host's
+devices, GPUs included, through the same ``shard_map`` as one process) needs no
+collectives and no lockstep launch; the Dask cluster that runs the batch runs the trials.
+
+The experiment travels to the workers pickled by value (its functions and the model file
+they come from, ``cloudpickle``): the workers need uio_jax and jax, not the model file.
+"""
+
+import asyncio
+import contextlib
+import hashlib
+import math
+import queue
+import socket
+import sys
+import time
+import uuid
+
+import numpy as np
+
+from .._errors import OptionError
+from .._progress import Progress
+
+#: How to install the optional engine (named in the errors).
+EXTRA = 'pip install "uio_jax[cluster]"'
+#: Seconds to reach a scheduler given by address before giving up (one line, exit code 2).
+CONNECT_TIMEOUT_S = 10.0
+#: Seconds a run waits for the cluster to have a worker before giving up.
+NO_WORKER_S = 60.0
+
+
+def require_distributed():
+    """The ``distributed`` module, or an OptionError saying how to install it."""
+    try:
+        import distributed
+    except ImportError:
+        raise OptionError(f"running on a Dask cluster needs Dask distributed: {EXTRA}") from None
+    return distributed
+
+
+@contextlib.contextmanager
+def cluster_client(client, *, timeout_s: float = CONNECT_TIMEOUT_S):
+    """A ``distributed.Client`` for the block: ``client`` itself when it is one (left
+    open), or a new client of the scheduler at the address ``client`` (closed after).
+
+    Raises:
+        OptionError: no ``distributed`` installed, an address of the wrong form, nothing
+            listening there, no Dask scheduler there, or ``client`` of another type.
+    """
+    distributed = require_distributed()
+    if isinstance(client, distributed.Client):
+        yield client
+        return
+    if not isinstance(client, str):
+        raise OptionError(f"client must be a distributed.Client or a scheduler address "
+                          f"(tcp://host:port), got {type(client).__name__}")
+    address = check_scheduler(client, timeout_s=timeout_s)
+    own = distributed.Client(address, timeout=timeout_s, set_as_default=False)
+    try:
+        yield own
+    finally:
+        own.close()
+
+
+def check_scheduler(address: str, *, timeout_s: float = CONNECT_TIMEOUT_S) -> str:
+    """Check that a Dask scheduler answers at ``address``; returns the address.
+
+    Raises:
+        OptionError: an address of the wrong form, nothing listening there (or a host
+            that does not resolve), or something that is not a Dask scheduler.
+    """
+    require_distributed()
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    text = address.strip() if isinstance(address, str) else ""
+    what = f"scheduler address {address!r}"
+    if not text:
+        raise OptionError(f"{what} is empty (expected tcp://host:port)")
+    try:
+        scheme, loc = parse_address(text, strict=False)
+        from distributed.comm.registry import backends
+
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r}")
+        if scheme == "tcp":
+            host, port = parse_host_port(loc)
+            if not host or not 0 < int(port) < 65536:
+                raise ValueError(f"bad host or port in {loc!r}")
+    except (ValueError, TypeError) as exc:
+        raise OptionError(f"{what}: {exc} (expected tcp://host:port)") from None
+    if scheme == "tcp":
+        try:
+            socket.create_connection((host, int(port)), timeout=timeout_s).close()
+        except socket.gaierror:
+            raise OptionError(f"{what}: unknown host {host!r}") from None
+        except OSError as exc:
+            why = exc.strerror or type(exc).__name__
+            raise OptionError(f"cannot reach a Dask scheduler at {text}: {why.lower()}") from None
+    try:
+        kind = asyncio.run(asyncio.wait_for(_identity(text, timeout_s), timeout_s))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise OptionError(f"no Dask scheduler answers at {text} within {timeout_s:g} s") from None
+    except Exception as exc:
+        why = "the connection was closed: another service listens there" if "Closed" in type(exc).__name__ \
+            else type(exc).__name__
+        raise OptionError(f"no Dask scheduler answers at {text} ({why})") from None
+    if kind != "Scheduler":
+        raise OptionError(f"{text} is a Dask {kind or 'server'}, not a scheduler")
+    return text
+
+
+async def _identity(address, timeout_s):
+    """The ``type`` a Dask server at ``address`` reports (``"Scheduler"``, ``"Worker"``)."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout_s)
+    try:
+        await comm.write({"op": "identity"})
+        info = await comm.read()
+    finally:
+        await comm.close()
+    return info.get("type") if isinstance(info, dict) else None
+
+
+def worker_threads(client) -> int:
+    """Threads of all the cluster's workers (models or shards that can run at once)."""
+    return sum(client.nthreads().values())
+
+
+def wait_for_workers(client, timeout_s: float = NO_WORKER_S) -> int:
+    """Worker threads of the cluster, waiting up to ``timeout_s`` for a first worker.
+
+    Raises:
+        OptionError: the cluster still has no worker.
+    """
+    deadline = time.monotonic() + timeout_s
+    while True:
+        n = worker_threads(client)
+        if n or time.monotonic() >= deadline:
+            break
+        time.sleep(0.2)
+    if not n:
+        raise OptionError(f"the Dask cluster at {client.scheduler.address} has no worker "
+                          f"(waited {timeout_s:g} s); start some with: dask worker "
+                          f"{client.scheduler.address} --nthreads 1")
+    return n
+
+
+def stop_tasks(client, futures, where=None):
+    """Cancel ``futures`` and kill the worker processes running them (a Dask task cannot be
+    stopped otherwise); each worker's nanny starts a fresh one in its place.
+
+    Args:
+        client: the ``distributed.Client``.
+        futures: the futures to stop.
+        where: the addresses of the workers running them, when known; else asked of the
+            scheduler (the workers processing their keys).
+    """
+    futures = list(futures)
+    if not futures:
+        return
+    if where is None:
+        keys = {f.key for f in futures}
+        try:
+            where = {w for w, ks in client.processing().items() if keys & set(ks)}
+        except Exception:  # the scheduler is gone: nothing runs there any more
+            where = set()
+    try:
+        client.cancel(futures, force=True)
+        if where:
+            client.run(_exit_worker, workers=sorted(where), on_error="ignore")
+    except Exception:  # pragma: no cover - the scheduler went away meanwhile
+        pass
+
+
+def _exit_worker():
+    """Run in a worker process by :func:`stop_tasks`: end it at once (its nanny restarts it)."""
+    import os
+
+    os._exit(1)
+
+
+# ---------------------------------------------------------------------- Monte Carlo
+def dumps_experiment(exp) -> bytes:
+    """The experiment pickled by value: its functions, and the model files they come from
+    (modules loaded by path, which the workers could not import by name)."""
+    import cloudpickle
+
+    mods = [m for name, m in list(sys.modules.items()) if name.startswith("uio_jax_model_")]
+    for m in mods:
+        cloudpickle.register_pickle_by_value(m)
+    try:
+        return cloudpickle.dumps(exp)
+    finally:
+        for m in mods:
+            cloudpickle.unregister_pickle_by_value(m)
+
+
+_EXPERIMENTS: dict = {}  # digest -> Experiment, in a worker: one object, one set of programs
+
+
+def _experiment(blob):
+    import pickle
+
+    digest = hashlib.sha256(blob).hexdigest()
+    if digest not in _EXPERIMENTS:
+        _EXPERIMENTS.clear()  # one experiment at a time
+        _EXPERIMENTS[digest] = pickle.loads(blob)
+    return _EXPERIMENTS[digest]
+
+
+def _shard_task(blob, first, count, seed, filter, keep, topic, shard, simulate_trials, trajectories):
+    """One shard, in a worker: records of trials ``first..first+count-1`` (and the
+    trajectories of trials ``0..keep-1`` when ``keep``); progress as events on ``topic``.
+    ``simulate_trials`` and ``trajectories`` are those of :mod:`uio_jax._filter.montecarlo`
+    (passed in, pickled by name: this module does not import the one that imports it)."""
+    from distributed import get_worker
+
+    worker = get_worker()
+    exp = _experiment(blob)
+
+    def on_chunk(steps):
+        worker.log_event(topic, [shard, int(steps)])
+
+    stats, timing = simulate_trials(exp, first, count, seed=seed, filter=filter, on_chunk=on_chunk)
+    traj = trajectories(exp, range(keep), seed=seed, filter=filter) if keep else None
+    timing["worker"] = worker.address
+    return stats, traj, timing
+
+
+def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, simulate_trials, trajectories,
+                          progress=None):
+    """Trials ``0..trials-1`` of ``exp`` over the workers of ``client`` (see the module doc).
+
+    Args:
+        exp: the :class:`~uio_jax.Experiment`.
+        trials: B. seed, keep, filter: as :func:`uio_jax.run_montecarlo`.
+        client: a ``distributed.Client`` or a scheduler address.
+        simulate_trials, trajectories: the functions of :mod:`uio_jax._filter.montecarlo`
+            that a shard runs.
+        progress: as :func:`uio_jax.run_montecarlo`: one bar of the ``B * n_steps``
+            trial-steps of all workers (``NAME [2 workers]``; padding trials excluded).
+
+    Returns:
+        ``(stats, trajectories, timings)``: the ``(B, T, S)`` float32 records in trial
+        order, the kept trajectories (or None) and the run's timings.
+
+    Raises:
+        OptionError: no cluster (see :func:`cluster_client`), no worker.
+        ModelError or another error raised by a shard: as in one process.
+    """
+    with cluster_client(client) as c:
+        n = wait_for_workers(c)
+        shards = max(1, min(n, trials))
+        size = -(-trials // shards)
+        starts = [s * size for s in range(shards) if s * size < trials]
+        blob = dumps_experiment(exp)
+        bar = Progress(trials * exp.n_steps, enabled=progress, delay=0.0 if progress else 3.0,
+                       label=f"{exp.name.split(':')[-1]} [{len(starts)} worker{'s' if len(starts) > 1 else ''}]")
+        topic = f"uio_jax-montecarlo-{uuid.uuid4().hex}"
+        done = queue.Queue()
+        c.subscribe_topic(topic, lambda event: done.put(tuple(event[1])))
+        t0 = time.perf_counter()
+        futures = [c.submit(_shard_task, blob, a, size, seed, filter, keep if a == 0 else 0, topic, k,
+                            simulate_trials, trajectories, key=f"uio_jax-mc-{topic[-12:]}-{k}", pure=False)
+                   for k, a in enumerate(starts)]
+        try:
+            pending = set(range(len(futures)))
+            while pending:
+                _drain(done, bar, size, trials, starts, wait_s=0.2)
+                for k in list(pending):
+                    if futures[k].done():
+                        pending.discard(k)
+                        if futures[k].status == "error":
+                            futures[k].result()  # raises the shard's error here
+            results = [f.result() for f in futures]
+            _drain(done, bar, size, trials, starts, wait_s=0.0)
+        except BaseException:  # Ctrl-C, or a shard's error: the other shards are stopped
+            stop_tasks(c, futures)
+            raise
+        finally:
+            bar.close()
+            c.unsubscribe_topic(topic)
+        wall = time.perf_counter() - t0
+    stats = np.concatenate([r[0] for r in results], axis=0)[:trials]
+    timings = [r[2] for r in results]
+    out = {
+        "compile_s": max(t["compile_s"] for t in timings),
+        "run_s": max(t["run_s"] for t in timings),
+        "process_s": sum(t["process_s"] for t in timings),
+        "setup_process_s": sum(t["setup_process_s"] for t in timings),
+        "wall_s": wall,
+        "workers": len({t["worker"] for t in timings}),
+        "shards": len(starts),
+        "devices": sum(t["devices"] for t in timings),
+        "device_kind": timings[0]["device_kind"],
+    }
+    return stats, results[0][1], out
+
+
+def _drain(events, bar, size, trials, starts, wait_s):
+    """Add the trial-steps the workers reported to ``bar`` (padding trials left out)."""
+    try:
+        first = events.get(timeout=wait_s) if wait_s else events.get_nowait()
+    except queue.Empty:
+        return
+    got = [first]
+    while True:
+        try:
+            got.append(events.get_nowait())
+        except queue.Empty:
+            break
+    if bar is None:
+        return
+    for shard, steps in got:
+        real = min(size, trials - starts[shard]) if shard < len(starts) else size
+        bar.update(math.floor(steps * real / size))
