@@ -55,8 +55,22 @@ def test_block_gradients_equal_one_by_one_gradients():
     np.testing.assert_allclose(block, one_by_one, rtol=1e-13, atol=1e-14)
 
 
-def test_second_analysis_of_the_same_system_compiles_nothing():
+def test_an_analysis_in_the_expression_graph_compiles_nothing():
+    """Every function of this model translates into the expression graph: the analysis
+    evaluates it with numpy and compiles no program."""
     s = uj.System(states=("a", "b"), outputs={"y": h}, known={"f": f, "g": g})
+    rep = uj.analyze(s, samples=128)
+    assert rep.dim == 2 and builder_for(s).stats == []
+
+
+def erf_inv_output(x):
+    """An output with a primitive the expression graph has no rule for (``erf_inv``)."""
+    return jax.lax.erf_inv(0.5 * jnp.tanh(x[0])) + x[1] ** 2
+
+
+def test_second_analysis_of_the_same_system_compiles_nothing():
+    """A model outside the graph is compiled by XLA, once per System."""
+    s = uj.System(states=("a", "b"), outputs={"y": erf_inv_output}, known={"f": f, "g": g})
     uj.analyze(s, samples=128)
     compiled = len(builder_for(s).stats)
     assert compiled > 0

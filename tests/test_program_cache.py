@@ -13,6 +13,13 @@ from uio_jax._engine import program_cache as _program_cache
 from uio_jax._engine.compile_cache import compile_cache
 
 
+@pytest.fixture(autouse=True)
+def compiled_route(monkeypatch):
+    """These tests are about programs compiled by XLA: every evaluation goes there (the
+    expression graph would evaluate these models without compiling anything)."""
+    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
+
+
 def _programs(cache_dir):
     return sorted((cache_dir / _program_cache.SUBDIR).glob("*.prog"))
 

@@ -198,7 +198,10 @@ class _Eorc(Recursion):
         drift = builder.field(DRIFT_LABEL, self.ext.drift)
         known = tuple(builder.field(k, f) for k, f in self.ext.known.items())
         self.blocks = blocks_for(self.ext, builder, drift, known)
-        self.stream = Stream(self.blocks, self.ctx.xs, K)
+        #: the children's gradients come from the expression graph (numpy, nothing
+        #: compiled) when the extended system translates into it, else from XLA blocks
+        self.in_graph = all(nd.expr is not None for nd in (drift, *known, *self.ctx.output_nodes()))
+        self.stream = None if self.in_graph else Stream(self.blocks, self.ctx.xs, K)
         self.compile_s = []  # seconds spent tracing + compiling, per order
         self.steps = []  # per order: frontier size, candidates, compile and eval seconds
         self.frontier = []  # the generators kept at the last order
@@ -236,7 +239,7 @@ class _Eorc(Recursion):
 
         def start_next():  # the next order will run: frontier not empty, k < K, not full
             if k < self.K and added:
-                self.started.append(self.stream.dispatch(added, k + 1))
+                self.started.append(self.dispatch(added, k + 1))
 
         states, inputs, dim = self.coordinates(k, start_next)
         extra = {
@@ -251,7 +254,16 @@ class _Eorc(Recursion):
 
     # ------------------------------------------------------------------ one order
     def dispatch(self, frontier, k):
-        """Start the gradient block of order ``k`` (:meth:`uio_jax._calculus.blocks.Stream.dispatch`)."""
+        """Start the gradient block of order ``k`` (:meth:`uio_jax._calculus.blocks.Stream.dispatch`),
+        or, in the expression graph, evaluate the children's gradients now.
+
+        Returns:
+            ``(frontier, key, compile_s, t1, gradients (S, c, N), chain row)``.
+        """
+        if self.in_graph:
+            t1 = time.perf_counter()
+            children = [c for phi in frontier for c in self.blocks.children(phi)]
+            return frontier, None, 0.0, t1, self.ctx.gradients(children), None
         return self.stream.dispatch(frontier, k)
 
     def absorb_children(self, frontier, k, started=None):

@@ -26,8 +26,6 @@ evaluate the gradients at S random states of the domain and decide on the host.
 
 from dataclasses import dataclass
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 
@@ -53,7 +51,6 @@ def default_rtol() -> float:
 ZERO_ROW_RTOL = 1e-10
 
 
-@jax.jit
 def _ratios(mats):
     """Singular-value ratios ``s_i / s_1`` of row-normalized matrices.
 
@@ -66,13 +63,14 @@ def _ratios(mats):
     Returns:
         ``(..., min(k, n))``, sorted descending; all zero for a zero matrix.
     """
-    norms = jnp.linalg.norm(mats, axis=-1, keepdims=True)
-    ref = jnp.max(norms, axis=-2, keepdims=True)
+    mats = np.asarray(mats, dtype=np.float64)
+    norms = np.linalg.norm(mats, axis=-1, keepdims=True)
+    ref = np.max(norms, axis=-2, keepdims=True)
     keep = norms > ZERO_ROW_RTOL * ref
-    unit = jnp.where(keep, mats / jnp.where(keep, norms, 1.0), 0.0)
-    s = jnp.linalg.svd(unit, compute_uv=False)
+    unit = np.where(keep, mats / np.where(keep, norms, 1.0), 0.0)
+    s = np.linalg.svd(unit, compute_uv=False)
     top = s[..., :1]
-    return s / jnp.where(top > 0, top, 1.0)
+    return s / np.where(top > 0, top, 1.0)
 
 
 @dataclass(frozen=True)
@@ -120,10 +118,8 @@ def decide_rank(ratios, valid, rtol) -> RankDecision:
 
 
 _BLOCK_BYTES = 64 * 2**20
-_CHUNK = 16
 
 
-@jax.jit
 def _residuals(basis, ref, cands):
     """Distance of unit-normalized candidates to the span of an orthonormal basis.
 
@@ -136,17 +132,17 @@ def _residuals(basis, ref, cands):
         ``rho (C, S)`` in [0, 1] and the unit residual directions ``(C, S, n)``.
         Candidates below ``ZERO_ROW_RTOL`` times the reference norm count as zero.
     """
-    norms = jnp.linalg.norm(cands, axis=-1)
-    zero = norms <= ZERO_ROW_RTOL * jnp.maximum(ref, norms)
-    unit = jnp.where(zero[..., None], 0.0, cands / jnp.where(zero, 1.0, norms)[..., None])
+    norms = np.linalg.norm(cands, axis=-1)
+    zero = norms <= ZERO_ROW_RTOL * np.maximum(ref, norms)
+    unit = np.where(zero[..., None], 0.0, cands / np.where(zero, 1.0, norms)[..., None])
 
     def project_out(v):
-        coef = jnp.einsum("sri,csi->csr", basis, v)
-        return v - jnp.einsum("csr,sri->csi", coef, basis)
+        coef = np.einsum("sri,csi->csr", basis, v, optimize=True)
+        return v - np.einsum("csr,sri->csi", coef, basis, optimize=True)
 
     res = project_out(project_out(unit))  # Gram-Schmidt, twice is enough
-    rho = jnp.linalg.norm(res, axis=-1)
-    direction = res / jnp.where(rho > 0, rho, 1.0)[..., None]
+    rho = np.linalg.norm(res, axis=-1)
+    direction = res / np.where(rho > 0, rho, 1.0)[..., None]
     return rho, direction
 
 
@@ -258,28 +254,16 @@ class Codistribution:
         return cands * self.col_scale, finite
 
     def _distances(self, cands):
-        """``rho (C, S)`` and unit residuals ``(C, S, n)`` of scaled candidates, in chunks."""
+        """``rho (C, S)`` and unit residuals ``(C, S, n)`` of scaled candidates, in chunks
+        of about ``_BLOCK_BYTES``."""
         C, S, n = cands.shape
-        # chunk sizes are powers of two (a few compiles per (S, n)): at most _CHUNK and
-        # ~64 MB per chunk, and no larger than C needs (single re-tests are the hot path)
-        limit = max(1, _BLOCK_BYTES // (S * n * 8 * 4))
-        chunk = min(_CHUNK, 1 << (limit.bit_length() - 1), 1 << (C - 1).bit_length())
-        # only the kept rows of the basis (the others are zero), padded to a power of two
-        # so that a run compiles a few shapes: at rank 3 of 25 the projections cost 1/6
-        rows = min(n, 1 << (self.rank - 1).bit_length()) if self.rank else 1
-        basis = self.basis[:, :rows]
+        chunk = max(1, _BLOCK_BYTES // (S * n * 8 * 4))
+        basis = self.basis[:, : max(self.rank, 1)]  # only the kept rows (the others are zero)
         rhos, dirs = [], []
-        with jax.enable_x64(True):
-            start = 0
-            while start < C:  # full chunks, then the rest in the next power of two
-                size = min(chunk, 1 << (C - start - 1).bit_length())
-                part = cands[start : start + size]
-                block = np.zeros((size, S, n))
-                block[: len(part)] = part
-                rho, d = _residuals(basis, self.ref, block)
-                rhos.append(np.asarray(rho)[: len(part)])
-                dirs.append(np.asarray(d)[: len(part)])
-                start += size
+        for start in range(0, C, chunk):
+            rho, d = _residuals(basis, self.ref, cands[start:start + chunk])
+            rhos.append(rho)
+            dirs.append(d)
         return np.concatenate(rhos), np.concatenate(dirs)
 
     def _keep(self, node, cand, rho, direction, decision):
@@ -398,9 +382,7 @@ class Codistribution:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept set at the valid samples."""
         if self.rank == 0:
             return np.zeros((int(self.valid.sum()), 0))
-        with jax.enable_x64(True):
-            ratios = np.asarray(_ratios(self.grads))
-        return ratios[self.valid]
+        return _ratios(self.grads)[self.valid]
 
     def decision(self) -> RankDecision:
         """SVD rank decision of the kept set alone: its fraction and smallest ``s_r/s_1``."""
@@ -408,7 +390,6 @@ class Codistribution:
             return RankDecision(0, 1.0, 1.0, 0.0, int(self.valid.sum()))
         key = (self.rank, int(self.valid.sum()))  # rows only grow, valid samples only shrink
         if self._decided[0] != key:
-            with jax.enable_x64(True):
-                ratios = np.asarray(_ratios(self.grads))
+            ratios = _ratios(self.grads)
             self._decided = (key, decide_rank(ratios, self.valid, self.rtol))
         return self._decided[1]

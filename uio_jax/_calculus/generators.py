@@ -2,22 +2,35 @@
 
 Every function the recursions build (``L_f h``, ``[phi, g] / L_g^1``, ...) is a
 :class:`Node` with a readable label. The :class:`Builder` memoizes nodes by
-``(operation, operand labels)``, so each closure is created once per System and the jit
-caches keyed on function identity keep hitting across steps and across calls of
-``analyze`` on the same System. The batched gradient evaluator of a tuple of nodes is
-cached the same way.
+``(operation, operand labels)``, so each is created once per System.
+
+**Two representations, one choice.** A node has a JAX callable (``fn``) and, when the
+model's functions translate into the System's expression graph
+(:mod:`uio_jax._engine.graph`, :mod:`uio_jax._engine.graph_trace`), an expression
+(``expr``: a graph node for a scalar, one per coordinate for a field). Lie derivatives,
+brackets and quotients of nodes with expressions are expressions too (symbolic forward
+mode with shared subexpressions), and their values and gradients are evaluated by numpy
+over the samples (:mod:`uio_jax._engine.graph_numpy`): no program is compiled, which is
+what a first call needs. The evaluation of a node without an expression (a model with a
+primitive the graph has no rule for, a program written for XLA) is compiled by XLA as
+before (:meth:`Builder._evaluate`), once per System and shape. The choice is per
+evaluation and automatic: the graph whenever every node asked for has an expression.
 """
 
 import functools
 import hashlib
 import math
+import os
 import weakref
 from dataclasses import dataclass
 
 import jax
 import numpy as np
 
+from .._engine import graph_numpy as _graph_numpy
 from .._engine import program_cache as _program_cache
+from .._engine.graph import Graph
+from .._engine.graph_trace import IndexOutOfRange, translate
 from . import lie as _lie
 from .powers import lie_power
 
@@ -34,6 +47,8 @@ class Node:
         sig: structural signature (the operation tree down to the model's named outputs
             and fields, hashed); empty for a node of unknown provenance. Programs of
             nodes that all have one can be kept on disk (:mod:`uio_jax._program_cache`).
+        expr: the node in the System's expression graph (an int for a scalar, a tuple of
+            ``n`` ints for a field), or None when it has none (evaluated by XLA).
     """
 
     label: str
@@ -41,6 +56,7 @@ class Node:
     kind: str
     depth: int = 0
     sig: str = ""
+    expr: object = None
 
     def __repr__(self):
         return f"Node({self.label!r})"
@@ -49,9 +65,15 @@ class Node:
 class Builder:
     """Creates and memoizes the nodes of one System."""
 
-    def __init__(self, system=None):
+    def __init__(self, system=None, n=None):
         self._system = weakref.ref(system) if system is not None else (lambda: None)
+        n = system.n if system is not None else n
+        #: the System's expression graph (None without a state dimension): the one its
+        #: validation built, or a new one
+        self.graph = getattr(system, "_graph", None) or (Graph(n) if n is not None else None)
         self._nodes: dict[tuple, Node] = {}
+        self._gradient_cache: dict = {}  # states key -> {expr: (S, n)}
+        self._gradient_bytes = 0
         self._compiled: dict[tuple, object] = {}
         self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
         self.stats: list[CompileStat] = []
@@ -73,11 +95,38 @@ class Builder:
 
     def scalar(self, label, fn) -> Node:
         """A named scalar function given by the user (an output)."""
-        return self._get(("scalar", label), lambda: Node(label, fn, "scalar", sig=_sig("out", label)))
+        return self._get(("scalar", label),
+                         lambda: Node(label, fn, "scalar", sig=_sig("out", label), expr=self.translate(fn, ())))
 
     def field(self, label, fn) -> Node:
         """A named vector field given by the user."""
-        return self._get(("field", label), lambda: Node(label, fn, "field", sig=_sig("field", label)))
+        return self._get(("field", label), lambda: Node(label, fn, "field", sig=_sig("field", label),
+                                                         expr=self.translate(fn, (self.graph.n,))))
+
+    def function(self, label, fn) -> Node:
+        """A scalar function of the state not memoized by name (``Report.is_observable``)."""
+        return Node(label, fn, "scalar", expr=self.translate(fn, ()))
+
+    def translate(self, fn, shape):
+        """The expression of a model function ``x (n,) -> shape`` in the System's graph:
+        an int (scalar) or a tuple of ints (field); None when the graph has no rule for one
+        of its primitives (the node is then evaluated by XLA). The System's validation
+        already translated its own functions (:meth:`uio_jax.System.expression`).
+        """
+        g = self.graph
+        if g is None or fn is None or not graph_route_enabled():
+            return None
+        system = self._system()
+        if system is not None and getattr(system, "_graph", None) is g:
+            return system.expression(fn, shape)
+        try:
+            return translate(g, fn, shape)
+        except IndexOutOfRange:
+            return None
+
+    def _jvp(self, exprs, v):
+        """Graph nodes ``d e . v`` of the expressions ``exprs`` along the field node ``v``."""
+        return self.graph.jvp(exprs, v.expr)
 
     def lie(self, v: Node, phi: Node) -> Node:
         """``L_v phi``.
@@ -94,8 +143,9 @@ class Builder:
             return node
         base, j = self.power_of(phi, v)
         fn = lie_power(base.fn, v.fn, j + 1, taylor_from=TAYLOR_FROM)
+        expr = self._jvp([phi.expr], v)[0] if _both(phi, v) else None
         node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
-                    _sig("lie", v.sig, phi.sig))
+                    _sig("lie", v.sig, phi.sig), expr)
         self._nodes[key] = node
         self._powers[(node, v.label)] = (base, j + 1)
         return node
@@ -114,9 +164,14 @@ class Builder:
         node = self._nodes.get(key)
         if node is None:
             label = f"L_{_wrap(v.label)}{'' if j == 1 else f'^{j}'} {base.label}"
+            expr = None
+            if _both(base, v):
+                expr = base.expr
+                for _ in range(j):
+                    expr = self._jvp([expr], v)[0]
             node = Node(label, lie_power(base.fn, v.fn, j), "scalar",
                         base.depth + j if depth is None else depth,
-                        _sig("power", v.sig, base.sig, str(j)))
+                        _sig("power", v.sig, base.sig, str(j)), expr)
             self._nodes[key] = node
             self._powers[(node, v.label)] = (base, j)
         return node
@@ -126,43 +181,43 @@ class Builder:
         return self._powers.get((phi, v.label), (phi, 0))
 
     def bracket(self, a: Node, b: Node) -> Node:
-        """``[a, b]``."""
-        return self._get(
-            ("bracket", a.label, b.label),
-            lambda: Node(
-                f"[{a.label}, {b.label}]",
-                _lie.lie_bracket(a.fn, b.fn),
-                "field",
-                max(a.depth, b.depth) + 1,
-                _sig("bracket", a.sig, b.sig),
-            ),
-        )
+        """``[a, b] = (db/dx) a - (da/dx) b``."""
+
+        def make():
+            expr = None
+            if _both(a, b):
+                g = self.graph
+                db_a, da_b = g.jvp(b.expr, a.expr), g.jvp(a.expr, b.expr)
+                expr = tuple(g.sub(p, q) for p, q in zip(db_a, da_b))
+            return Node(f"[{a.label}, {b.label}]", _lie.lie_bracket(a.fn, b.fn), "field",
+                        max(a.depth, b.depth) + 1, _sig("bracket", a.sig, b.sig), expr)
+
+        return self._get(("bracket", a.label, b.label), make)
 
     def scaled(self, v: Node, s: Node, label=None) -> Node:
         """The field ``v / s``."""
-        return self._get(
-            ("scaled", v.label, s.label),
-            lambda: Node(
-                label or f"{_wrap(v.label)}/{_wrap(s.label)}",
-                _lie.scaled_field(v.fn, s.fn),
-                "field",
-                max(v.depth, s.depth),
-                _sig("scaled", v.sig, s.sig),
-            ),
-        )
+
+        def make():
+            expr = None
+            if _both(v, s):
+                expr = tuple(self.graph.div(c, s.expr) for c in v.expr)
+            return Node(label or f"{_wrap(v.label)}/{_wrap(s.label)}", _lie.scaled_field(v.fn, s.fn),
+                        "field", max(v.depth, s.depth), _sig("scaled", v.sig, s.sig), expr)
+
+        return self._get(("scaled", v.label, s.label), make)
 
     def ratio(self, num: Node, den: Node, power=1, label=None) -> Node:
         """The scalar ``num / den**power``."""
-        return self._get(
-            ("ratio", num.label, den.label, power),
-            lambda: Node(
-                label or f"{_wrap(num.label)}/({den.label})^{power}",
-                _lie.ratio(num.fn, den.fn, power),
-                "scalar",
-                max(num.depth, den.depth),
-                _sig("ratio", num.sig, den.sig, str(power)),
-            ),
-        )
+
+        def make():
+            expr = None
+            if _both(num, den):
+                expr = self.graph.div(num.expr, self.graph.ipow(den.expr, power))
+            return Node(label or f"{_wrap(num.label)}/({den.label})^{power}",
+                        _lie.ratio(num.fn, den.fn, power), "scalar", max(num.depth, den.depth),
+                        _sig("ratio", num.sig, den.sig, str(power)), expr)
+
+        return self._get(("ratio", num.label, den.label, power), make)
 
     def _evaluate(self, key, make, xs, streamed=False):
         """Evaluate the vmapped function ``make()`` at ``xs``, compiling once per key/shape.
@@ -212,8 +267,32 @@ class Builder:
             numpy array of shape ``(S, c, n)`` (NaN/inf where a function is undefined).
         """
         nodes = tuple(nodes)
+        if _graphed(nodes):
+            return self._graph_gradients(nodes, np.asarray(xs, dtype=np.float64))
         make = lambda: _lie.stacked_gradients(tuple(nd.fn for nd in nodes))
         return np.asarray(self._evaluate(("grad", nodes), make, xs))
+
+    def _graph_gradients(self, nodes, xs):
+        """Gradients ``(S, c, n)`` of nodes with expressions, by numpy over the graph.
+
+        The gradients already evaluated at the same states (a warm call of ``analyze`` with
+        the same samples and seed) are kept, up to :data:`GRADIENT_CACHE_BYTES` per System:
+        a warm call evaluates nothing twice.
+        """
+        key = _states_key(xs)
+        cache = self._gradient_cache.get(key)
+        if cache is None:
+            if self._gradient_bytes > GRADIENT_CACHE_BYTES:
+                self._gradient_cache.clear()
+                self._gradient_bytes = 0
+            cache = self._gradient_cache[key] = {}
+        missing = [nd for nd in dict.fromkeys(nodes) if nd.expr not in cache]
+        if missing:
+            grads = _graph_numpy.evaluate(self.graph, [nd.expr for nd in missing], xs)[1]
+            for i, nd in enumerate(missing):
+                cache[nd.expr] = grads[:, i]
+            self._gradient_bytes += grads.nbytes
+        return np.stack([cache[nd.expr] for nd in nodes], axis=1)
 
     def values(self, nodes, xs) -> list:
         """Values of nodes (scalars or fields) at the states ``xs``.
@@ -222,6 +301,15 @@ class Builder:
             list of numpy arrays, ``(S,)`` for a scalar node and ``(S, n)`` for a field.
         """
         nodes = tuple(nodes)
+        if _graphed(nodes):
+            roots = [e for nd in nodes for e in ((nd.expr,) if nd.kind == "scalar" else nd.expr)]
+            vals = _graph_numpy.evaluate(self.graph, roots, np.asarray(xs), gradients=False)
+            out, at = [], 0
+            for nd in nodes:
+                width = 1 if nd.kind == "scalar" else len(nd.expr)
+                out.append(vals[:, at] if nd.kind == "scalar" else vals[:, at:at + width])
+                at += width
+            return out
         fns = tuple(nd.fn for nd in nodes)
         make = lambda: (lambda x: tuple(f(x) for f in fns))
         return [np.asarray(v) for v in self._evaluate(("values", nodes), make, xs)]
@@ -251,9 +339,27 @@ class Builder:
         nodes = [self.lie(v, phi) for phi in phis for v in fields]
         if not nodes:
             return nodes, np.zeros((xs.shape[0], 0, xs.shape[1]))
+        if _graphed(nodes):
+            return nodes, self.gradients(nodes, xs)
         make = lambda: _lie.lie_derivative_gradients(
             tuple(p.fn for p in phis), tuple(v.fn for v in fields))
         return nodes, np.asarray(self._evaluate(("block", phis, fields), make, xs))
+
+
+def graph_route_enabled() -> bool:
+    """Whether nodes get expressions in the graph (the default). ``UIO_JAX_ENGINE=xla`` in
+    the environment sends every evaluation to XLA instead: a switch to compare the two
+    routes and to test the compiled one, read when a Builder translates a function."""
+    return os.environ.get("UIO_JAX_ENGINE", "auto") != "xla"
+
+
+#: Bytes of gradients a Builder keeps between calls (evaluated at the same states).
+GRADIENT_CACHE_BYTES = 256 * 2**20
+
+
+def _states_key(xs) -> bytes:
+    """A digest of the sampled states ``xs`` (the key of the gradients evaluated there)."""
+    return hashlib.blake2b(xs.tobytes(), digest_size=16).digest() + repr(xs.shape).encode()
 
 
 #: Graphs with more jaxpr equations than this are compiled at XLA optimization level 0.
@@ -349,6 +455,16 @@ def _key_label(key) -> str:
     for group in rest:
         parts.append(",".join(nd.label for nd in group))
     return f"{kind}[{' | '.join(parts)}]"
+
+
+def _both(*nodes) -> bool:
+    """Whether every node has an expression in the graph."""
+    return all(nd.expr is not None for nd in nodes)
+
+
+def _graphed(nodes) -> bool:
+    """Whether the nodes are evaluated in the graph (every one has an expression)."""
+    return bool(nodes) and _both(*nodes)
 
 
 def _wrap(label: str) -> str:

@@ -1,24 +1,22 @@
 """Seeded random states of a System's domain box."""
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 
-def sample_states(system, samples: int, seed: int = 0) -> jax.Array:
+def sample_states(system, samples: int, seed: int = 0) -> np.ndarray:
     """Draw states uniformly in the system's sampling box.
+
+    numpy's default generator (PCG64) seeded with ``seed``: the same seed gives the same
+    states on every machine, and drawing them compiles nothing.
 
     Args:
         system: a :class:`~uio_jax.System`.
         samples: number of states S.
-        seed: integer seed in ``[0, 2**64)``; the same seed gives the same states (a seed
-            from 2**63 up is passed to ``jax.random.key`` as a uint64, which gives the key
-            of a smaller seed unchanged).
+        seed: integer seed in ``[0, 2**64)``.
 
     Returns:
-        Array of shape ``(S, n)``, float64 (call under ``jax.enable_x64(True)``).
+        numpy array of shape ``(S, n)``, float64.
     """
     lo, hi = system.box()
-    key = jax.random.key(int(seed) if seed < 2**63 else np.uint64(seed))
-    u = jax.random.uniform(key, (samples, system.n), dtype=jnp.float64)
-    return jnp.asarray(lo) + u * jnp.asarray(hi - lo)
+    u = np.random.default_rng(int(seed)).random((samples, system.n))
+    return np.asarray(lo, dtype=np.float64) + u * np.asarray(hi - lo, dtype=np.float64)

@@ -30,6 +30,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._engine.graph import Graph
+from .._engine.graph_numpy import evaluate
+from .._engine.graph_trace import IndexOutOfRange, translate
 from .._errors import ModelError
 
 Field = Callable[[jax.Array], jax.Array]
@@ -336,8 +339,6 @@ class System:
                     raise ModelError(
                         f"{what} fails on {on}: {type(exc).__name__}: {msg}"
                     ) from None
-                _check_indexing(what, fn, self.n, len(self.params) if self.params else None,
-                                None if self.time is None else sum(self.time_box) / 2)
                 shape = getattr(out, "shape", None)
                 if shape is None:
                     raise ModelError(f"{what} must return an array, got {type(out).__name__}")
@@ -350,8 +351,53 @@ class System:
                                      "must be real")
                 if not np.issubdtype(dtype, np.floating):
                     promote.add(what)
+                self._check_index_range(what, fn, expected)
         if promote:
             self._promote_to_float(promote)
+
+    def expression(self, fn, shape):
+        """The expression of one of this System's functions ``x (n,) -> shape`` in its
+        expression graph (:mod:`uio_jax._engine.graph`), translated once: an int for a
+        scalar, a tuple of ints for a field, None where the graph has no rule for a
+        primitive of ``fn`` (it is then evaluated by XLA).
+
+        Raises:
+            IndexOutOfRange: ``fn`` indexes the state past its end (a constant index).
+        """
+        table = self.__dict__.get("_expressions")
+        if table is None:
+            table = {}
+            object.__setattr__(self, "_expressions", table)
+        key = (id(fn), tuple(shape))
+        if key not in table:
+            if "_graph" not in self.__dict__:
+                object.__setattr__(self, "_graph", Graph(self.n))
+            table[key] = (fn, translate(self._graph, fn, shape))
+        return table[key][1]
+
+    def _check_index_range(self, what, fn, expected):
+        """Catch indexing past the state vector (or the parameters), which JAX silently
+        clamps (``x[5]`` of 2 states): a constant index out of range found while the
+        function is translated into the expression graph; a function the graph cannot
+        translate is called once on numpy arrays instead (:func:`_check_indexing`)."""
+        n, P = self.n, len(self.params)
+        try:
+            if not self.params and self.time is None:
+                expr = self.expression(fn, expected)
+            else:
+                scratch = self.__dict__.get("_index_graph")
+                if scratch is None:
+                    scratch = Graph(n + P + (self.time is not None))
+                    object.__setattr__(self, "_index_graph", scratch)
+                extra = ((P,),) if P else ()
+                extra += ((),) if self.time is not None else ()
+                expr = translate(scratch, fn, expected, extra)
+        except IndexOutOfRange as exc:
+            where = f"the state vector of length {n}" if not P else f"x (length {n}) or p (length {P})"
+            raise ModelError(f"{what} indexes outside {where}: {exc}") from None
+        if expr is None:
+            _check_indexing(what, fn, n, P if P else None,
+                            None if self.time is None else sum(self.time_box) / 2)
 
     def _promote_to_float(self, which):
         """Wrap the functions named in ``which`` (integer/boolean results) to return floats."""
@@ -430,14 +476,37 @@ class System:
 
 
 def _finite_masks(system, fns, samples, seed) -> list[np.ndarray]:
-    """For each function of ``x``, the ``(samples,)`` mask of sampled states where it is finite."""
+    """For each function of ``x``, the ``(samples,)`` mask of sampled states where it is finite.
+
+    Functions with an expression in the System's graph are evaluated by numpy over it (no
+    program compiled); the others by one jitted, vmapped program.
+    """
     from .sampling import sample_states
 
+    xs = sample_states(system, samples, seed=seed)
     fns = tuple(fns)
-    with jax.enable_x64(True):
-        xs = sample_states(system, samples, seed=seed)
-        values = jax.jit(lambda s: tuple(jax.vmap(fn)(s) for fn in fns))(xs)
-    return [np.isfinite(np.asarray(v).reshape(samples, -1)).all(axis=1) for v in values]
+    exprs = [None] * len(fns)
+    if "_expressions" in system.__dict__:
+        table = system._expressions
+        exprs = [next((e for f, e in table.values() if f is fn), None) for fn in fns]
+    masks = [None] * len(fns)
+    graphed = [i for i, e in enumerate(exprs) if e is not None]
+    if graphed:
+        roots = [r for i in graphed for r in ((exprs[i],) if isinstance(exprs[i], int) else exprs[i])]
+        values = evaluate(system._graph, roots, xs, gradients=False)
+        at = 0
+        for i in graphed:
+            width = 1 if isinstance(exprs[i], int) else len(exprs[i])
+            masks[i] = np.isfinite(values[:, at:at + width]).all(axis=1)
+            at += width
+    rest = [i for i, e in enumerate(exprs) if e is None]
+    if rest:
+        others = tuple(fns[i] for i in rest)
+        with jax.enable_x64(True):
+            values = jax.jit(lambda s: tuple(jax.vmap(fn)(s) for fn in others))(jnp.asarray(xs))
+        for i, v in zip(rest, values):
+            masks[i] = np.isfinite(np.asarray(v).reshape(samples, -1)).all(axis=1)
+    return masks
 
 
 def _percent(fraction: float) -> str:

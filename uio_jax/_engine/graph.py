@@ -1,0 +1,374 @@
+"""One expression graph per model: scalar nodes with shared subexpressions.
+
+The first verdict on a model must not wait for XLA to compile programs that run once
+(``docs/benchmarks/engine.md``). The exact symbolic route is fast because it works on one
+expression graph in which every subexpression exists once; this module is that graph,
+without a computer algebra system's simplifier:
+
+* **Nodes** are scalars, numbered in creation order, so the operands of a node always
+  have smaller numbers (the numbering is a topological order). A node is ``(op, args,
+  param)``: a state coordinate ``x`` (param: its index), a constant ``c`` (param: the
+  float64 value), or an operation on earlier nodes (``add``, ``mul``, ``div``, ``neg``,
+  ``ipow`` with an integer exponent, elementary functions, comparisons, ``select``).
+* **Hash-consing**: a node is created once; asking again for the same ``(op, args,
+  param)`` returns the same number. ``add`` and ``mul`` order their operands, so
+  ``a + b`` and ``b + a`` are one node.
+* **Local rules only**: constants are folded, ``0 + a = a``, ``1 * a = a``, ``0 * a = 0``,
+  ``-(-a) = a``, ``a ** 1 = a``. Nothing is expanded or factored: the graph of a Lie
+  derivative is a few nodes per node of the function it differentiates.
+* **Symbolic directional derivatives** (:meth:`Graph.jvp`): ``d phi . v`` for a tangent
+  ``v`` given as one node per coordinate, by the chain rule node by node, memoized per
+  tangent: ``L_v phi`` and ``L_v psi`` share the derivative of every subexpression of
+  ``phi`` and ``psi`` that they share. A Lie derivative of order ``k`` costs ``O(size)``
+  new nodes per order.
+
+Evaluation is elsewhere: :mod:`.graph_numpy` (float64 values and gradients over many
+states, numpy), :mod:`.graph_exact` (exact arithmetic modulo a prime, and mpmath at
+extended precision, for the certificate's weak decisions). The translation of a model's
+JAX functions into the graph is :mod:`.graph_trace`.
+"""
+
+import math
+
+import numpy as np
+
+#: operations whose value is a rational function of their operands (exact modulo a prime)
+RATIONAL_OPS = frozenset({"x", "c", "add", "mul", "div", "neg", "ipow"})
+
+#: piecewise constant operations: derivative zero (comparisons, logic, rounding)
+PIECEWISE_CONSTANT = frozenset({"lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not",
+                                "sign", "floor", "ceil", "round"})
+
+#: elementary functions of one operand (``log`` is the natural logarithm)
+UNARY = frozenset({"neg", "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "atan", "asin",
+                   "acos", "sinh", "cosh", "asinh", "acosh", "atanh", "abs", "log1p", "expm1",
+                   "logistic", "erf", "cbrt", "sign", "floor", "ceil", "round", "not"})
+
+#: operations of two operands
+BINARY = frozenset({"add", "mul", "div", "pow", "atan2", "lt", "le", "gt", "ge", "eq", "ne",
+                    "and", "or"})
+
+_FOLD = {
+    "neg": lambda a: -a, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp,
+    "log": np.log, "sqrt": np.sqrt, "tanh": np.tanh, "atan": np.arctan, "asin": np.arcsin,
+    "acos": np.arccos, "sinh": np.sinh, "cosh": np.cosh, "asinh": np.arcsinh,
+    "acosh": np.arccosh, "atanh": np.arctanh, "abs": np.abs, "log1p": np.log1p,
+    "expm1": np.expm1, "logistic": lambda a: 1.0 / (1.0 + np.exp(-a)),
+    "erf": lambda a: np.float64(math.erf(a)), "cbrt": np.cbrt, "sign": np.sign,
+    "floor": np.floor, "ceil": np.ceil, "round": np.round, "not": lambda a: np.float64(a == 0),
+    "add": lambda a, b: a + b, "mul": lambda a, b: a * b, "div": lambda a, b: a / b,
+    "pow": lambda a, b: a ** b, "atan2": np.arctan2, "lt": lambda a, b: np.float64(a < b),
+    "le": lambda a, b: np.float64(a <= b), "gt": lambda a, b: np.float64(a > b),
+    "ge": lambda a, b: np.float64(a >= b), "eq": lambda a, b: np.float64(a == b),
+    "ne": lambda a, b: np.float64(a != b), "and": lambda a, b: np.float64(bool(a) and bool(b)),
+    "or": lambda a, b: np.float64(bool(a) or bool(b)),
+}
+
+
+class Graph:
+    """A hash-consed graph of scalar expressions in ``n`` state coordinates.
+
+    Args:
+        n: number of state coordinates; nodes ``x(0)..x(n-1)`` are created first.
+
+    Attributes:
+        op: ``op[i]``, the operation of node ``i`` (a short string, see the module doc).
+        args: ``args[i]``, the operand nodes of node ``i`` (all ``< i``).
+        param: ``param[i]``: the value of a constant, the index of a coordinate, the
+            exponent of an ``ipow``; None otherwise.
+        zero, one: the constant nodes 0 and 1.
+    """
+
+    def __init__(self, n: int):
+        self.n = int(n)
+        self.op: list[str] = []
+        self.args: list[tuple] = []
+        self.param: list = []
+        self._intern: dict = {}
+        self._tangents: dict = {}
+        self.zero = self.const(0.0)
+        self.one = self.const(1.0)
+        self.coords = tuple(self._node("x", (), i) for i in range(self.n))
+
+    def __len__(self) -> int:
+        return len(self.op)
+
+    # ------------------------------------------------------------------ construction
+    def _node(self, op, args, param=None) -> int:
+        key = (op, args, param)
+        found = self._intern.get(key)
+        if found is not None:
+            return found
+        i = len(self.op)
+        self.op.append(op)
+        self.args.append(args)
+        self.param.append(param)
+        self._intern[key] = i
+        return i
+
+    def x(self, i: int) -> int:
+        """The node of state coordinate ``i``."""
+        return self.coords[i]
+
+    def const(self, value) -> int:
+        """The node of a float64 constant (``-0.0`` is ``0.0``)."""
+        v = float(value)
+        if v == 0.0:
+            v = 0.0
+        if v != v:  # NaN: one node (NaN != NaN would defeat the table)
+            return self._node("c", (), "nan")
+        return self._node("c", (), v)
+
+    def is_const(self, i: int) -> bool:
+        """Whether node ``i`` is a constant."""
+        return self.op[i] == "c"
+
+    def value_of(self, i: int) -> float:
+        """The value of constant node ``i``."""
+        p = self.param[i]
+        return math.nan if p == "nan" else p
+
+    def _fold(self, op, *args):
+        if all(self.op[a] == "c" for a in args):
+            with np.errstate(all="ignore"):
+                return self.const(_FOLD[op](*(np.float64(self.value_of(a)) for a in args)))
+        return None
+
+    def add(self, a: int, b: int) -> int:
+        """``a + b``."""
+        if a == self.zero:
+            return b
+        if b == self.zero:
+            return a
+        folded = self._fold("add", a, b)
+        if folded is not None:
+            return folded
+        return self._node("add", (a, b) if a <= b else (b, a))
+
+    def sub(self, a: int, b: int) -> int:
+        """``a - b`` (``a + (-b)``)."""
+        return self.add(a, self.neg(b))
+
+    def neg(self, a: int) -> int:
+        """``-a``."""
+        if self.op[a] == "neg":
+            return self.args[a][0]
+        folded = self._fold("neg", a)
+        return folded if folded is not None else self._node("neg", (a,))
+
+    def mul(self, a: int, b: int) -> int:
+        """``a * b``."""
+        if a == self.zero or b == self.zero:
+            return self.zero
+        if a == self.one:
+            return b
+        if b == self.one:
+            return a
+        folded = self._fold("mul", a, b)
+        if folded is not None:
+            return folded
+        if self.op[a] == "c" and self.param[a] == -1.0:
+            return self.neg(b)
+        if self.op[b] == "c" and self.param[b] == -1.0:
+            return self.neg(a)
+        return self._node("mul", (a, b) if a <= b else (b, a))
+
+    def div(self, a: int, b: int) -> int:
+        """``a / b``."""
+        if b == self.one:
+            return a
+        if a == self.zero and b != self.zero:
+            return self.zero
+        folded = self._fold("div", a, b)
+        return folded if folded is not None else self._node("div", (a, b))
+
+    def ipow(self, a: int, k: int) -> int:
+        """``a ** k`` for an integer ``k``."""
+        k = int(k)
+        if k == 0:
+            return self.one
+        if k == 1:
+            return a
+        if self.op[a] == "c":
+            with np.errstate(all="ignore"):
+                return self.const(np.float64(self.value_of(a)) ** k)
+        return self._node("ipow", (a,), k)
+
+    def unary(self, op: str, a: int) -> int:
+        """An elementary function of one operand (``sin``, ``exp``, ...; see :data:`UNARY`)."""
+        if op == "neg":
+            return self.neg(a)
+        folded = self._fold(op, a)
+        return folded if folded is not None else self._node(op, (a,))
+
+    def binary(self, op: str, a: int, b: int) -> int:
+        """An operation of two operands (see :data:`BINARY`)."""
+        if op == "add":
+            return self.add(a, b)
+        if op == "mul":
+            return self.mul(a, b)
+        if op == "div":
+            return self.div(a, b)
+        if op == "pow":
+            if self.op[b] == "c" and float(self.value_of(b)).is_integer() and abs(self.value_of(b)) < 2**31:
+                return self.ipow(a, int(self.value_of(b)))
+            if b == self.const(0.5):
+                return self.unary("sqrt", a)
+        folded = self._fold(op, a, b)
+        return folded if folded is not None else self._node(op, (a, b))
+
+    def select(self, pred: int, if_false: int, if_true: int) -> int:
+        """``if_true`` where ``pred`` is nonzero, else ``if_false`` (JAX's ``select_n``)."""
+        if if_false == if_true:
+            return if_true
+        if self.op[pred] == "c":
+            return if_true if self.value_of(pred) != 0 else if_false
+        return self._node("select", (pred, if_false, if_true))
+
+    def dot(self, a, b) -> int:
+        """``sum_i a[i] * b[i]`` of two sequences of nodes (0 when empty)."""
+        out = self.zero
+        for u, v in zip(a, b):
+            out = self.add(out, self.mul(u, v))
+        return out
+
+    # ------------------------------------------------------------------ structure
+    def reachable(self, roots) -> list[int]:
+        """Every node the ``roots`` depend on (themselves included), ascending."""
+        seen = set()
+        stack = [r for r in roots]
+        args = self.args
+        while stack:
+            i = stack.pop()
+            if i in seen:
+                continue
+            seen.add(i)
+            stack.extend(args[i])
+        return sorted(seen)
+
+    def is_rational(self, roots) -> bool:
+        """Whether every node behind ``roots`` is a rational operation (:data:`RATIONAL_OPS`)."""
+        op = self.op
+        return all(op[i] in RATIONAL_OPS for i in self.reachable(roots))
+
+    def size(self, roots) -> int:
+        """Number of nodes behind ``roots``."""
+        return len(self.reachable(roots))
+
+    # ------------------------------------------------------------------ derivatives
+    def jvp(self, roots, tangent) -> list[int]:
+        """Directional derivatives ``d r . v`` of the nodes ``roots``.
+
+        Args:
+            roots: node numbers (scalars).
+            tangent: ``n`` nodes, the direction ``v`` (one per state coordinate).
+
+        Returns:
+            one node per root: ``sum_i (d r / d x_i) v_i``, built by the chain rule node by
+            node and memoized per tangent (derivatives of shared subexpressions are shared).
+        """
+        tangent = tuple(tangent)
+        if len(tangent) != self.n:
+            raise ValueError(f"tangent has {len(tangent)} entries, expected {self.n}")
+        memo = self._tangents.setdefault(tangent, {})
+        todo = []
+        seen = set()
+        stack = list(roots)
+        args = self.args
+        while stack:
+            i = stack.pop()
+            if i in memo or i in seen:
+                continue
+            seen.add(i)
+            todo.append(i)
+            stack.extend(args[i])
+        for i in sorted(todo):
+            memo[i] = self._derivative(i, memo, tangent)
+        return [memo[r] for r in roots]
+
+    def _derivative(self, i, memo, tangent):
+        op, a = self.op[i], self.args[i]
+        if op == "c" or op in PIECEWISE_CONSTANT:
+            return self.zero
+        if op == "x":
+            return tangent[self.param[i]]
+        ta = memo[a[0]]
+        if op == "add":
+            return self.add(ta, memo[a[1]])
+        if op == "mul":
+            return self.add(self.mul(ta, a[1]), self.mul(a[0], memo[a[1]]))
+        if op == "select":
+            return self.select(a[0], memo[a[1]], memo[a[2]])
+        if len(a) == 2:
+            tb = memo[a[1]]
+            if ta == self.zero and tb == self.zero:
+                return self.zero
+            return self._binary_derivative(op, i, a[0], a[1], ta, tb)
+        if ta == self.zero:
+            return self.zero
+        return self.mul(self._unary_slope(op, i, a[0]), ta) if op != "neg" else self.neg(ta)
+
+    def _unary_slope(self, op, i, a):
+        """``d op(a) / d a`` as a node (``i`` is the node ``op(a)`` itself)."""
+        one = self.one
+        if op == "ipow":
+            k = self.param[i]
+            return self.mul(self.const(k), self.ipow(a, k - 1))
+        if op == "sin":
+            return self.unary("cos", a)
+        if op == "cos":
+            return self.neg(self.unary("sin", a))
+        if op == "tan":
+            return self.add(one, self.ipow(i, 2))
+        if op == "exp":
+            return i
+        if op == "log":
+            return self.div(one, a)
+        if op == "sqrt":
+            return self.div(self.const(0.5), i)
+        if op == "tanh":
+            return self.sub(one, self.ipow(i, 2))
+        if op == "atan":
+            return self.div(one, self.add(one, self.ipow(a, 2)))
+        if op == "asin":
+            return self.div(one, self.unary("sqrt", self.sub(one, self.ipow(a, 2))))
+        if op == "acos":
+            return self.neg(self.div(one, self.unary("sqrt", self.sub(one, self.ipow(a, 2)))))
+        if op == "sinh":
+            return self.unary("cosh", a)
+        if op == "cosh":
+            return self.unary("sinh", a)
+        if op == "asinh":
+            return self.div(one, self.unary("sqrt", self.add(self.ipow(a, 2), one)))
+        if op == "acosh":
+            return self.div(one, self.unary("sqrt", self.sub(self.ipow(a, 2), one)))
+        if op == "atanh":
+            return self.div(one, self.sub(one, self.ipow(a, 2)))
+        if op == "abs":
+            return self.unary("sign", a)
+        if op == "log1p":
+            return self.div(one, self.add(one, a))
+        if op == "expm1":
+            return self.add(i, one)
+        if op == "logistic":
+            return self.mul(i, self.sub(one, i))
+        if op == "erf":
+            return self.mul(self.const(2.0 / math.sqrt(math.pi)),
+                            self.unary("exp", self.neg(self.ipow(a, 2))))
+        if op == "cbrt":
+            return self.div(self.const(1.0 / 3.0), self.ipow(i, 2))
+        raise NotImplementedError(f"no derivative for {op}")
+
+    def _binary_derivative(self, op, i, a, b, ta, tb):
+        if op == "div":  # (ta - (a/b) tb) / b
+            return self.div(self.sub(ta, self.mul(i, tb)), b)
+        if op == "pow":  # a^b (tb log a + b ta / a)
+            return self.mul(i, self.add(self.mul(tb, self.unary("log", a)),
+                                        self.div(self.mul(b, ta), a)))
+        if op == "atan2":  # (b ta - a tb) / (a^2 + b^2)
+            return self.div(self.sub(self.mul(b, ta), self.mul(a, tb)),
+                            self.add(self.ipow(a, 2), self.ipow(b, 2)))
+        raise NotImplementedError(f"no derivative for {op}")
+
+
+__all__ = ["Graph", "RATIONAL_OPS", "PIECEWISE_CONSTANT", "UNARY", "BINARY"]

@@ -1,0 +1,546 @@
+"""A model's JAX function as nodes of the expression graph (:mod:`.graph`).
+
+The function is traced once to a jaxpr (``jax.make_jaxpr``: a fraction of a millisecond
+for a model function) and the jaxpr is walked by the one interpreter
+(:func:`uio_jax._engine.interpreter.interpret`) with this module's rule table. A value
+of the walk is a numpy array of the variable's shape:
+
+* **concrete** (a numeric dtype): a constant of the model, an index, a literal; rules
+  on concrete operands compute with numpy (``x[5]`` of a 2-vector shows up here as an
+  index computed from literals);
+* **symbolic** (``dtype=object``): one graph node number per element.
+
+Structural primitives (slice, reshape, concatenate, broadcast, transpose, indexing with
+constant indices, ...) move node numbers around with numpy; elementwise primitives make
+one node per element; ``dot_general`` and reductions make sums of products. A primitive
+without a rule, or one that would need the value of a state (an index computed from
+the state, a loop), raises :class:`Untranslatable`: the caller keeps the XLA route for
+that model (:func:`trace_to_graph` callers decide, never the user).
+"""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .graph import Graph
+from .interpreter import Rules, inline, interpret
+
+
+class Untranslatable(NotImplementedError):
+    """The function uses a primitive (or a pattern) the graph cannot represent."""
+
+    def __init__(self, primitive, detail=""):
+        super().__init__(f"{primitive}{': ' + detail if detail else ''}")
+        self.primitive = primitive
+
+
+class IndexOutOfRange(IndexError):
+    """A constant index past the end of an array (JAX would clamp it silently)."""
+
+
+def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
+    """The outputs of ``fn`` as graph nodes.
+
+    Args:
+        graph: the graph to add nodes to.
+        fn: a JAX-traceable function of ``len(arg_shapes)`` float64 arrays.
+        arg_nodes: per argument, a sequence of node numbers (its elements, row-major);
+            None for an argument traced but not given as nodes (never used here).
+        arg_shapes: per argument, its shape.
+
+    Returns:
+        ``(out, out_dtype)``: numpy object array of node numbers in the output's shape, and
+        the output's dtype.
+
+    Raises:
+        Untranslatable: a primitive without a rule or a value that depends on the state
+            where a constant is needed.
+        IndexOutOfRange: a constant index past the end of an array.
+    """
+    with jax.enable_x64(True):
+        closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
+    args = []
+    for nodes, shape in zip(arg_nodes, arg_shapes):
+        arr = np.empty(len(nodes), dtype=object)
+        arr[:] = list(nodes)
+        args.append(arr.reshape(shape))
+    consts = [np.asarray(c) for c in closed.consts]
+    with np.errstate(all="ignore"):  # constants such as 1/0 fold to inf, as in XLA
+        (out,) = interpret(closed.jaxpr, consts, args, _RULES, graph)
+    dtype = closed.out_avals[0].dtype
+    return _symbolic(graph, out), dtype
+
+
+# ---------------------------------------------------------------------- helpers
+def _is_sym(v) -> bool:
+    return isinstance(v, np.ndarray) and v.dtype == object
+
+
+def _symbolic(graph, v):
+    """``v`` as an object array of nodes (concrete numbers become constant nodes)."""
+    if _is_sym(v):
+        return v
+    v = np.asarray(v)
+    if np.iscomplexobj(v):
+        raise Untranslatable("complex", "complex values")
+    out = np.empty(v.shape, dtype=object)
+    flat = out.reshape(-1)
+    for k, x in enumerate(v.reshape(-1)):
+        flat[k] = graph.const(float(x))
+    return out
+
+
+def _elementwise(graph, fn, ins):
+    """``fn(graph, *nodes)`` per element of the broadcast operands (object arrays)."""
+    ops = np.broadcast_arrays(*[_symbolic(graph, v) for v in ins])
+    out = np.empty(ops[0].shape, dtype=object)
+    flat = out.reshape(-1)
+    for k, items in enumerate(zip(*[o.reshape(-1) for o in ops])):
+        flat[k] = fn(*items)
+    return out
+
+
+def _concrete_rule(np_fn):
+    """A rule that computes with numpy when every operand is concrete, else symbolically
+    by ``sym(graph, ins, eqn)``."""
+
+    def wrap(sym):
+        def rule(graph, i, eqn, ins):
+            if not any(_is_sym(v) for v in ins):
+                return [np.asarray(np_fn(*[np.asarray(v) for v in ins]))]
+            return [sym(graph, ins, eqn)]
+
+        return rule
+
+    return wrap
+
+
+def _unary(op):
+    np_fn = {"neg": np.negative, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp,
+             "log": np.log, "sqrt": np.sqrt, "tanh": np.tanh, "atan": np.arctan,
+             "asin": np.arcsin, "acos": np.arccos, "sinh": np.sinh, "cosh": np.cosh,
+             "asinh": np.arcsinh, "acosh": np.arccosh, "atanh": np.arctanh, "abs": np.abs,
+             "log1p": np.log1p, "expm1": np.expm1, "sign": np.sign, "floor": np.floor,
+             "ceil": np.ceil, "round": np.round, "cbrt": np.cbrt,
+             "logistic": lambda a: 1 / (1 + np.exp(-a)), "not": np.logical_not,
+             "erf": np.vectorize(math.erf, otypes=[np.float64])}[op]
+
+    @_concrete_rule(np_fn)
+    def rule(graph, ins, eqn):
+        return _elementwise(graph, lambda a: graph.unary(op, a), ins)
+
+    return rule
+
+
+def _binary(op, np_fn):
+    @_concrete_rule(np_fn)
+    def rule(graph, ins, eqn):
+        return _elementwise(graph, lambda a, b: graph.binary(op, a, b), ins)
+
+    return rule
+
+
+def _sub(graph, i, eqn, ins):
+    if not any(_is_sym(v) for v in ins):
+        return [np.subtract(*ins)]
+    return [_elementwise(graph, graph.sub, ins)]
+
+
+def _integer_pow(graph, i, eqn, ins):
+    k = eqn.params["y"]
+    if not _is_sym(ins[0]):
+        return [np.asarray(ins[0]) ** k]
+    return [_elementwise(graph, lambda a: graph.ipow(a, k), ins)]
+
+
+def _square(graph, i, eqn, ins):
+    if not _is_sym(ins[0]):
+        return [np.asarray(ins[0]) ** 2]
+    return [_elementwise(graph, lambda a: graph.ipow(a, 2), ins)]
+
+
+def _rsqrt(graph, i, eqn, ins):
+    if not _is_sym(ins[0]):
+        return [1 / np.sqrt(ins[0])]
+    return [_elementwise(graph, lambda a: graph.div(graph.one, graph.unary("sqrt", a)), ins)]
+
+
+def _exp2(graph, i, eqn, ins):
+    if not _is_sym(ins[0]):
+        return [np.exp2(ins[0])]
+    two = graph.const(2.0)
+    return [_elementwise(graph, lambda a: graph.binary("pow", two, a), ins)]
+
+
+def _max_min(greater):
+    def rule(graph, i, eqn, ins):
+        if not any(_is_sym(v) for v in ins):
+            return [(np.maximum if greater else np.minimum)(*ins)]
+        cmp = "gt" if greater else "lt"
+        return [_elementwise(graph, lambda a, b: graph.select(graph.binary(cmp, a, b), b, a), ins)]
+
+    return rule
+
+
+def _clamp(graph, i, eqn, ins):
+    lo, x, hi = ins
+    if not any(_is_sym(v) for v in ins):
+        return [np.clip(x, lo, hi)]
+
+    def one(lo_, x_, hi_):
+        y = graph.select(graph.binary("lt", x_, lo_), x_, lo_)
+        return graph.select(graph.binary("gt", y, hi_), y, hi_)
+
+    return [_elementwise(graph, one, ins)]
+
+
+def _select_n(graph, i, eqn, ins):
+    pred, *cases = ins
+    if not _is_sym(pred):
+        pred = np.asarray(pred)
+        if all(not _is_sym(c) for c in cases):
+            return [np.choose(pred.astype(int), [np.asarray(c) for c in cases])]
+        cases = np.broadcast_arrays(*[_symbolic(graph, c) for c in cases])
+        return [np.choose(np.broadcast_to(pred.astype(int), cases[0].shape), cases)]
+    if len(cases) != 2:
+        raise Untranslatable("select_n", "more than two cases with a state-dependent choice")
+    return [_elementwise(graph, graph.select, [pred, cases[0], cases[1]])]
+
+
+def _convert(graph, i, eqn, ins):
+    (a,) = ins
+    new = np.dtype(eqn.params["new_dtype"])
+    if not _is_sym(a):
+        return [np.asarray(a).astype(new)]
+    if np.issubdtype(new, np.floating) or new == np.bool_:
+        return [a]
+    if np.issubdtype(new, np.complexfloating):
+        raise Untranslatable("convert_element_type", "complex values")
+    # float -> integer truncates: allowed only where the node is a 0/1 logical value
+    if all(graph.op[k] in ("lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not", "c")
+           for k in a.reshape(-1)):
+        return [a]
+    raise Untranslatable("convert_element_type", f"a state-dependent value cast to {new}")
+
+
+# ---------------------------------------------------------------------- structural
+def _slice(graph, i, eqn, ins):
+    p = eqn.params
+    strides = p["strides"] or (1,) * len(p["start_indices"])
+    idx = tuple(slice(s, e, st) for s, e, st in zip(p["start_indices"], p["limit_indices"], strides))
+    return [np.asarray(ins[0])[idx]]
+
+
+def _squeeze(graph, i, eqn, ins):
+    return [np.squeeze(np.asarray(ins[0]), axis=tuple(eqn.params["dimensions"]))]
+
+
+def _reshape(graph, i, eqn, ins):
+    if eqn.params.get("dimensions") not in (None, ()):
+        raise Untranslatable("reshape", "with dimensions")
+    return [np.reshape(np.asarray(ins[0]), eqn.params["new_sizes"])]
+
+
+def _expand_dims(graph, i, eqn, ins):
+    return [np.expand_dims(np.asarray(ins[0]), eqn.params["dimensions"])]
+
+
+def _broadcast_in_dim(graph, i, eqn, ins):
+    a = np.asarray(ins[0])
+    shape, dims = eqn.params["shape"], eqn.params["broadcast_dimensions"]
+    expanded = [1] * len(shape)
+    for d, s in zip(dims, a.shape):
+        expanded[d] = s
+    return [np.broadcast_to(a.reshape(expanded), shape).copy()]
+
+
+def _concatenate(graph, i, eqn, ins):
+    if any(_is_sym(v) for v in ins):
+        ins = [_symbolic(graph, v) for v in ins]
+    return [np.concatenate([np.asarray(v) for v in ins], axis=eqn.params["dimension"])]
+
+
+def _stack(graph, i, eqn, ins):
+    if any(_is_sym(v) for v in ins):
+        ins = [_symbolic(graph, v) for v in ins]
+    return [np.stack([np.asarray(v) for v in ins], axis=eqn.params.get("axis", 0))]
+
+
+def _transpose(graph, i, eqn, ins):
+    return [np.transpose(np.asarray(ins[0]), eqn.params["permutation"])]
+
+
+def _rev(graph, i, eqn, ins):
+    return [np.flip(np.asarray(ins[0]), axis=tuple(eqn.params["dimensions"]))]
+
+
+def _identity(graph, i, eqn, ins):
+    return [ins[0]]
+
+
+def _iota(graph, i, eqn, ins):
+    p = eqn.params
+    shape, dim = p["shape"], p["dimension"]
+    ar = np.arange(shape[dim], dtype=np.dtype(p["dtype"]))
+    view = [1] * len(shape)
+    view[dim] = shape[dim]
+    return [np.broadcast_to(ar.reshape(view), shape).copy()]
+
+
+def _pad(graph, i, eqn, ins):
+    a, value = ins
+    config = eqn.params["padding_config"]
+    if any(interior for _, _, interior in config) or any(lo < 0 or hi < 0 for lo, hi, _ in config):
+        raise Untranslatable("pad", "interior or negative padding")
+    if _is_sym(a) or _is_sym(value):
+        a, value = _symbolic(graph, a), _symbolic(graph, value)
+        out = np.empty(tuple(s + lo + hi for s, (lo, hi, _) in zip(a.shape, config)), dtype=object)
+        out[...] = value.reshape(())
+        out[tuple(slice(lo, lo + s) for s, (lo, _, _) in zip(a.shape, config))] = a
+        return [out]
+    return [np.pad(a, [(lo, hi) for lo, hi, _ in config], constant_values=value)]
+
+
+def _concrete_index(v, what):
+    if _is_sym(v):
+        raise Untranslatable(what, "an index that depends on the state")
+    return np.asarray(v)
+
+
+def _dynamic_slice(graph, i, eqn, ins):
+    a, *starts = ins
+    a = np.asarray(a)
+    sizes = eqn.params["slice_sizes"]
+    idx = []
+    for d, (s, size) in enumerate(zip(starts, sizes)):
+        s = int(_concrete_index(s, "dynamic_slice"))
+        if s < 0 or s + size > a.shape[d]:
+            raise IndexOutOfRange(f"index {s} is out of bounds for axis {d} with size {a.shape[d]}")
+        idx.append(slice(s, s + size))
+    return [a[tuple(idx)]]
+
+
+def _dynamic_update_slice(graph, i, eqn, ins):
+    a, update, *starts = ins
+    if _is_sym(a) or _is_sym(update):
+        a, update = _symbolic(graph, a).copy(), _symbolic(graph, update)
+    else:
+        a = np.array(a)
+    idx = []
+    for d, (s, size) in enumerate(zip(starts, update.shape)):
+        s = int(_concrete_index(s, "dynamic_update_slice"))
+        if s < 0 or s + size > a.shape[d]:
+            raise IndexOutOfRange(f"index {s} is out of bounds for axis {d} with size {a.shape[d]}")
+        idx.append(slice(s, s + size))
+    a[tuple(idx)] = update
+    return [a]
+
+
+def _gather(graph, i, eqn, ins):
+    a, indices = ins
+    indices = _concrete_index(indices, "gather")
+    a = np.asarray(a)
+    dn = eqn.params["dimension_numbers"]
+    sizes = eqn.params["slice_sizes"]
+    # the pattern of x[idx] (integer-array indexing of the first axis)
+    if (tuple(dn.collapsed_slice_dims) == (0,) and tuple(dn.start_index_map) == (0,)
+            and not getattr(dn, "operand_batching_dims", ()) and sizes[0] == 1
+            and tuple(sizes[1:]) == a.shape[1:] and indices.shape[-1:] == (1,)):
+        idx = indices[..., 0].astype(int)
+        if (idx < 0).any() or (idx >= a.shape[0]).any():
+            raise IndexOutOfRange(f"index {idx.max()} is out of bounds for axis 0 with size {a.shape[0]}")
+        taken = a[idx]  # shape: indices batch + a.shape[1:]
+        offset = tuple(dn.offset_dims)
+        batch = idx.ndim
+        if offset == tuple(range(batch, batch + a.ndim - 1)):
+            return [taken]
+    raise Untranslatable("gather", "an indexing pattern other than x[integer array]")
+
+
+def _scatter_add(graph, i, eqn, ins):
+    raise Untranslatable(eqn.primitive.name)
+
+
+def _reduce(op):
+    def rule(graph, i, eqn, ins):
+        axes = tuple(eqn.params["axes"])
+        a = ins[0]
+        if not _is_sym(a):
+            fn = {"add": np.sum, "max": np.max, "min": np.min, "mul": np.prod,
+                  "and": np.all, "or": np.any}[op]
+            return [np.asarray(fn(a, axis=axes))]
+        a = np.moveaxis(a, axes, tuple(range(-len(axes), 0)))
+        lead = a.shape[: a.ndim - len(axes)]
+        flat = a.reshape(lead + (-1,))
+        out = np.empty(lead, dtype=object)
+        of = out.reshape(-1)
+        for k, row in enumerate(flat.reshape(-1, flat.shape[-1])):
+            of[k] = _fold_row(graph, op, list(row))
+        return [out]
+
+    return rule
+
+
+def _fold_row(graph, op, row):
+    if op == "add":
+        acc = graph.zero
+        for v in row:
+            acc = graph.add(acc, v)
+        return acc
+    if op == "mul":
+        acc = graph.one
+        for v in row:
+            acc = graph.mul(acc, v)
+        return acc
+    if op in ("max", "min"):
+        acc = row[0]
+        for v in row[1:]:
+            acc = graph.select(graph.binary("gt" if op == "max" else "lt", v, acc), acc, v)
+        return acc
+    acc = row[0]
+    for v in row[1:]:
+        acc = graph.binary(op, acc, v)
+    return acc
+
+
+def _dot_general(graph, i, eqn, ins):
+    lhs, rhs = ins
+    (lc, rc), (lb, rb) = eqn.params["dimension_numbers"]
+    if not (_is_sym(lhs) or _is_sym(rhs)):
+        return [_np_dot_general(np.asarray(lhs), np.asarray(rhs), lc, rc, lb, rb)]
+    lhs, rhs = _symbolic(graph, lhs), _symbolic(graph, rhs)
+    lf = [d for d in range(lhs.ndim) if d not in lc and d not in lb]
+    rf = [d for d in range(rhs.ndim) if d not in rc and d not in rb]
+    L = np.transpose(lhs, list(lb) + lf + list(lc))
+    R = np.transpose(rhs, list(rb) + list(rc) + rf)
+    nb = int(np.prod([lhs.shape[d] for d in lb])) if lb else 1
+    nl = int(np.prod([lhs.shape[d] for d in lf])) if lf else 1
+    nc = int(np.prod([lhs.shape[d] for d in lc])) if lc else 1
+    nr = int(np.prod([rhs.shape[d] for d in rf])) if rf else 1
+    L = L.reshape(nb, nl, nc)
+    R = R.reshape(nb, nc, nr)
+    out = np.empty((nb, nl, nr), dtype=object)
+    for b in range(nb):
+        for p in range(nl):
+            for q in range(nr):
+                out[b, p, q] = graph.dot(L[b, p], R[b, :, q])
+    shape = [lhs.shape[d] for d in lb] + [lhs.shape[d] for d in lf] + [rhs.shape[d] for d in rf]
+    return [out.reshape(shape)]
+
+
+def _np_dot_general(lhs, rhs, lc, rc, lb, rb):
+    letters = "abcdefghijklmnopqrstuvwxyz"
+    ls = [letters[d] for d in range(lhs.ndim)]
+    rs = [letters[lhs.ndim + d] for d in range(rhs.ndim)]
+    for a, b in zip(lc, rc):
+        rs[b] = ls[a]
+    for a, b in zip(lb, rb):
+        rs[b] = ls[a]
+    lf = [ls[d] for d in range(lhs.ndim) if d not in lc and d not in lb]
+    rf = [rs[d] for d in range(rhs.ndim) if d not in rc and d not in rb]
+    out = "".join([ls[d] for d in lb] + lf + rf)
+    return np.einsum(f"{''.join(ls)},{''.join(rs)}->{out}", lhs, rhs)
+
+
+def _split(graph, i, eqn, ins):
+    sizes, axis = eqn.params["sizes"], eqn.params["axis"]
+    cuts = np.cumsum(sizes)[:-1]
+    return list(np.split(np.asarray(ins[0]), cuts, axis=axis))
+
+
+def _cumsum(graph, i, eqn, ins):
+    a = ins[0]
+    axis, reverse = eqn.params["axis"], eqn.params.get("reverse", False)
+    if not _is_sym(a):
+        a = np.asarray(a)
+        return [np.flip(np.cumsum(np.flip(a, axis), axis), axis) if reverse else np.cumsum(a, axis)]
+    a = np.moveaxis(a, axis, -1)
+    out = np.empty(a.shape, dtype=object)
+    for idx in np.ndindex(a.shape[:-1]):
+        row = a[idx]
+        order = range(len(row) - 1, -1, -1) if reverse else range(len(row))
+        acc = graph.zero
+        for k in order:
+            acc = graph.add(acc, row[k])
+            out[idx + (k,)] = acc
+    return [np.moveaxis(out, -1, axis)]
+
+
+def _call(graph, i, eqn, ins):
+    outs = inline(_RULES, graph, eqn, ins)
+    if outs is None:
+        raise Untranslatable(eqn.primitive.name, "no sub-jaxpr")
+    return outs
+
+
+def _untranslatable(graph, i, eqn, ins):
+    raise Untranslatable(eqn.primitive.name)
+
+
+_TABLE = {
+    **{op: _unary(op) for op in ("neg", "sin", "cos", "tan", "exp", "log", "sqrt", "tanh",
+                                 "atan", "asin", "acos", "sinh", "cosh", "asinh", "acosh",
+                                 "atanh", "abs", "log1p", "expm1", "sign", "floor", "ceil",
+                                 "round", "cbrt", "logistic", "not", "erf")},
+    "add": _binary("add", np.add), "add_any": _binary("add", np.add),
+    "mul": _binary("mul", np.multiply), "div": _binary("div", np.divide),
+    "pow": _binary("pow", np.power), "atan2": _binary("atan2", np.arctan2),
+    "lt": _binary("lt", np.less), "le": _binary("le", np.less_equal),
+    "gt": _binary("gt", np.greater), "ge": _binary("ge", np.greater_equal),
+    "eq": _binary("eq", np.equal), "ne": _binary("ne", np.not_equal),
+    "and": _binary("and", np.logical_and), "or": _binary("or", np.logical_or),
+    "sub": _sub, "integer_pow": _integer_pow, "square": _square, "rsqrt": _rsqrt,
+    "exp2": _exp2, "max": _max_min(True), "min": _max_min(False), "clamp": _clamp,
+    "select_n": _select_n, "convert_element_type": _convert,
+    "slice": _slice, "squeeze": _squeeze, "reshape": _reshape, "expand_dims": _expand_dims,
+    "broadcast_in_dim": _broadcast_in_dim, "concatenate": _concatenate, "stack": _stack,
+    "transpose": _transpose, "rev": _rev, "copy": _identity, "copy_p": _identity,
+    "reduce_precision": _identity, "iota": _iota, "pad": _pad,
+    "dynamic_slice": _dynamic_slice, "dynamic_update_slice": _dynamic_update_slice,
+    "gather": _gather, "scatter-add": _scatter_add, "scatter_add": _scatter_add,
+    "reduce_sum": _reduce("add"), "reduce_max": _reduce("max"), "reduce_min": _reduce("min"),
+    "reduce_prod": _reduce("mul"), "reduce_and": _reduce("and"), "reduce_or": _reduce("or"),
+    "dot_general": _dot_general, "split": _split, "cumsum": _cumsum,
+}
+
+_RULES = Rules(_TABLE, default=_untranslatable, calls=_call)
+
+def translate(graph: Graph, fn, shape, extra=()):
+    """The expression of a model function ``fn(x, *extra)`` in ``graph``, or None.
+
+    Args:
+        graph: the graph of the state ``x`` (its ``n`` coordinates).
+        fn: ``x (n,) -> shape`` (a JAX-traceable function).
+        shape: the expected output shape: ``()`` for a scalar, ``(n,)`` for a field.
+        extra: shapes of further arguments (parameters, time), whose elements are taken
+            as the coordinates after ``x``: ``graph.n`` must count them.
+
+    Returns:
+        an int (scalar) or a tuple of ints (one per output element); None when the graph has
+        no rule for a primitive of ``fn`` or the output shape differs.
+
+    Raises:
+        IndexOutOfRange: ``fn`` indexes an argument past its end with a constant index.
+    """
+    if fn is None:
+        return None
+    shapes = [(graph.n - sum(int(np.prod(e)) for e in extra),)] + [tuple(e) for e in extra]
+    nodes, at = [], 0
+    for sh in shapes:
+        size = int(np.prod(sh))
+        nodes.append(graph.coords[at:at + size])
+        at += size
+    try:
+        out, _ = trace_to_graph(graph, fn, nodes, shapes)
+    except Untranslatable:
+        return None
+    except (TypeError, ValueError):  # the function does not run on these arguments
+        return None
+    if tuple(out.shape) != tuple(shape):
+        return None
+    return int(out.reshape(())) if tuple(shape) == () else tuple(int(k) for k in out.reshape(-1))
+
+
+__all__ = ["Untranslatable", "IndexOutOfRange", "trace_to_graph", "translate"]
