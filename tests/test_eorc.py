@@ -187,13 +187,15 @@ def test_chain_block_equals_the_blocks_of_its_orders(known):
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
 
 
-def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes():
-    """The frontier of order 2 is the drift child of order 1's one generator: one chain
+def test_chain_serves_later_orders_and_is_dropped_when_the_frontier_changes(monkeypatch):
+    """(The compiled route, ``UIO_JAX_ENGINE=xla``: the gradient blocks are XLA programs.)
+    The frontier of order 2 is the drift child of order 1's one generator: one chain
     program covers orders 2..5 (K = 6, at most CHAIN_ORDERS = 4 orders). Order 3 with its
     assumed frontier takes row 1; another frontier at order 3 drops the chain and gets a
     block of its own (same gradients as ``block``)."""
     from uio_jax._analysis.eorc import _Eorc
 
+    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
     assert _blocks.CHAIN_ORDERS == 4
     run = _Eorc(_integrator_chain(), 6, 16, 0, default_rtol())
     y = run.ctx.output_nodes()[0]
@@ -218,7 +220,8 @@ def test_chain_gives_the_same_report_as_blocks_per_order(monkeypatch):
     """x1' = x2, x2' = x3, x3' = w (1 + x1^2), y = x1 + sin x2, a known field moving only the
     hidden x4: from order 1 on, the EORC keeps the drift child alone (every ``L_u phi`` is
     0), so one chain program serves orders 2..4. Same dims, ranks, observable states and
-    inputs as with a block per order."""
+    inputs as with a block per order. (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
+    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
     def hidden_chain():
         return uj.System(
             ("x1", "x2", "x3", "x4"), {"y": lambda s: s[0] + jnp.sin(s[1])},
@@ -275,7 +278,9 @@ def test_power_policy_falls_back_only_for_a_missing_rule():
 
 def test_streamed_blocks_give_the_same_report(monkeypatch):
     """Blocks over the samples in batches (after a block measured STREAM_ELEMENTS) answer
-    as the blocks over all samples at once; here every block after order 1 is streamed."""
+    as the blocks over all samples at once; here every block after order 1 is streamed.
+    (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
+    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
     case = "unicycle_disturbance.py:gamma_known_range"
     plain = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)
     batches = []

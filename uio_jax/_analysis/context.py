@@ -19,6 +19,7 @@ from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
 from .._model.system import DEFAULT_BOX
 from .rank import Codistribution
+from .settle import Settler
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
@@ -43,6 +44,7 @@ class Context:
         self.system = system
         self.builder = builder_for(system)
         self.samples = samples
+        self.seed = seed
         with jax.enable_x64(True):
             self._start(sample_states(system, samples, seed), rtol)
 
@@ -51,6 +53,8 @@ class Context:
         self.xs = xs
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, self.samples, hi - lo, rtol)
+        if self.builder.graph is not None:  # weak votes settled in the expression graph
+            self.codist.settle = Settler(self.builder.graph, lo, hi, self.seed).settle
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
@@ -59,7 +63,7 @@ class Context:
         """A fresh Context (empty codistribution, same builder) on the first ``samples``
         of these samples: a cheap preview of an analysis, e.g. to plan its evaluations."""
         sub = Context.__new__(Context)
-        sub.system, sub.builder = self.system, self.builder
+        sub.system, sub.builder, sub.seed = self.system, self.builder, self.seed
         sub.samples = min(int(samples), self.samples)
         sub._start(self.xs[:sub.samples], self.codist.rtol)
         return sub
@@ -70,6 +74,7 @@ class Context:
         e.g. a closure that may be discarded."""
         sub = Context.__new__(Context)
         sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
+        sub.seed = self.seed
         sub._start(self.xs, self.codist.rtol)
         sub._grads = self._grads
         return sub
@@ -95,7 +100,8 @@ class Context:
         """
         codist = self.codist
         tested = codist.test_units(count)
-        results = codist.contains(None, tested)
+        units = self.unit_nodes(count)
+        results = codist.contains(None, tested, nodes=units)
         self.memberships.extend(results)
         members = [m for m, _ in results]
         if all(members[:n]):
@@ -105,13 +111,20 @@ class Context:
         if codist.rank == 0:
             return members, 0
         fork = codist.copy()
-        units = [Node(f"e_{i}", None, "scalar") for i in range(n)]
-        added = fork.absorb(units, None, tested.first(n))
+        added = fork.absorb(units[:n], None, tested.first(n))
+        codist.escalations.extend(fork.escalations)
         self.memberships += [(False, d) for d in fork.acceptances]
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)
 
     # -------------------------------------------------------------- nodes
+    def unit_nodes(self, count: int) -> list[Node]:
+        """The coordinate functions ``z_1..z_count`` as Nodes (labels ``e_i``), whose
+        gradients are the unit covectors; with their expressions when the graph is on."""
+        g = self.builder.graph
+        return [Node(f"e_{i}", None, "scalar", expr=None if g is None else g.coords[i])
+                for i in range(count)]
+
     def output_nodes(self) -> list[Node]:
         """The outputs ``h_i: x (n,) -> ()`` of the System as scalar nodes, in order."""
         return [self.builder.scalar(k, fn) for k, fn in self.system.outputs.items()]
@@ -183,12 +196,16 @@ class Context:
 
     def contains_nodes(self, nodes) -> list[bool]:
         """Whether the gradients of scalar nodes lie in the span."""
-        grads = self.gradients(list(nodes))
-        return self.contains(np.moveaxis(grads, 1, 0))
+        nodes = list(nodes)
+        grads = self.gradients(nodes)
+        results = self.codist.contains(np.moveaxis(grads, 1, 0), nodes=nodes)
+        self.memberships.extend(results)
+        return [member for member, _ in results]
 
     def observable_states(self) -> dict[str, bool]:
         """State name -> ``e_j`` in the span (one test of every unit covector)."""
-        results = self.codist.contains(None, self.codist.test_units(self.system.n))
+        n = self.system.n
+        results = self.codist.contains(None, self.codist.test_units(n), nodes=self.unit_nodes(n))
         self.memberships.extend(results)
         return dict(zip(self.system.states, [member for member, _ in results]))
 
@@ -231,6 +248,7 @@ class Context:
             sigma_next_max=max((d.sigma_next_max for d in pruned), default=0.0),
             rtol=cd.rtol,
             decisions=len(everything),
+            escalations=tuple(cd.escalations),
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,
@@ -264,6 +282,12 @@ class Context:
                 f"{cert.dropped} of {cert.samples} sampled states "
                 f"({100 * cert.dropped / cert.samples:.0f} %) were dropped: the model is NaN/inf there"
             )
+        if cert.undecided:
+            what = "; ".join(f"{e.what}: {e.how}" for e in cert.escalations if e.result == "undecided")
+            notes.append(
+                f"UNDECIDED: {cert.undecided} rank decision{'s' if cert.undecided > 1 else ''} could "
+                f"not be settled, in float64 nor beyond ({what}); the verdicts rest on the float64 "
+                "majority and are not certified")
         if cert.min_fraction < 0.5:
             notes.append(
                 f"weak certificate: a rank decision was backed by only "

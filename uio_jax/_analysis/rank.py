@@ -24,9 +24,11 @@ evaluate the gradients at S random states of the domain and decide on the host.
   both sides of ``rtol``.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+
+from .settle import is_weak, median_decades
 
 
 def default_rtol() -> float:
@@ -84,6 +86,9 @@ class RankDecision:
         sigma_next_max: largest ``s_{r+1} / s_1`` among the samples at rank r (0.0 when
             the matrix has only r singular values).
         samples: number of valid samples the decision used.
+        settled: how a weak vote was settled again (:mod:`uio_jax._analysis.settle`):
+            ``""`` (a clear float64 vote, not escalated), ``"exact mod p"``, ``"mpmath"``
+            or ``"undecided"`` (the float64 majority kept, not certified).
     """
 
     rank: int
@@ -91,6 +96,7 @@ class RankDecision:
     sigma_r_min: float
     sigma_next_max: float
     samples: int
+    settled: str = ""
 
 
 def decide_rank(ratios, valid, rtol) -> RankDecision:
@@ -118,6 +124,10 @@ def decide_rank(ratios, valid, rtol) -> RankDecision:
 
 
 _BLOCK_BYTES = 64 * 2**20
+
+#: Distance above which a direction settled independent beyond float64 enters the
+#: per-sample basis (round-off of unit-scaled rows stays below 1e-13).
+SETTLED_FLOOR = 1e-13
 
 
 def _residuals(basis, ref, cands):
@@ -222,6 +232,10 @@ class Codistribution:
         self.nodes = []
         self.rejections: list[RankDecision] = []
         self.acceptances: list[RankDecision] = []
+        #: ``settle(kept nodes, candidate node, float64 text) -> Escalation`` for weak
+        #: votes (:class:`uio_jax._analysis.settle.Settler`), None: not settled again
+        self.settle = None
+        self.escalations: list = []  # Escalation records, in order
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
 
     @property
@@ -243,6 +257,7 @@ class Codistribution:
         c.basis, c.ref = self.basis.copy(), self.ref.copy()
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
+        c.settle, c.escalations = self.settle, []
         c._decided = self._decided
         return c
 
@@ -269,7 +284,10 @@ class Codistribution:
     def _keep(self, node, cand, rho, direction, decision):
         r = self.rank
         self.grads = np.concatenate([self.grads, cand[:, None, :]], axis=1)
-        self.basis[:, r] = np.where((rho > self.rtol)[:, None], direction, 0.0)
+        # a direction settled independent beyond float64 is kept wherever it stands out of
+        # round-off (its distance may sit under rtol at every sample)
+        floor = SETTLED_FLOOR if decision.settled in ("exact mod p", "mpmath") else self.rtol
+        self.basis[:, r] = np.where((rho > floor)[:, None], direction, 0.0)
         self.ref = np.maximum(self.ref, np.linalg.norm(cand, axis=-1))
         self.nodes.append(node)
         self.acceptances.append(decision)
@@ -330,7 +348,7 @@ class Codistribution:
         if self.rank >= self.n:
             return added
         rho, dirs = self._distances(cands) if tested is None else (tested.rho, tested.dirs)
-        first = [decide_increase(r, self.valid, self.rtol, self.rank) for r in rho]
+        first = [self._decide(r, nd, self.valid) for r, nd in zip(rho, nodes)]
         rising = [i for i, d in enumerate(first) if d.rank > self.rank]
         self.rejections.extend(d for d in first if d.rank <= self.rank)
         # residuals of the rising candidates against the current span; each kept direction
@@ -344,7 +362,7 @@ class Codistribution:
             else:
                 r_i = np.linalg.norm(res[j], axis=-1)
                 dir_i = res[j] / np.where(r_i > 0, r_i, 1.0)[:, None]
-                d = decide_increase(r_i, self.valid, self.rtol, self.rank)
+                d = self._decide(r_i, nodes[i], self.valid)
             if d.rank > self.rank:
                 self._keep(nodes[i], cands[i], r_i, dir_i, d)
                 added.append(nodes[i])
@@ -356,13 +374,32 @@ class Codistribution:
                 self.rejections.append(d)
         return added
 
-    def contains(self, covectors, tested: "Tested | None" = None):
+    def _decide(self, rho, node, valid) -> RankDecision:
+        """:func:`decide_increase` of one candidate, settled again when its vote is weak
+        (:func:`uio_jax._analysis.settle.is_weak`) and a ``settle`` is set: the settled
+        answer replaces the vote (an undecided one keeps it, marked)."""
+        d = decide_increase(rho, valid, self.rtol, self.rank)
+        if self.settle is None or node is None or not is_weak(rho, valid, self.rtol, d.fraction):
+            return d
+        said = "independent" if d.rank > self.rank else "dependent"
+        evidence = (f"{said} ({100 * d.fraction:.1f}% of samples, median rho "
+                    f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
+        esc = self.settle(self.nodes, node, evidence)
+        self.escalations.append(esc)
+        if esc.result == "undecided":
+            return replace(d, settled="undecided")
+        how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
+        return replace(d, rank=self.rank + (esc.result == "independent"), settled=how)
+
+    def contains(self, covectors, tested: "Tested | None" = None, nodes=None):
         """Membership of covector families in the span.
 
         Args:
             covectors: ``(C, S, n)`` unscaled covectors (e.g. gradients, or unit vectors);
                 unused when ``tested`` is given.
             tested: :meth:`test` of the same covectors against this span.
+            nodes: the covectors' Nodes (their expressions settle weak votes); None: weak
+                votes are not settled again.
 
         Returns:
             list of ``(bool, RankDecision)``: member iff the generic rank does not grow.
@@ -373,8 +410,9 @@ class Codistribution:
         if not valid.any():
             raise FloatingPointError("the covector is NaN/inf at every valid sample")
         out = []
-        for r in tested.rho:
-            d = decide_increase(r, valid, self.rtol, self.rank)
+        nodes = [None] * len(tested.rho) if nodes is None else list(nodes)
+        for r, nd in zip(tested.rho, nodes):
+            d = self._decide(r, nd, valid)
             out.append((d.rank <= self.rank, d))
         return out
 

@@ -83,6 +83,9 @@ class Certificate:
             samples at the generic rank (how close the kept set comes to a singular
             state; small values flag samples near the singular set).
         decisions: number of rank decisions taken.
+        escalations: the weak decisions settled again beyond float64
+            (:class:`uio_jax._analysis.settle.Escalation`: what, the float64 vote, how,
+            the result, the probability bound of a modular answer).
     """
 
     samples: int
@@ -95,6 +98,24 @@ class Certificate:
     rtol: float
     decisions: int
     conditioning: float = 1.0
+    escalations: tuple = ()
+
+    @property
+    def escalated(self) -> int:
+        """Number of weak decisions settled again beyond float64."""
+        return len(self.escalations)
+
+    @property
+    def undecided(self) -> int:
+        """Number of decisions that neither float64 nor the escalation could settle: the
+        verdicts of the report are then not certified (:attr:`status`)."""
+        return sum(e.result == "undecided" for e in self.escalations)
+
+    @property
+    def status(self) -> str:
+        """``"ok"`` (every decision clear in float64), ``"escalated"`` (some settled
+        beyond float64, all settled) or ``"undecided"`` (some could not be settled)."""
+        return "undecided" if self.undecided else "escalated" if self.escalations else "ok"
 
     @property
     def gap_decades(self) -> float:
@@ -104,8 +125,10 @@ class Certificate:
         return math.log10(self.sigma_r_min / self.sigma_next_max)
 
     def to_dict(self):
-        d = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        d = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "escalations"}
         d["gap_decades"] = self.gap_decades
+        d["status"] = self.status
+        d["escalations"] = [e.to_dict() for e in self.escalations]
         return _jsonable(d)
 
     def __str__(self):
@@ -117,7 +140,18 @@ class Certificate:
             f"{self.sigma_r_min:.2e}, largest rejected {self.sigma_next_max:.2e} "
             f"(gap {gap} decades around rtol {self.rtol:.0e}); final s_r/s_1 >= "
             f"{self.conditioning:.1e}"
-        )
+        ) + self._escalation_text()
+
+    def _escalation_text(self) -> str:
+        if not self.escalations:
+            return ""
+        settled = self.escalated - self.undecided
+        text = f"; {self.escalated} weak decision{'s' if self.escalated > 1 else ''} escalated"
+        if settled:
+            text += f" ({settled} settled beyond float64)"
+        if self.undecided:
+            text += f"; UNDECIDED: {self.undecided} decision{'s' if self.undecided > 1 else ''}"
+        return text
 
 
 @dataclass(frozen=True, eq=False)

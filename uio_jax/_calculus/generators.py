@@ -30,7 +30,7 @@ import numpy as np
 from .._engine import graph_numpy as _graph_numpy
 from .._engine import program_cache as _program_cache
 from .._engine.graph import Graph
-from .._engine.graph_trace import IndexOutOfRange, translate
+from .._engine.graph_trace import IndexOutOfRange, expressed, translate
 from . import lie as _lie
 from .powers import lie_power
 
@@ -95,17 +95,23 @@ class Builder:
 
     def scalar(self, label, fn) -> Node:
         """A named scalar function given by the user (an output)."""
-        return self._get(("scalar", label),
-                         lambda: Node(label, fn, "scalar", sig=_sig("out", label), expr=self.translate(fn, ())))
+        return self._get(("scalar", label), lambda: self.make(label, fn, "scalar", 0, _sig("out", label),
+                                                              self.translate(fn, ())))
 
     def field(self, label, fn) -> Node:
         """A named vector field given by the user."""
-        return self._get(("field", label), lambda: Node(label, fn, "field", sig=_sig("field", label),
-                                                         expr=self.translate(fn, (self.graph.n,))))
+        return self._get(("field", label), lambda: self.make(label, fn, "field", 0, _sig("field", label),
+                                                             self.translate(fn, (self.graph.n,))))
 
     def function(self, label, fn) -> Node:
         """A scalar function of the state not memoized by name (``Report.is_observable``)."""
-        return Node(label, fn, "scalar", expr=self.translate(fn, ()))
+        return self.make(label, fn, "scalar", 0, "", self.translate(fn, ()))
+
+    def make(self, label, fn, kind, depth=0, sig="", expr=None) -> Node:
+        """A Node; with an expression its callable becomes an
+        :class:`~uio_jax._engine.graph_trace.Expressed` function, so that closures built on
+        it (the systems of a UI extension) translate into a graph by importing it."""
+        return Node(label, expressed(fn, self.graph, expr), kind, depth, sig, expr)
 
     def translate(self, fn, shape):
         """The expression of a model function ``x (n,) -> shape`` in the System's graph:
@@ -144,8 +150,8 @@ class Builder:
         base, j = self.power_of(phi, v)
         fn = lie_power(base.fn, v.fn, j + 1, taylor_from=TAYLOR_FROM)
         expr = self._jvp([phi.expr], v)[0] if _both(phi, v) else None
-        node = Node(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
-                    _sig("lie", v.sig, phi.sig), expr)
+        node = self.make(f"L_{_wrap(v.label)} {phi.label}", fn, "scalar", phi.depth + v.depth + 1,
+                         _sig("lie", v.sig, phi.sig), expr)
         self._nodes[key] = node
         self._powers[(node, v.label)] = (base, j + 1)
         return node
@@ -169,9 +175,9 @@ class Builder:
                 expr = base.expr
                 for _ in range(j):
                     expr = self._jvp([expr], v)[0]
-            node = Node(label, lie_power(base.fn, v.fn, j), "scalar",
-                        base.depth + j if depth is None else depth,
-                        _sig("power", v.sig, base.sig, str(j)), expr)
+            node = self.make(label, lie_power(base.fn, v.fn, j), "scalar",
+                             base.depth + j if depth is None else depth,
+                             _sig("power", v.sig, base.sig, str(j)), expr)
             self._nodes[key] = node
             self._powers[(node, v.label)] = (base, j)
         return node
@@ -189,8 +195,8 @@ class Builder:
                 g = self.graph
                 db_a, da_b = g.jvp(b.expr, a.expr), g.jvp(a.expr, b.expr)
                 expr = tuple(g.sub(p, q) for p, q in zip(db_a, da_b))
-            return Node(f"[{a.label}, {b.label}]", _lie.lie_bracket(a.fn, b.fn), "field",
-                        max(a.depth, b.depth) + 1, _sig("bracket", a.sig, b.sig), expr)
+            return self.make(f"[{a.label}, {b.label}]", _lie.lie_bracket(a.fn, b.fn), "field",
+                             max(a.depth, b.depth) + 1, _sig("bracket", a.sig, b.sig), expr)
 
         return self._get(("bracket", a.label, b.label), make)
 
@@ -201,8 +207,8 @@ class Builder:
             expr = None
             if _both(v, s):
                 expr = tuple(self.graph.div(c, s.expr) for c in v.expr)
-            return Node(label or f"{_wrap(v.label)}/{_wrap(s.label)}", _lie.scaled_field(v.fn, s.fn),
-                        "field", max(v.depth, s.depth), _sig("scaled", v.sig, s.sig), expr)
+            return self.make(label or f"{_wrap(v.label)}/{_wrap(s.label)}", _lie.scaled_field(v.fn, s.fn),
+                             "field", max(v.depth, s.depth), _sig("scaled", v.sig, s.sig), expr)
 
         return self._get(("scaled", v.label, s.label), make)
 
@@ -213,9 +219,9 @@ class Builder:
             expr = None
             if _both(num, den):
                 expr = self.graph.div(num.expr, self.graph.ipow(den.expr, power))
-            return Node(label or f"{_wrap(num.label)}/({den.label})^{power}",
-                        _lie.ratio(num.fn, den.fn, power), "scalar", max(num.depth, den.depth),
-                        _sig("ratio", num.sig, den.sig, str(power)), expr)
+            return self.make(label or f"{_wrap(num.label)}/({den.label})^{power}",
+                             _lie.ratio(num.fn, den.fn, power), "scalar", max(num.depth, den.depth),
+                             _sig("ratio", num.sig, den.sig, str(power)), expr)
 
         return self._get(("ratio", num.label, den.label, power), make)
 

@@ -14,6 +14,9 @@ In the new unknown inputs ``v_j = d h~_j / dt`` the dynamics read
 :class:`~uio_jax._calculus.generators.Node` whose callable computes ``B`` and ``a`` from
 the identifiers' Lie derivatives at ``x`` (forward mode) and solves with ``B``:
 Lie derivatives along it, and their gradients, differentiate through the solve.
+In the System's expression graph (when every operand has an expression) the same fields
+are expressions: ``B`` and ``a`` are Lie derivatives of the identifiers, and the solve is
+the adjugate formula (:meth:`uio_jax._engine.graph.Graph.solve`; ``m`` is small).
 """
 
 import jax
@@ -61,8 +64,11 @@ def rescaled_fields(builder: Builder, drift: Node, fields, identifiers, names=No
     key = ("rescaled", drift.label, tuple(f.label for f in fields), ids)
     depth = max([drift.depth] + [f.depth for f in fields] + [h.depth for h in identifiers]) + 1
 
+    exprs = _expressions(builder, drift, fields, identifiers)
+
     def make(kind, k, label, fn):
-        return builder.node(key + (kind, k), lambda: Node(label, fn, "field", depth))
+        expr = None if exprs is None else exprs[kind][k]
+        return builder.node(key + (kind, k), lambda: builder.make(label, fn, "field", depth, "", expr))
 
     def g_hat0(x):
         g0, G, M = parts(x)
@@ -85,3 +91,31 @@ def rescaled_fields(builder: Builder, drift: Node, fields, identifiers, names=No
     hats = [make("g^", k, f"{names[k]}^", g_hat(k)) for k in range(m)]
     tildes = [make("G~", k, f"{names[k]}~", G_tilde(k)) for k in range(m, len(fields))]
     return hat0, hats, tildes
+
+
+def _expressions(builder, drift, fields, identifiers):
+    """The rescaled fields as expressions of the builder's graph:
+    ``{"g^0": [g^0], "g^": [g^_1..g^_m], "G~": {k: G~_k}}`` (tuples of nodes), or None when
+    an operand has no expression."""
+    if any(nd.expr is None for nd in (drift, *fields, *identifiers)):
+        return None
+    g = builder.graph
+    m = len(identifiers)
+    G = [f.expr for f in fields]
+    a = [g.jvp([h.expr], drift.expr)[0] for h in identifiers]
+    L = [[g.jvp([h.expr], f.expr)[0] for f in fields] for h in identifiers]  # L[i][j] = L_{g_j} h~_i
+    B = [row[:m] for row in L]
+    units = [[g.one if i == k else g.zero for i in range(m)] for k in range(m)]
+    rest = [[L[i][k] for i in range(m)] for k in range(m, len(fields))]
+    solved = g.solve(B, [a] + units + rest)
+
+    def combine(base, coef, sign):  # base + sign * sum_j coef_j G_j, per coordinate
+        out = []
+        for c in range(g.n):
+            acc = g.dot(coef, [G[j][c] for j in range(m)])
+            out.append(acc if base is None else (g.sub(base[c], acc) if sign < 0 else g.add(base[c], acc)))
+        return tuple(out)
+
+    return {"g^0": [combine(drift.expr, solved[0], -1)],
+            "g^": [combine(None, solved[1 + k], 1) for k in range(m)],
+            "G~": {k: combine(G[k], solved[1 + m + (k - m)], -1) for k in range(m, len(fields))}}

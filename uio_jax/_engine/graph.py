@@ -232,6 +232,79 @@ class Graph:
             out = self.add(out, self.mul(u, v))
         return out
 
+    def solve(self, B, columns):
+        """``B^-1 c`` for each column ``c`` of ``columns``, by the adjugate:
+        ``B^-1 = adj(B) / det(B)``, ``adj(B)_ij = (-1)^(i+j) M_ji`` (``M_ji``: the minor
+        without row ``j`` and column ``i``), minors by Laplace expansion memoized on their
+        rows and columns (``2^m`` of them at most: ``m`` is the number of unknown inputs).
+
+        Args:
+            B: ``m x m`` nodes (a list of rows), generically invertible.
+            columns: a list of columns, each ``m`` nodes.
+
+        Returns:
+            one list of ``m`` nodes per column.
+        """
+        m = len(B)
+        minors = {}
+
+        def minor(rows, cols):  # det of B[rows][:, cols], expanded along its first row
+            if not rows:
+                return self.one
+            key = (rows, cols)
+            if key not in minors:
+                acc = self.zero
+                r, rest = rows[0], rows[1:]
+                for k, c in enumerate(cols):
+                    if B[r][c] == self.zero:
+                        continue
+                    term = self.mul(B[r][c], minor(rest, cols[:k] + cols[k + 1:]))
+                    acc = self.add(acc, term) if k % 2 == 0 else self.sub(acc, term)
+                minors[key] = acc
+            return minors[key]
+
+        every = tuple(range(m))
+        det = minor(every, every)
+        adj = [[None] * m for _ in range(m)]
+        for i in range(m):
+            for j in range(m):
+                cof = minor(every[:j] + every[j + 1:], every[:i] + every[i + 1:])
+                adj[i][j] = cof if (i + j) % 2 == 0 else self.neg(cof)
+        return [[self.div(self.dot(adj[i], c), det) for i in range(m)] for c in columns]
+
+    def import_nodes(self, source: "Graph", roots, coord_map) -> list[int]:
+        """The nodes ``roots`` of another graph, rebuilt in this one.
+
+        Args:
+            source: the graph ``roots`` live in.
+            roots: node numbers of ``source``.
+            coord_map: per coordinate of ``source``, the node of this graph it becomes
+                (a coordinate, a constant, any expression).
+
+        Returns:
+            one node of this graph per root (memoized per source and coordinate map, so
+            shared subexpressions stay shared).
+        """
+        memo = self._tangents.setdefault(("import", source, tuple(coord_map)), {})
+        sop, sargs, sparam = source.op, source.args, source.param
+        for k in source.reachable([r for r in roots if r not in memo]):
+            if k in memo:
+                continue
+            op, a = sop[k], sargs[k]
+            if op == "x":
+                memo[k] = coord_map[sparam[k]]
+            elif op == "c":
+                memo[k] = self.const(source.value_of(k))
+            elif op == "ipow":
+                memo[k] = self.ipow(memo[a[0]], sparam[k])
+            elif op == "select":
+                memo[k] = self.select(memo[a[0]], memo[a[1]], memo[a[2]])
+            elif len(a) == 2:
+                memo[k] = self.binary(op, memo[a[0]], memo[a[1]])
+            else:
+                memo[k] = self.unary(op, memo[a[0]])
+        return [memo[r] for r in roots]
+
     # ------------------------------------------------------------------ structure
     def reachable(self, roots) -> list[int]:
         """Every node the ``roots`` depend on (themselves included), ascending."""

@@ -18,14 +18,67 @@ the state, a loop), raises :class:`Untranslatable`: the caller keeps the XLA rou
 that model (:func:`trace_to_graph` callers decide, never the user).
 """
 
+import contextvars
 import math
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.extend.core import Primitive
 
 from .graph import Graph
 from .interpreter import Rules, inline, interpret
+
+#: True while :func:`trace_to_graph` traces a function: an :class:`Expressed` function
+#: called then stands for its expression (:data:`expression_p`), not for its JAX code.
+_TRANSLATING = contextvars.ContextVar("uio_jax_translating", default=False)
+
+#: The primitive an :class:`Expressed` function binds while a function is translated:
+#: one operand (the state it is called on), parameter ``source`` (the Expressed). Only
+#: the graph translation has a rule for it.
+expression_p = Primitive("uio_jax_expression")
+
+
+@expression_p.def_abstract_eval
+def _expression_shape(x, *, source):
+    return jax.core.ShapedArray(source.shape, jnp.float64)
+
+
+class Expressed:
+    """A function of the state that knows its expression in a graph.
+
+    Calling it runs the JAX function ``fn``; while a function that calls it is translated
+    into a graph (:func:`trace_to_graph`), it stands for ``expr`` instead: the translation
+    imports the expression with the state it was called on (:meth:`Graph.import_nodes`),
+    so closures built on Lie derivatives, rescaled fields or solves translate without
+    tracing their derivatives again.
+
+    Args:
+        fn: the JAX function ``x (n,) -> shape``.
+        graph: the graph of ``expr``, whose ``n`` coordinates are ``x``.
+        expr: an int (scalar) or a tuple of ints.
+    """
+
+    __slots__ = ("fn", "graph", "expr", "shape", "__name__", "__weakref__")
+
+    def __init__(self, fn, graph, expr):
+        self.fn, self.graph, self.expr = fn, graph, expr
+        self.shape = () if isinstance(expr, int) else (len(expr),)
+        self.__name__ = getattr(fn, "__name__", "expressed")
+
+    def __call__(self, x):
+        if _TRANSLATING.get():
+            return expression_p.bind(x, source=self)
+        return self.fn(x)
+
+
+def expressed(fn, graph, expr):
+    """``fn`` as an :class:`Expressed` function (``fn`` itself when ``expr`` is None)."""
+    if expr is None or fn is None:
+        return fn
+    if isinstance(fn, Expressed):
+        fn = fn.fn
+    return Expressed(fn, graph, expr)
 
 
 class Untranslatable(NotImplementedError):
@@ -59,8 +112,15 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
             where a constant is needed.
         IndexOutOfRange: a constant index past the end of an array.
     """
-    with jax.enable_x64(True):
-        closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
+    if isinstance(fn, Expressed) and fn.graph is graph and len(arg_shapes) == 1 \
+            and tuple(arg_nodes[0]) == graph.coords:
+        return np.array(fn.expr, dtype=object).reshape(fn.shape), np.dtype(np.float64)
+    token = _TRANSLATING.set(True)
+    try:
+        with jax.enable_x64(True):
+            closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
+    finally:
+        _TRANSLATING.reset(token)
     args = []
     for nodes, shape in zip(arg_nodes, arg_shapes):
         arr = np.empty(len(nodes), dtype=object)
@@ -276,6 +336,10 @@ def _rev(graph, i, eqn, ins):
     return [np.flip(np.asarray(ins[0]), axis=tuple(eqn.params["dimensions"]))]
 
 
+def _tile(graph, i, eqn, ins):
+    return [np.tile(np.asarray(ins[0]), eqn.params["reps"])]
+
+
 def _identity(graph, i, eqn, ins):
     return [ins[0]]
 
@@ -359,8 +423,55 @@ def _gather(graph, i, eqn, ins):
     raise Untranslatable("gather", "an indexing pattern other than x[integer array]")
 
 
-def _scatter_add(graph, i, eqn, ins):
-    raise Untranslatable(eqn.primitive.name)
+def _scatter(add):
+    """``x.at[i].set(v)`` / ``.add(v)`` on a vector, with constant indices: single elements
+    (``inserted_window_dims=(0,)``) or windows (``update_window_dims=(0,)``)."""
+
+    def rule(graph, i, eqn, ins):
+        a, indices, updates = ins
+        indices = _concrete_index(indices, eqn.primitive.name)
+        dn = eqn.params["dimension_numbers"]
+        a, updates = np.asarray(a), np.asarray(updates)
+        if (a.ndim != 1 or tuple(dn.scatter_dims_to_operand_dims) != (0,)
+                or getattr(dn, "operand_batching_dims", ()) or indices.shape[-1:] != (1,)):
+            raise Untranslatable(eqn.primitive.name, "a pattern other than a vector's .at[i]")
+        starts = indices[..., 0].astype(int).reshape(-1)
+        if tuple(dn.inserted_window_dims) == (0,) and not tuple(dn.update_window_dims):
+            pieces = updates.reshape(-1, 1)
+        elif not tuple(dn.inserted_window_dims) and tuple(dn.update_window_dims) == (updates.ndim - 1,):
+            pieces = updates.reshape(len(starts), -1)
+        else:
+            raise Untranslatable(eqn.primitive.name, "a pattern other than a vector's .at[i]")
+        if (starts < 0).any() or (starts + pieces.shape[1] > a.shape[0]).any():
+            raise Untranslatable(eqn.primitive.name, "an index out of range (dropped by JAX)")
+        if not (_is_sym(a) or _is_sym(updates)):
+            out = np.array(a, dtype=np.result_type(a, updates))
+            for s0, piece in zip(starts, pieces):
+                if add:
+                    out[s0:s0 + len(piece)] += piece
+                else:
+                    out[s0:s0 + len(piece)] = piece
+            return [out]
+        out, pieces = _symbolic(graph, a).copy(), _symbolic(graph, pieces)
+        for s0, piece in zip(starts, pieces):
+            for k, v in enumerate(piece):
+                out[s0 + k] = graph.add(out[s0 + k], v) if add else v
+        return [out]
+
+    return rule
+
+
+def _expression(graph, i, eqn, ins):
+    """An :class:`Expressed` function's expression, imported with its argument's nodes."""
+    source = eqn.params["source"]
+    x = _symbolic(graph, ins[0]).reshape(-1)
+    if len(x) != source.graph.n:
+        raise Untranslatable("uio_jax_expression", "called on a state of another length")
+    nodes = graph.import_nodes(source.graph, [source.expr] if source.shape == () else list(source.expr),
+                               tuple(x))
+    out = np.empty(len(nodes), dtype=object)
+    out[:] = nodes
+    return [out.reshape(source.shape)]
 
 
 def _reduce(op):
@@ -496,10 +607,11 @@ _TABLE = {
     "select_n": _select_n, "convert_element_type": _convert,
     "slice": _slice, "squeeze": _squeeze, "reshape": _reshape, "expand_dims": _expand_dims,
     "broadcast_in_dim": _broadcast_in_dim, "concatenate": _concatenate, "stack": _stack,
-    "transpose": _transpose, "rev": _rev, "copy": _identity, "copy_p": _identity,
+    "transpose": _transpose, "rev": _rev, "tile": _tile, "copy": _identity, "copy_p": _identity,
     "reduce_precision": _identity, "iota": _iota, "pad": _pad,
     "dynamic_slice": _dynamic_slice, "dynamic_update_slice": _dynamic_update_slice,
-    "gather": _gather, "scatter-add": _scatter_add, "scatter_add": _scatter_add,
+    "gather": _gather, "scatter": _scatter(False), "scatter-add": _scatter(True),
+    "scatter_add": _scatter(True), "uio_jax_expression": _expression,
     "reduce_sum": _reduce("add"), "reduce_max": _reduce("max"), "reduce_min": _reduce("min"),
     "reduce_prod": _reduce("mul"), "reduce_and": _reduce("and"), "reduce_or": _reduce("or"),
     "dot_general": _dot_general, "split": _split, "cumsum": _cumsum,
@@ -534,7 +646,7 @@ def translate(graph: Graph, fn, shape, extra=()):
         at += size
     try:
         out, _ = trace_to_graph(graph, fn, nodes, shapes)
-    except Untranslatable:
+    except NotImplementedError:  # Untranslatable, or a transformation of an Expressed
         return None
     except (TypeError, ValueError):  # the function does not run on these arguments
         return None
@@ -543,4 +655,5 @@ def translate(graph: Graph, fn, shape, extra=()):
     return int(out.reshape(())) if tuple(shape) == () else tuple(int(k) for k in out.reshape(-1))
 
 
-__all__ = ["Untranslatable", "IndexOutOfRange", "trace_to_graph", "translate"]
+__all__ = ["Untranslatable", "IndexOutOfRange", "Expressed", "expressed", "expression_p",
+           "trace_to_graph", "translate"]

@@ -1,0 +1,113 @@
+"""Weak rank decisions are settled again beyond float64, or reported undecided.
+
+Every case is derived by hand. With ``y1 = x1`` and ``y2 = x1 + eps g(x2)``, the span of
+``dy1, dy2`` is 2-dimensional for any ``eps != 0`` (``y2 - y1 = eps g(x2)`` with ``g`` not
+constant), so both states are observable. With ``eps = 1e-9`` the second row's distance to
+the first, after scaling to unit rows, is about ``1e-9 |g'|``: under ``rtol = 1e-8`` at
+every sample, a unanimous but wrong float64 vote ("dependent"), whose median lies within
+two decades of ``rtol``: weak, so it is settled again.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import uio_jax as uj
+from uio_jax._analysis.settle import WEAK_DECADES, Settler, is_weak
+from uio_jax._engine import graph_exact
+from uio_jax._engine.graph import Graph
+
+EPS = 1e-9
+
+
+def _two_outputs(second):
+    return uj.System(states=("x1", "x2"), outputs={"y1": lambda x: x[0], "y2": second},
+                     domain={"x1": (0.5, 1.5), "x2": (0.5, 1.5)})
+
+
+def test_a_tiny_rational_direction_is_settled_exactly():
+    """Rational model: the escalation is exact (modulo p) and finds the second direction."""
+    rep = uj.analyze(_two_outputs(lambda x: x[0] + EPS * x[1] ** 2), samples=256)
+    assert rep.method == "orc" and rep.dim == 2
+    assert rep.observable == {"x1": True, "x2": True}
+    cert = rep.certificate
+    assert cert.status == "escalated" and cert.undecided == 0
+    esc = [e for e in cert.escalations if e.what.startswith("y2")]
+    assert len(esc) == 1
+    assert esc[0].float64.startswith("dependent") and esc[0].result == "independent"
+    assert esc[0].how.startswith("exact mod p") and esc[0].bound == 0.0
+    assert "escalated" in str(cert) and "UNDECIDED" not in str(rep)
+
+
+def test_a_tiny_transcendental_direction_is_settled_in_extended_precision():
+    """Not rational (cos): the escalation runs mpmath at two precisions."""
+    rep = uj.analyze(_two_outputs(lambda x: x[0] + EPS * jnp.cos(x[1])), samples=256)
+    assert rep.dim == 2 and all(rep.observable.values())
+    esc = [e for e in rep.certificate.escalations if e.what.startswith("y2")]
+    assert len(esc) == 1 and esc[0].result == "independent" and esc[0].how.startswith("mpmath")
+
+
+def test_an_exact_dependence_under_round_off_is_confirmed():
+    """``y2 = y1 (1 + 1e-9)``: dependent; float64 agrees and is clear (rows equal after
+    scaling, distance at round-off): nothing to settle, dim 1, x2 not observable."""
+    rep = uj.analyze(_two_outputs(lambda x: x[0] * (1.0 + EPS)), samples=256)
+    assert rep.dim == 1 and rep.observable == {"x1": True, "x2": False}
+    assert rep.certificate.status == "ok"
+
+
+def erf_inv_part(x):
+    """Outside the expression graph (``erf_inv`` has no rule): no escalation possible."""
+    return x[0] + EPS * jax.lax.erf_inv(0.5 * jnp.tanh(x[1]))
+
+
+def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided():
+    rep = uj.analyze(_two_outputs(erf_inv_part), samples=256)
+    cert = rep.certificate
+    assert cert.status == "undecided" and cert.undecided >= 1
+    undecided = [e for e in cert.escalations if e.result == "undecided"]
+    assert any(e.what.startswith("y2") and e.how.startswith("none") for e in undecided)
+    assert any(n.startswith("UNDECIDED") for n in rep.notes)
+    assert "UNDECIDED" in str(rep)
+    d = rep.to_dict()["certificate"]
+    assert d["status"] == "undecided" and d["escalations"][0]["result"] == "undecided"
+
+
+def test_weakness_rule():
+    """Median within WEAK_DECADES of rtol, or a split vote: weak; clear votes are not."""
+    valid = np.ones(100, dtype=bool)
+    assert is_weak(np.full(100, 1e-9), valid, 1e-8, 1.0)
+    assert not is_weak(np.full(100, 1e-8 * 10 ** (WEAK_DECADES + 0.5)), valid, 1e-8, 1.0)
+    assert not is_weak(np.full(100, 1e-15), valid, 1e-8, 1.0)
+    assert is_weak(np.full(100, 1e-3), valid, 1e-8, 0.7)
+
+
+def test_modular_gradients_and_rank_by_hand():
+    """f = x0^2 / x1 at (3, 5) modulo p: value 9/5, gradient (6/5, -9/25)."""
+    p = graph_exact.PRIME
+    g = Graph(2)
+    f = g.div(g.ipow(g.x(0), 2), g.x(1))
+    values, grads = graph_exact.gradients_mod_p(g, [f], [[3, 5]])
+    inv5, inv25 = pow(5, -1, p), pow(25, -1, p)
+    assert values[0, 0] == 9 * inv5 % p
+    assert list(grads[0, 0]) == [6 * inv5 % p, (-9 * inv25) % p]
+    assert graph_exact.rank_mod_p([[1, 2], [2, 4]]) == 1
+    assert graph_exact.rank_mod_p([[1, 2], [2, 5]]) == 2
+    with pytest.raises(graph_exact.Singular):
+        graph_exact.gradients_mod_p(g, [f], [[3, 0]])
+
+
+def test_settler_on_a_graph_by_hand():
+    """span{d x0} and the candidate x0 + 1e-12 x1 (independent), x0 * (1 + 1e-12)
+    (dependent): settled exactly whatever float64 said."""
+    from uio_jax._calculus.generators import Node
+
+    g = Graph(2)
+    settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=0)
+    kept = [Node("x0", None, "scalar", expr=g.x(0))]
+    tiny = g.add(g.x(0), g.mul(g.const(1e-12), g.x(1)))
+    same = g.mul(g.x(0), g.const(1.0 + 1e-12))
+    up = settler.settle(kept, Node("tiny", None, "scalar", expr=tiny), "dependent")
+    flat = settler.settle(kept, Node("same", None, "scalar", expr=same), "independent")
+    assert up.result == "independent" and up.bound == 0.0
+    assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30

@@ -1,0 +1,240 @@
+"""Weak rank decisions, settled again beyond float64.
+
+Every rank decision of an analysis is a vote of the sampled states (:mod:`.rank`): a
+candidate raises the rank at a sample when its distance ``rho`` to the span (unit-scaled)
+exceeds ``rtol``. Float64 cannot settle a decision whose evidence sits near ``rtol``: a
+genuine direction of size 1e-8 after scaling, or round-off of a high-order derivative
+that reaches it. Such a decision is **weak** (:func:`is_weak`) when
+
+* the median of ``log10 rho`` over the valid samples is within :data:`WEAK_DECADES` of
+  ``log10 rtol`` (genuine directions of our models sit at 1e-4..1 and round-off at
+  1e-16..1e-11 after scaling: four decades or more from ``rtol = 1e-8`` on either side), or
+* the agreeing fraction of samples is below :data:`WEAK_FRACTION` (rank is the same at
+  almost every state: a split vote means the evidence is near the tolerance somewhere
+  on a large part of the domain, not a thin singular set).
+
+A weak decision is settled again (:class:`Settler`) in the System's expression graph at
+:data:`POINTS` random points:
+
+* **exact modular arithmetic** when every node involved is rational: the rank of the
+  gradients modulo ``p = 2^31 - 1`` at random points of ``F_p^n``
+  (:class:`uio_jax._engine.graph_exact.ModularEvaluator`, ``p = 2^127 - 1``). A point where the candidate
+  raises the rank proves it raises the generic rank (a point's rank never exceeds the
+  generic one); "does not raise" holds unless every point is a root of a nonzero minor,
+  with probability at most ``(D / p)^points``, ``D`` the minor's degree bound
+  (Schwartz-Zippel; :attr:`Escalation.bound`, certified below :data:`MAX_BOUND`);
+* **extended precision** otherwise (mpmath at :data:`DIGITS` = 30 and 60 decimal digits at
+  states of the sampling box): a genuine distance keeps its value between the two
+  precisions, round-off shrinks below ``10^-(0.6 digits)``.
+
+Neither can decide (no expression: a model the graph does not translate; the points are
+singular; the two precisions disagree): the decision is **undecided**. The float64
+majority is kept for the rest of the run, and the report says that its verdicts are not
+certified (:attr:`uio_jax.Certificate.undecided`). Every escalation is recorded
+(:class:`Escalation`) in the certificate.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .._engine import graph_exact
+
+#: A decision is weak when the median ``log10 rho`` is within this many decades of
+#: ``log10 rtol``.
+WEAK_DECADES = 2.0
+
+#: A decision is weak when fewer than this fraction of the valid samples agree.
+WEAK_FRACTION = 0.9
+
+#: Random points of an escalation.
+POINTS = 3
+
+#: Decimal digits of the two mpmath evaluations.
+DIGITS = (30, 60)
+
+#: A dependence found modulo ``p`` is certified when the probability bound that every
+#: point is a root of a nonzero minor stays below this (else: undecided).
+MAX_BOUND = 1e-9
+
+
+@dataclasses.dataclass(frozen=True)
+class Escalation:
+    """One weak decision settled again.
+
+    Attributes:
+        what: the candidate (label) and the rank of the span it was tested against.
+        float64: what the float64 vote said: ``"independent"`` or ``"dependent"``, with
+            its evidence (agreeing fraction, median ``log10 rho``).
+        how: ``"exact mod p"``, ``"mpmath"`` or ``"none"`` (and why).
+        result: ``"independent"``, ``"dependent"`` or ``"undecided"``.
+        bound: for a dependence found modulo ``p``, the probability bound that it is wrong
+            (independence found there is certain: 0.0); None otherwise.
+    """
+
+    what: str
+    float64: str
+    how: str
+    result: str
+    bound: float | None = None
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def median_decades(rho, valid, rtol) -> float:
+    """``median(log10 rho) - log10 rtol`` over the valid samples (rho = 0 counts as -inf)."""
+    r = np.asarray(rho)[np.asarray(valid)]
+    if r.size == 0:
+        return math.inf
+    with np.errstate(divide="ignore"):
+        return float(np.median(np.log10(r)) - math.log10(rtol))
+
+
+def is_weak(rho, valid, rtol, fraction) -> bool:
+    """Whether a vote needs settling (module docstring): its median within
+    :data:`WEAK_DECADES` of ``rtol``, or an agreeing ``fraction`` below :data:`WEAK_FRACTION`."""
+    return abs(median_decades(rho, valid, rtol)) < WEAK_DECADES or fraction < WEAK_FRACTION
+
+
+class Settler:
+    """Settles weak decisions of one analysis in its System's expression graph.
+
+    The points are drawn once per Settler and every node evaluated there is kept
+    (:class:`~uio_jax._engine.graph_exact.ModularEvaluator`,
+    :class:`~uio_jax._engine.graph_exact.ExtendedEvaluator`): the escalations of one
+    analysis evaluate each generator once.
+
+    Args:
+        graph: the :class:`~uio_jax._engine.graph.Graph` of the System.
+        lo, hi: the sampling box ``(n,)`` (mpmath points are drawn in it; the columns are
+            scaled by its widths, as in the float64 test).
+        seed: seed of the points.
+    """
+
+    def __init__(self, graph, lo, hi, seed):
+        self.graph = graph
+        self.lo, self.hi = np.asarray(lo, float), np.asarray(hi, float)
+        self.rng = np.random.default_rng([int(seed), 0x5E771E])
+        self._modular = None  # ModularEvaluator at POINTS points
+        self._extended = None  # per point, one ExtendedEvaluator per precision
+
+    def settle(self, kept, candidate, float64: str) -> Escalation:
+        """Does ``candidate`` raise the generic rank of ``span{d k : k in kept}``?
+
+        Args:
+            kept: the Nodes of the span (their gradients independent).
+            candidate: the Node tested.
+            float64: the float64 vote and its evidence, for the record.
+        """
+        what = f"{candidate.label} against rank {len(kept)}"
+        exprs = [nd.expr for nd in kept] + [candidate.expr]
+        if any(e is None or not isinstance(e, int) for e in exprs):
+            return Escalation(what, float64, "none: a generator has no expression in the graph",
+                              "undecided")
+        if self.graph.is_rational(exprs):
+            return self._settle_modular(what, float64, exprs)
+        return self._settle_extended(what, float64, exprs)
+
+    # ------------------------------------------------------------------ modulo p
+    def _modular_gradients(self, exprs):
+        """``(P, R, n)`` residues at the Settler's points (drawn again where a denominator
+        vanishes, at most four times); None if every draw is singular."""
+        for _ in range(4):
+            if self._modular is None:
+                points = [[int(v) for v in self.rng.integers(1, 2**62, size=self.graph.n)]
+                          for _ in range(POINTS)]
+                self._modular = graph_exact.ModularEvaluator(self.graph, points)
+            try:
+                return self._modular.gradients(exprs)[1]
+            except graph_exact.Singular:
+                self._modular = None
+        return None
+
+    def _settle_modular(self, what, float64, exprs):
+        p = graph_exact.PRIME
+        r = len(exprs) - 1
+        grads = self._modular_gradients(exprs)
+        if grads is None:
+            return Escalation(what, float64, "exact mod p: every point singular", "undecided")
+        how = f"exact mod p = 2^127 - 1 at {len(grads)} points"
+        rank_kept = 0
+        for point in grads:
+            rk = graph_exact.rank_mod_p(point[:r], p)
+            rank_kept = max(rank_kept, rk)
+            if rk == r and graph_exact.rank_mod_p(point, p) == r + 1:
+                return Escalation(what, float64, how, "independent", 0.0)
+        if rank_kept < r:
+            return Escalation(what, float64, how + f": the span has rank {rank_kept} < {r} there",
+                              "undecided")
+        degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs))
+        bound = min(1.0, degree / p) ** len(grads)
+        if bound > MAX_BOUND:
+            return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",
+                              bound)
+        return Escalation(what, float64, how, "dependent", bound)
+
+    # ------------------------------------------------------------------ mpmath
+    def _settle_extended(self, what, float64, exprs):
+        r = len(exprs) - 1
+        if self._extended is None:
+            scale = self.hi - self.lo
+            points = [self.lo + self.rng.random(self.graph.n) * scale for _ in range(POINTS)]
+            self._extended = [[graph_exact.ExtendedEvaluator(self.graph, pt, d) for d in DIGITS]
+                              for pt in points]
+        independent = dependent = 0
+        scale = self.hi - self.lo
+        for evaluators in self._extended:
+            rho1, rho2 = [_distance(ev.gradients(exprs)[1], scale, r, d)
+                          for ev, d in zip(evaluators, DIGITS)]
+            tiny1, tiny2 = [10.0 ** (-0.6 * d) for d in DIGITS]
+            if rho1 is None or rho2 is None:
+                continue  # the span is degenerate at this point
+            if rho2 < tiny2:
+                dependent += 1
+            elif rho2 > tiny1 and abs(rho1 - rho2) <= 1e-6 * rho2:
+                independent += 1
+                break  # one point where it is independent proves it
+        how = f"mpmath at {DIGITS[0]} and {DIGITS[1]} digits"
+        if independent:
+            return Escalation(what, float64, how, "independent")
+        if dependent == POINTS:
+            return Escalation(what, float64, how + f" at {POINTS} points", "dependent")
+        return Escalation(what, float64, how + ": the two precisions disagree", "undecided")
+
+
+def _distance(grads, scale, r, dps):
+    """Distance of the unit-scaled last row to the span of the first ``r`` rows (mpmath
+    numbers), columns scaled by ``scale``; None when the first ``r`` rows are dependent
+    there."""
+    import mpmath
+
+    ctx = mpmath.MPContext()
+    ctx.dps = dps
+    rows = [[ctx.mpf(g) * ctx.mpf(float(s)) for g, s in zip(row, scale)] for row in grads]
+    tiny = ctx.mpf(10) ** (-int(0.6 * dps))
+    basis = []
+    for i, row in enumerate(rows):
+        norm = ctx.sqrt(sum(v * v for v in row))
+        if norm == 0:
+            if i < r:
+                return None
+            return 0.0
+        v = [x / norm for x in row]
+        for _ in range(2):
+            for b in basis:
+                c = sum(x * y for x, y in zip(v, b))
+                v = [x - c * y for x, y in zip(v, b)]
+        rho = ctx.sqrt(sum(x * x for x in v))
+        if i < r:
+            if rho < tiny:
+                return None
+            basis.append([x / rho for x in v])
+        else:
+            return float(rho)
+    return None
+
+
+__all__ = ["WEAK_DECADES", "WEAK_FRACTION", "POINTS", "DIGITS", "MAX_BOUND", "Escalation", "Settler",
+           "is_weak", "median_decades"]

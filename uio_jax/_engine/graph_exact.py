@@ -1,0 +1,293 @@
+"""The expression graph (:mod:`.graph`) evaluated beyond float64: exactly modulo a prime,
+or in extended precision with mpmath.
+
+A float64 rank decision can be wrong near its tolerance: a genuine direction whose scaled
+singular value is 1e-8 looks like round-off, and round-off in a high-order derivative can
+look like a direction. The certificate settles such decisions again here, at a few random
+points:
+
+* **Modulo a prime** (:func:`gradients_mod_p`), for graphs made of rational operations
+  (:data:`uio_jax._engine.graph.RATIONAL_OPS`: the model's float64 constants are dyadic
+  rationals, exact modulo an odd prime). Values and forward-mode gradients are computed in
+  the field ``F_p``, ``p = 2^127 - 1``, with Python integers (numpy object arrays over the
+  points), every node once per set of points (:class:`ModularEvaluator`). The rank of the gradients at a point of ``F_p^n``
+  is never above the generic rank over the rationals (an identically vanishing minor
+  vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero minor:
+  by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of degree
+  ``D`` (:func:`degrees` bounds it).
+* **mpmath** (:func:`gradients_mp`), for any graph: values and gradients in ``dps``
+  decimal digits. Repeated at two precisions, a genuine small number keeps its value
+  while round-off shrinks with the precision.
+"""
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+#: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
+#: a minor of degree ``D`` vanishes at a random point with probability at most
+#: ``D / 1.7e38``).
+PRIME = 2**127 - 1
+
+
+class Singular(ArithmeticError):
+    """A denominator vanished at the point (modulo the prime): draw another point."""
+
+
+def const_mod(value: float, p: int = PRIME) -> int:
+    """A float64 constant (a dyadic rational) modulo ``p``."""
+    f = Fraction(float(value))
+    return (f.numerator % p) * pow(f.denominator % p, -1, p) % p
+
+
+_inverse = np.frompyfunc(lambda a, p: pow(int(a), -1, int(p)), 2, 1)
+
+
+class ModularEvaluator:
+    """Values and gradients of rational graph nodes at fixed points of ``F_p^n``.
+
+    Every node evaluated is kept, so that successive requests (the escalations of one
+    analysis, at the same points) evaluate each node once. Arithmetic on numpy object
+    arrays of Python integers: values ``(P,)``, gradients ``(n, P)``.
+
+    Args:
+        graph: the graph.
+        points: ``(P, n)`` integers in ``[0, p)``.
+        p: an odd prime.
+    """
+
+    def __init__(self, graph, points, p: int = PRIME):
+        self.graph, self.p = graph, int(p)
+        self.points = np.array([[int(v) % self.p for v in row] for row in points], dtype=object)
+        self.V, self.G = {}, {}
+
+    def gradients(self, roots):
+        """``values (P, R)`` and ``grads (P, R, n)`` (object arrays of residues).
+
+        Raises:
+            Singular: a denominator vanishes at one of the points.
+            ValueError: a node is not a rational operation.
+        """
+        graph, p = self.graph, self.p
+        V, G = self.V, self.G
+        P, n = self.points.shape
+        ops, args, params = graph.op, graph.args, graph.param
+        todo = [k for k in graph.reachable([r for r in roots if r not in V]) if k not in V]
+        for k in todo:
+            op, a = ops[k], args[k]
+            if op == "x":
+                v = self.points[:, params[k]].copy()
+                g = np.zeros((n, P), dtype=object)
+                g[params[k]] = 1
+            elif op == "c":
+                value = graph.value_of(k)
+                if not math.isfinite(value):
+                    raise ValueError("a non-finite constant has no value modulo p")
+                v = np.full(P, const_mod(value, p), dtype=object)
+                g = np.zeros((n, P), dtype=object)
+            elif op == "add":
+                v = (V[a[0]] + V[a[1]]) % p
+                g = (G[a[0]] + G[a[1]]) % p
+            elif op == "neg":
+                v, g = (-V[a[0]]) % p, (-G[a[0]]) % p
+            elif op == "mul":
+                va, vb = V[a[0]], V[a[1]]
+                v = (va * vb) % p
+                g = (G[a[0]] * vb + G[a[1]] * va) % p
+            elif op == "div":
+                inv = self._inv(V[a[1]])
+                v = (V[a[0]] * inv) % p
+                g = ((G[a[0]] - G[a[1]] * v) * inv) % p
+            elif op == "ipow":
+                kk, va = params[k], V[a[0]]
+                inv = self._inv(va) if kk < 0 else None
+                v = np.array([pow(int(x), kk, p) for x in va], dtype=object) if kk >= 0 else \
+                    np.array([pow(int(x), -kk, p) for x in inv], dtype=object)
+                base = va if kk - 1 >= 0 else (inv if inv is not None else self._inv(va))
+                slope = np.array([kk % p * pow(int(x), abs(kk - 1), p) % p for x in base], dtype=object)
+                g = (G[a[0]] * slope) % p
+            else:
+                raise ValueError(f"{op} is not a rational operation")
+            V[k], G[k] = v, g
+        values = np.stack([V[r] for r in roots], axis=1)
+        grads = np.stack([G[r].T for r in roots], axis=1)
+        return values, grads
+
+    def _inv(self, a):
+        if any(int(x) % self.p == 0 for x in a):
+            raise Singular("division by zero modulo p")
+        return _inverse(a, self.p)
+
+
+def gradients_mod_p(graph, roots, points, p: int = PRIME):
+    """Values and gradients of rational graph nodes at points of ``F_p^n`` (one-off
+    :class:`ModularEvaluator`): ``values (P, R)``, ``grads (P, R, n)``, residues."""
+    return ModularEvaluator(graph, points, p).gradients(roots)
+
+
+def rank_mod_p(mat, p: int = PRIME) -> int:
+    """Rank of an integer matrix ``(r, n)`` over ``F_p`` (Gaussian elimination, Python
+    integers)."""
+    m = [[int(v) % p for v in row] for row in np.asarray(mat, dtype=object)]
+    rank = 0
+    rows = len(m)
+    cols = len(m[0]) if rows else 0
+    for c in range(cols):
+        pivot = next((i for i in range(rank, rows) if m[i][c] != 0), None)
+        if pivot is None:
+            continue
+        m[rank], m[pivot] = m[pivot], m[rank]
+        inv = pow(m[rank][c], -1, p)
+        m[rank] = [v * inv % p for v in m[rank]]
+        for i in range(rows):
+            if i != rank and m[i][c] != 0:
+                f = m[i][c]
+                m[i] = [(v - f * w) % p for v, w in zip(m[i], m[rank])]
+        rank += 1
+        if rank == rows:
+            break
+    return rank
+
+
+def degrees(graph, roots) -> list[tuple[int, int]]:
+    """Upper bounds ``(deg numerator, deg denominator)`` of rational graph nodes written as
+    quotients of polynomials in the coordinates (no cancellation assumed)."""
+    ops, args, params = graph.op, graph.args, graph.param
+    D = {}
+    for k in graph.reachable(roots):
+        op, a = ops[k], args[k]
+        if op == "x":
+            D[k] = (1, 0)
+        elif op == "c":
+            D[k] = (0, 0)
+        elif op == "neg":
+            D[k] = D[a[0]]
+        elif op == "add":
+            (na, da), (nb, db) = D[a[0]], D[a[1]]
+            D[k] = (max(na + db, nb + da), da + db)
+        elif op == "mul":
+            (na, da), (nb, db) = D[a[0]], D[a[1]]
+            D[k] = (na + nb, da + db)
+        elif op == "div":
+            (na, da), (nb, db) = D[a[0]], D[a[1]]
+            D[k] = (na + db, da + nb)
+        elif op == "ipow":
+            na, da = D[a[0]]
+            kk = params[k]
+            D[k] = (kk * na, kk * da) if kk >= 0 else (-kk * da, -kk * na)
+        else:
+            raise ValueError(f"{op} is not a rational operation")
+    return [D[r] for r in roots]
+
+
+class ExtendedEvaluator:
+    """Values and gradients of graph nodes at one point in ``dps`` decimal digits (mpmath),
+    every node kept between requests.
+
+    Args:
+        graph: the graph.
+        point: ``n`` floats (taken as exact binary numbers).
+        dps: decimal digits of the arithmetic.
+    """
+
+    def __init__(self, graph, point, dps: int):
+        import mpmath
+
+        ctx = self.ctx = mpmath.MPContext()
+        ctx.dps = dps
+        self.graph, self.point = graph, [float(v) for v in point]
+        self.V, self.G = {}, {}
+        self.unary = {
+            "sin": ctx.sin, "cos": ctx.cos, "tan": ctx.tan, "exp": ctx.exp, "log": ctx.log,
+            "sqrt": ctx.sqrt, "tanh": ctx.tanh, "atan": ctx.atan, "asin": ctx.asin,
+            "acos": ctx.acos, "sinh": ctx.sinh, "cosh": ctx.cosh, "asinh": ctx.asinh,
+            "acosh": ctx.acosh, "atanh": ctx.atanh, "abs": ctx.fabs, "log1p": ctx.log1p,
+            "expm1": ctx.expm1, "erf": ctx.erf, "cbrt": ctx.cbrt,
+            "logistic": lambda a: 1 / (1 + ctx.exp(-a)), "sign": ctx.sign, "floor": ctx.floor,
+            "ceil": ctx.ceil, "round": ctx.nint, "not": lambda a: ctx.mpf(a == 0),
+        }
+        self.slope = {
+            "sin": lambda a, v: ctx.cos(a), "cos": lambda a, v: -ctx.sin(a),
+            "tan": lambda a, v: 1 + v * v, "exp": lambda a, v: v, "log": lambda a, v: 1 / a,
+            "sqrt": lambda a, v: 1 / (2 * v), "tanh": lambda a, v: 1 - v * v,
+            "atan": lambda a, v: 1 / (1 + a * a), "asin": lambda a, v: 1 / ctx.sqrt(1 - a * a),
+            "acos": lambda a, v: -1 / ctx.sqrt(1 - a * a), "sinh": lambda a, v: ctx.cosh(a),
+            "cosh": lambda a, v: ctx.sinh(a), "asinh": lambda a, v: 1 / ctx.sqrt(a * a + 1),
+            "acosh": lambda a, v: 1 / ctx.sqrt(a * a - 1), "atanh": lambda a, v: 1 / (1 - a * a),
+            "abs": lambda a, v: ctx.sign(a), "log1p": lambda a, v: 1 / (1 + a),
+            "expm1": lambda a, v: v + 1, "logistic": lambda a, v: v * (1 - v),
+            "erf": lambda a, v: 2 / ctx.sqrt(ctx.pi) * ctx.exp(-a * a),
+            "cbrt": lambda a, v: 1 / (3 * v * v),
+        }
+
+    def gradients(self, roots):
+        """``(values, grads)``: lists of mpmath numbers, ``grads[r]`` a list of ``n``."""
+        ctx, graph = self.ctx, self.graph
+        n = len(self.point)
+        zero = ctx.mpf(0)
+        zeros = [zero] * n
+        compare = {"lt": lambda a, b: a < b, "le": lambda a, b: a <= b, "gt": lambda a, b: a > b,
+                   "ge": lambda a, b: a >= b, "eq": lambda a, b: a == b, "ne": lambda a, b: a != b,
+                   "and": lambda a, b: bool(a) and bool(b), "or": lambda a, b: bool(a) or bool(b)}
+        ops, args, params = graph.op, graph.args, graph.param
+        V, G = self.V, self.G
+        for k in graph.reachable([r for r in roots if r not in V]):
+            if k in V:
+                continue
+            op, a = ops[k], args[k]
+            if op == "x":
+                i = params[k]
+                v, g = ctx.mpf(self.point[i]), [zero] * n
+                g[i] = ctx.mpf(1)
+            elif op == "c":
+                v, g = ctx.mpf(graph.value_of(k)), zeros
+            elif op == "add":
+                v = V[a[0]] + V[a[1]]
+                g = [p + q for p, q in zip(G[a[0]], G[a[1]])]
+            elif op == "neg":
+                v, g = -V[a[0]], [-q for q in G[a[0]]]
+            elif op == "mul":
+                va, vb = V[a[0]], V[a[1]]
+                v = va * vb
+                g = [p * vb + q * va for p, q in zip(G[a[0]], G[a[1]])]
+            elif op == "div":
+                va, vb = V[a[0]], V[a[1]]
+                v = va / vb
+                g = [(p - v * q) / vb for p, q in zip(G[a[0]], G[a[1]])]
+            elif op == "ipow":
+                kk = params[k]
+                va = V[a[0]]
+                v = va ** kk
+                s = kk * va ** (kk - 1)
+                g = [q * s for q in G[a[0]]]
+            elif op == "pow":
+                va, vb = V[a[0]], V[a[1]]
+                v = ctx.power(va, vb)
+                g = [q * v * ctx.log(va) + p * v * vb / va for p, q in zip(G[a[0]], G[a[1]])]
+            elif op == "atan2":
+                va, vb = V[a[0]], V[a[1]]
+                v = ctx.atan2(va, vb)
+                den = va * va + vb * vb
+                g = [(vb * p - va * q) / den for p, q in zip(G[a[0]], G[a[1]])]
+            elif op == "select":
+                pick = a[2] if V[a[0]] != 0 else a[1]
+                v, g = V[pick], G[pick]
+            elif op in compare:
+                v, g = ctx.mpf(compare[op](V[a[0]], V[a[1]])), zeros
+            else:
+                va = V[a[0]]
+                v = self.unary[op](va)
+                g = zeros if op not in self.slope else [q * self.slope[op](va, v) for q in G[a[0]]]
+            V[k], G[k] = v, g
+        return [V[r] for r in roots], [G[r] for r in roots]
+
+
+def gradients_mp(graph, roots, point, dps: int):
+    """Values and gradients of graph nodes at one point, in ``dps`` decimal digits (a
+    one-off :class:`ExtendedEvaluator`): lists of mpmath numbers."""
+    return ExtendedEvaluator(graph, point, dps).gradients(roots)
+
+
+__all__ = ["PRIME", "Singular", "const_mod", "ModularEvaluator", "gradients_mod_p", "rank_mod_p",
+           "degrees", "ExtendedEvaluator", "gradients_mp"]
