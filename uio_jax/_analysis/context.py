@@ -19,8 +19,8 @@ from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
 from .._model.system import DEFAULT_BOX
 from .rank import Codistribution
-from .settle import Settler
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
+from .settle import Settler
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but

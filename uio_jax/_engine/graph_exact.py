@@ -10,8 +10,8 @@ points:
   (:data:`uio_jax._engine.graph.RATIONAL_OPS`: the model's float64 constants are dyadic
   rationals, exact modulo an odd prime). Values and forward-mode gradients are computed in
   the field ``F_p``, ``p = 2^127 - 1``, with Python integers (numpy object arrays over the
-  points), every node once per set of points (:class:`ModularEvaluator`). The rank of the gradients at a point of ``F_p^n``
-  is never above the generic rank over the rationals (an identically vanishing minor
+  points), every node once per set of points (:class:`ModularEvaluator`). The rank of
+  the gradients at a point of ``F_p^n`` is never above the generic rank over the rationals (an identically vanishing minor
   vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero minor:
   by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of degree
   ``D`` (:func:`degrees` bounds it).
