@@ -6,15 +6,15 @@ singular value is 1e-8 looks like round-off, and round-off in a high-order deriv
 look like a direction. The certificate settles such decisions again here, at a few random
 points:
 
-* **Modulo a prime** (:func:`gradients_mod_p`), for graphs made of rational operations
+* **Modulo a prime** (:class:`ModularEvaluator`), for graphs made of rational operations
   (:data:`uio_jax._engine.graph.RATIONAL_OPS`: the model's float64 constants are dyadic
   rationals, exact modulo an odd prime). Values and forward-mode gradients are computed in
   the field ``F_p``, ``p = 2^127 - 1``, with Python integers (numpy object arrays over the
-  points), every node once per set of points (:class:`ModularEvaluator`). The rank of
-  the gradients at a point of ``F_p^n`` is never above the generic rank over the rationals (an identically vanishing minor
-  vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero minor:
-  by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of degree
-  ``D`` (:func:`degrees` bounds it).
+  points), every node once per set of points. The rank of the gradients at a point of
+  ``F_p^n`` is never above the generic rank over the rationals (an identically vanishing
+  minor vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero
+  minor: by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of
+  degree ``D`` (:func:`degrees` bounds it).
 * **mpmath** (:func:`gradients_mp`), for any graph: values and gradients in ``dps``
   decimal digits. Repeated at two precisions, a genuine small number keeps its value
   while round-off shrinks with the precision.
