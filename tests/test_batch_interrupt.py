@@ -28,13 +28,16 @@ HANGING_ZOO = """
     import time
     import traceback
 
+    import jax
     import uio_jax as uj
 
     PID_FILE = os.environ.get("HANG_PID_FILE")
 
     def _sleeping_output(x):
+        # erf_inv: outside the expression graph, so the analysis runs this function itself
+        # (through XLA) instead of an expression translated when the System was built
         if not any(f.name == "analyze" and f.filename.endswith("analyze.py") for f in traceback.extract_stack()):
-            return x[0]
+            return x[0] + 0.0 * jax.lax.erf_inv(0.5 * jax.numpy.tanh(x[0]))
         if PID_FILE:
             with open(PID_FILE + ".part", "w") as f:
                 f.write(str(os.getpid()))
