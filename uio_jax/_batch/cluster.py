@@ -19,6 +19,9 @@ pool. What the cluster adds:
   models not done;
 * **Ctrl-C**: the models still running are cancelled and their workers killed (fresh ones
   start), the rows done are kept;
+* **one CPU per worker process**: a worker with one thread binds itself to a CPU no
+  other worker of its host holds (:func:`~uio_jax._filter.cluster.claim_one_cpu`), as the
+  local pool's workers are bound; ``UIO_JAX_PIN_WORKERS=0`` on a host turns it off;
 * **caches**: each task enables the caller's compilation cache directory on its worker
   (the program cache in it, :mod:`uio_jax._engine.program_cache`): on a path shared by
   every host, a model compiled once is loaded everywhere after. Where that path cannot be
@@ -35,7 +38,7 @@ import time
 import uuid
 
 from .._engine.compile_cache import cache_dir_in_use, default_cache_dir, disable_compile_cache, enable_compile_cache
-from .._filter.cluster import NO_WORKER_S, stop_tasks, worker_threads
+from .._filter.cluster import NO_WORKER_S, claim_one_cpu, stop_tasks, worker_threads
 from .executor import Executor, drive
 from .rows import one_line
 
@@ -222,6 +225,8 @@ def cluster_task(i, task, topic, cache_dir):
     from .workers import worker_run
 
     worker = get_worker()
+    if worker.state.nthreads == 1:
+        claim_one_cpu()  # one CPU per worker process, as the local pool's workers
     _use_cache(cache_dir)
     worker.log_event(topic, ["started", i, worker.address])
     return worker_run(*task, conn=_Events(worker, topic, i))

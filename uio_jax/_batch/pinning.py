@@ -1,4 +1,5 @@
-"""CPU binding of the batch's worker processes."""
+"""CPU binding of the batch's worker processes (a Dask cluster's workers bind themselves:
+:func:`uio_jax._filter.cluster.claim_one_cpu`)."""
 
 import os
 
@@ -19,3 +20,4 @@ def pin_to_one_cpu(slot):
         os.sched_setaffinity(0, {cpus[slot % len(cpus)]})
     except OSError:  # pragma: no cover - a container that forbids it: run unpinned
         pass
+

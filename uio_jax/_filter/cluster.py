@@ -35,9 +35,11 @@ import asyncio
 import contextlib
 import hashlib
 import math
+import os
 import queue
 import socket
 import sys
+import tempfile
 import time
 import uuid
 
@@ -200,9 +202,60 @@ def stop_tasks(client, futures, where=None):
 
 def _exit_worker():
     """Run in a worker process by :func:`stop_tasks`: end it at once (its nanny restarts it)."""
-    import os
-
     os._exit(1)
+
+
+#: ``UIO_JAX_PIN_WORKERS=0`` on a worker host leaves its Dask workers unbound.
+PIN_ENV = "UIO_JAX_PIN_WORKERS"
+_CLAIMED: list = []  # [cpu or None] once this process has tried
+
+
+def claim_one_cpu():
+    """Bind this process, a worker of a Dask cluster, to one CPU that no other worker
+    process of this host holds (the first free one), as :func:`uio_jax._batch.pinning.pin_to_one_cpu`
+    binds the local pool's workers; called by its first task (a batch's model, a Monte Carlo shard), before JAX
+    starts its thread pools.
+
+    The CPUs are claimed with a lock file each (``$TMPDIR/uio_jax-cpus-UID/cpuK.lock``,
+    held until the process ends, so a killed worker frees its CPU for the fresh one):
+    with one worker process per core (``dask worker --nworkers $(nproc) --nthreads 1``)
+    each gets its own. A worker finding every CPU taken, a host with one CPU, a platform
+    without CPU affinity or ``UIO_JAX_PIN_WORKERS=0`` leaves the process unbound.
+
+    Unbound, each worker's XLA sizes its thread pools to the whole host: ``jobs`` workers
+    oversubscribe the cores (``docs/benchmarks/batch.md``), and at jax 0.10.2 some of the
+    analysis programs of the zoo's multi-input models never return from a two-thread pool
+    on this project's 2-core machine (``docs/benchmarks/cluster.md``).
+
+    Returns:
+        the CPU bound to, or None.
+    """
+    if _CLAIMED:
+        return _CLAIMED[0]
+    _CLAIMED.append(None)
+    if os.environ.get(PIN_ENV, "1").strip() == "0" or not hasattr(os, "sched_setaffinity"):
+        return None
+    try:
+        import fcntl
+
+        cpus = sorted(os.sched_getaffinity(0))
+        folder = os.path.join(tempfile.gettempdir(), f"uio_jax-cpus-{os.getuid()}")
+        os.makedirs(folder, exist_ok=True)
+    except (ImportError, OSError):  # pragma: no cover - no locks or no temp dir: unbound
+        return None
+    if len(cpus) < 2:
+        return None
+    for cpu in cpus:
+        lock = open(os.path.join(folder, f"cpu{cpu}.lock"), "a")
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            os.sched_setaffinity(0, {cpu})
+        except OSError:
+            lock.close()
+            continue
+        _CLAIMED[:] = [cpu, lock]  # the lock stays open (held) as long as the process lives
+        return cpu
+    return None
 
 
 # ---------------------------------------------------------------------- Monte Carlo
@@ -242,6 +295,8 @@ def _shard_task(blob, first, count, seed, filter, keep, topic, shard, simulate_t
     from distributed import get_worker
 
     worker = get_worker()
+    if worker.state.nthreads == 1:
+        claim_one_cpu()  # one CPU per worker process
     exp = _experiment(blob)
 
     def on_chunk(steps):
