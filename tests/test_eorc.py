@@ -14,6 +14,7 @@ from conftest import ROOT, zoo
 from helpers import zoo_report
 
 import uio_jax as uj
+from uio_jax._analysis import context as _context
 from uio_jax._analysis.eorc import extended_system
 from uio_jax._analysis.rank import default_rtol
 from uio_jax._calculus import blocks as _blocks
@@ -279,8 +280,9 @@ def test_power_policy_falls_back_only_for_a_missing_rule():
 def test_streamed_blocks_give_the_same_report(monkeypatch):
     """Blocks over the samples in batches (after a block measured STREAM_ELEMENTS) answer
     as the blocks over all samples at once; here every block after order 1 is streamed.
-    (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
+    (The compiled route, ``UIO_JAX_ENGINE=xla``, every sample deciding.)"""
     monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
+    monkeypatch.setattr(_context, "DECISION_SAMPLES", 10**6)
     case = "unicycle_disturbance.py:gamma_known_range"
     plain = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)
     batches = []

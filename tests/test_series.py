@@ -136,34 +136,10 @@ def _late_chain():
     )
 
 
-def test_exploring_on_a_subset_changes_nothing_but_the_evaluations(monkeypatch):
-    """With many samples the orders needed are found on the first EXPLORE_SAMPLES samples,
-    then one program reaching them runs on all samples: the report is the one of the plain
-    order-by-order run (same steps, generators, certificate), with one evaluation on all
-    samples instead of two."""
-    system = _late_chain()
-    calls = []
-    plain_batches = _generators._in_batches
-
-    def counting(compiled, xs, batch):
-        calls.append(xs.shape[0])
-        return plain_batches(compiled, xs, batch)
-
-    monkeypatch.setattr(_generators, "_in_batches", counting)
-    explored = uj.analyze(system, method="series", samples=1024)
-    explored_calls, calls[:] = list(calls), []
-    monkeypatch.setattr(_series, "EXPLORE_FROM", 10**9)
-    plain = uj.analyze(system, method="series", samples=1024)
-    assert plain.dims == explored.dims == (2, 3, 4)
-    assert plain.history == explored.history
-    assert plain.certificate == explored.certificate and plain.generators == explored.generators
-    assert calls == [1024, 1024]  # orders 0..1, then 2..3 (rank 4 reached at 2)
-    assert explored_calls.count(1024) == 1 and explored_calls.count(_series.EXPLORE_SAMPLES) == 2
-
-
-def test_streamed_programs_pad_the_last_batch():
+def test_streamed_programs_pad_the_last_batch(monkeypatch):
     """203 samples, not a multiple of the batch: the padded last batch is dropped again and
-    the rows equal a direct jacfwd."""
+    the rows equal a direct jacfwd. (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
+    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
     assert 203 % _generators.STREAM_BATCH
     ctx = Context(_late_chain(), 203, 0, 1e-8)
     series = _series._Series(ctx, 0, 4)  # cap n, as analyze: the programs of the test above

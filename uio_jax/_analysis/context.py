@@ -20,7 +20,15 @@ from .._model.smooth_inputs import known_coordinates
 from .._model.system import DEFAULT_BOX
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
-from .settle import Settler
+from .settle import Escalation, Settler
+
+#: The recursion decides on the first this-many samples (every candidate, every
+#: membership on the way); the final span is then certified at all of them
+#: (:meth:`Context.certify`). A decision is the vote of these samples, settled beyond
+#: float64 when weak (:mod:`uio_jax._analysis.settle`), so the rest of the samples add
+#: coverage of the domain, not correctness: they are spent once, on the final generators,
+#: instead of on every candidate of every step (``docs/benchmarks/engine.md``).
+DECISION_SAMPLES = 256
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
@@ -48,25 +56,19 @@ class Context:
         with jax.enable_x64(True):
             self._start(sample_states(system, samples, seed), rtol)
 
-    def _start(self, xs, rtol):
-        """Samples ``xs`` ``(S, n)`` and an empty codistribution on them."""
-        self.xs = xs
+    def _start(self, xs_all, rtol):
+        """Samples ``xs_all`` ``(S, n)``; the decision samples ``xs`` (the first
+        :data:`DECISION_SAMPLES`) and an empty codistribution on them."""
+        self.xs_all = xs_all
+        self.xs = xs_all[:DECISION_SAMPLES]
+        self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
-        self.codist = Codistribution(self.system.n, self.samples, hi - lo, rtol)
+        self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
         if self.builder.graph is not None:  # weak votes settled in the expression graph
             self.codist.settle = Settler(self.builder.graph, lo, hi, self.seed).settle
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
-
-    def subset(self, samples: int) -> "Context":
-        """A fresh Context (empty codistribution, same builder) on the first ``samples``
-        of these samples: a cheap preview of an analysis, e.g. to plan its evaluations."""
-        sub = Context.__new__(Context)
-        sub.system, sub.builder, sub.seed = self.system, self.builder, self.seed
-        sub.samples = min(int(samples), self.samples)
-        sub._start(self.xs[:sub.samples], self.codist.rtol)
-        return sub
 
     def fork(self) -> "Context":
         """A fresh Context on the same samples (empty codistribution, no decisions) that
@@ -75,9 +77,47 @@ class Context:
         sub = Context.__new__(Context)
         sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
         sub.seed = self.seed
-        sub._start(self.xs, self.codist.rtol)
-        sub._grads = self._grads
+        sub._start(self.xs_all, self.codist.rtol)
+        sub._grads = self._grads if not self.certified or sub.certified else {}
         return sub
+
+    def certify(self) -> None:
+        """Decide the final span again at every sample (after the recursion).
+
+        The kept generators are absorbed, in order, into a codistribution over all ``S``
+        samples: their gradients are evaluated there once. Each acceptance is a vote of the
+        ``S`` samples (weak ones settled beyond float64); a generator the ``S`` samples do
+        not confirm is recorded as an undecided escalation (the two sample sets
+        disagree). The decisions of the recursion (rejected candidates, memberships on
+        the way) keep their votes of the decision samples. Afterwards :attr:`codist` and
+        :attr:`xs` are those of all the samples; a no-op when they already are.
+        """
+        if self.certified:
+            return
+        phase, kept = self.codist, list(self.codist.nodes)
+        lo, hi = self.system.box()
+        full = Codistribution(self.system.n, len(self.xs_all), hi - lo, phase.rtol)
+        full.settle = phase.settle
+        full.escalations = list(phase.escalations)
+        self.xs, self._grads, self.certified = self.xs_all, {}, True
+        if kept:
+            added = self.absorb_into(full, kept)
+            for nd in kept:
+                if nd not in added:
+                    full.escalations.append(Escalation(
+                        f"{nd.label} (kept on {len(phase.valid)} samples)", "dependent on all samples",
+                        f"all {len(self.xs_all)} samples", "undecided"))
+        full.rejections = phase.rejections + full.rejections
+        self.codist = full
+
+    def absorb_into(self, codist, nodes) -> list:
+        """Absorb ``nodes`` into ``codist`` with their gradients at :attr:`xs`."""
+        grads = self.gradients(nodes)
+        try:
+            return codist.absorb(nodes, grads)
+        except FloatingPointError:
+            raise ModelError("the generators are NaN/inf at every sampled state: check the model "
+                             "and its domain") from None
 
     def coordinates(self, count: int, n: int, meanwhile=None):
         """Which unit covectors lie in the span, and its dimension on the first ``n``
@@ -263,6 +303,7 @@ class Context:
         ``n - known_coordinates`` coordinates. ``known_inputs``: the meaning of the known
         inputs the analysis took (``"none"`` is recorded when the System has none).
         """
+        self.certify()
         own = self.system
         known = known_coordinates(own)
         if system is None and known:

@@ -74,7 +74,7 @@ from .._calculus.blocks import Stream, blocks_for
 from .._errors import ModelError
 from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
-from .context import Context, SampledSpace, report_view
+from .context import DECISION_SAMPLES, Context, SampledSpace, report_view
 from .driver import Recursion, StopReason, iterate
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report, Step
@@ -387,13 +387,18 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
                                            k_max=K)
         ctx = run.ctx
         last = history[-1]
+        ctx.certify()  # the final span at every sample; the verdicts read there
+        states, _, dim_all = run.coordinates(k)
         view = report_view(system, run.n)  # the known coordinates (time) left out
-        observable = {s: s in last.extra["observable_states"] for s in view.states}
+        observable = {s: s in states for s in view.states}
         first_seen = {}
         for st in history:
             for nm in st.extra["observable_inputs"]:
                 first_seen.setdefault(nm, st.m)
     notes = list(notes)
+    if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
+        notes.append(f"order k={k} decided on the first {DECISION_SAMPLES} samples gave "
+                     f"dim {last.dim}; all {ctx.samples} samples give dim {dim_all}: the report gives the latter")
     if smooth:
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
@@ -418,7 +423,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
-    space = SampledSpace(ctx, n=run.n, dim=last.dim, fill=0.5 * sum(DEFAULT_BOX))
+    space = SampledSpace(ctx, n=run.n, dim=dim_all, fill=0.5 * sum(DEFAULT_BOX))
     return ctx.report("eorc", history, reason, notes=notes, details=details, system=view,
-                      dim=last.dim, observable=observable, space=space,
+                      dim=dim_all, observable=observable, space=space,
                       known_inputs=known_inputs)

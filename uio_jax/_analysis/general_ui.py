@@ -627,6 +627,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
             jet = 2 * jet
         truncated = bool(system.known) and _top_jet_used(out, system, jet)
         omega = out.omega
+        omega.certify()  # the final span at every sample; the verdicts read there
         members, dim = omega.coordinates(out.w.system.n, n)
         ui_obs = observable_inputs(out, full=all(members))
         for spent in out.spent:

@@ -37,12 +37,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._calculus.generators import Node
+from .._engine.graph import Graph
 from .._engine.interpreter import NoTaylorRule
 from .._engine.taylor import taylor
 from .._engine.taylor_flow import flow_coefficients
 from .._errors import OptionError
-from .._progress import step_listener
 from .context import Context
 from .driver import Recursion, StopReason, iterate
 
@@ -124,14 +123,6 @@ def output_series(system, a, K):
     return coefficients
 
 
-#: From this many samples on, the orders a series test needs are first found on the first
-#: :data:`EXPLORE_SAMPLES` samples (see :func:`run_series`).
-EXPLORE_FROM = 512
-
-#: Samples of the exploring run (a few batches of the streamed programs, which it reuses).
-EXPLORE_SAMPLES = 128
-
-
 class _Series:
     """Nodes ``y_k[h]`` of one System and generic input, and the programs that evaluate them.
 
@@ -147,26 +138,39 @@ class _Series:
         tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
         self.outs = ctx.output_nodes()
         self.orders_made = []  # K of every program made
+        self.tag, self.ctx = tag, ctx
         self.nodes = {}
-        for k in range(cap + 1):
-            for i, h in enumerate(self.outs):
-                if k == 0:
-                    self.nodes[k, i] = h
-                    continue
-                sig = f"series:{tag}:{k}:{h.sig}" if h.sig else ""
-                self.nodes[k, i] = ctx.builder.node(
-                    ("series", tag, k, h.label),
-                    lambda k=k, i=i, h=h, sig=sig: Node(f"y_{k}[{h.label}]", _coefficient(self.system, self.a, k, i),
-                                                      "scalar", k, sig))
+        #: the coefficients as expressions of the System's graph, order by order on
+        #: demand (numpy, nothing compiled); None: the model is outside the graph
+        self.graphed = _GraphCoefficients.of(ctx, self.a, cap)
+        self.in_graph = self.graphed is not None
+
+    def node(self, k, i):
+        """The node ``y_k[h_i]`` (memoized by the builder)."""
+        if (k, i) not in self.nodes:
+            h = self.outs[i]
+            if k == 0:
+                self.nodes[k, i] = h
+                return h
+            sig = f"series:{self.tag}:{k}:{h.sig}" if h.sig else ""
+            expr = self.graphed.order(k)[i] if self.in_graph else None
+            self.nodes[k, i] = self.builder.node(
+                ("series", self.tag, k, h.label),
+                lambda: self.builder.make(f"y_{k}[{h.label}]", _coefficient(self.system, self.a, k, i),
+                                          "scalar", k, sig, expr))
+        return self.nodes[k, i]
 
     def gradients(self, ctx: Context, k_lo, k_hi):
         """Gradients of every ``y_k`` for ``k_lo <= k <= k_hi`` at ``ctx``'s samples:
         ``(S, (k_hi - k_lo + 1) p, n)``."""
         p = len(self.outs)
+        if self.in_graph:
+            nodes = tuple(self.node(k, i) for k in range(k_lo, k_hi + 1) for i in range(p))
+            return nodes, ctx.gradients(nodes)
         K = min((K for K in self.orders_made if K >= k_hi), default=k_hi)
         if K not in self.orders_made:
             self.orders_made.append(K)
-        nodes = tuple(self.nodes[k, i] for k in range(K + 1) for i in range(p))
+        nodes = tuple(self.node(k, i) for k in range(K + 1) for i in range(p))
         coefficients = output_series(self.system, self.a, K)
 
         def make():
@@ -176,6 +180,55 @@ class _Series:
         rows = slice(k_lo * p, (k_hi + 1) * p)
         ctx.remember_gradients(nodes[rows], grads[:, rows])
         return nodes[rows], grads[:, rows]
+
+
+class _GraphCoefficients:
+    """The coefficients ``y_k`` of every output as expressions of the System's graph,
+    built order by order on demand.
+
+    In a graph on ``[x; t]``: the generic input ``u_i(t) = sum_k a_ik t^k`` (Horner), the
+    field ``F = [f0 + sum_i u_i(t) f_i; 1]``, ``y^(k) = L_F^k h`` by repeated symbolic
+    derivatives; then ``t = 0`` (the expressions imported back into the System's graph)
+    and ``y_k = y^(k) / k!``.
+    """
+
+    @classmethod
+    def of(cls, ctx: Context, a, cap):
+        """The coefficients of ``ctx``'s System, or None when a field or output has no
+        expression."""
+        system, g = ctx.system, ctx.builder.graph
+        outs = ctx.output_nodes()
+        known = [ctx.field_node(k) for k in system.known]
+        drift = ctx.field_node("f0") if system.drift is not None else None
+        if g is None or any(nd.expr is None for nd in outs + known + ([drift] if drift else [])):
+            return None
+        return cls(g, [h.expr for h in outs], None if drift is None else drift.expr,
+                   [f.expr for f in known], a, cap)
+
+    def __init__(self, g, outs, drift, known, a, cap):
+        n = g.n
+        self.g, self.gt = g, Graph(n + 1)
+        gt = self.gt
+        x, t = gt.coords[:n], gt.x(n)
+        F = list(gt.import_nodes(g, list(drift), x)) if drift is not None else [gt.zero] * n
+        for i, f in enumerate(known):
+            u = gt.zero
+            for c in reversed(a[i, :cap + 1]):  # Horner: u = a_i0 + t (a_i1 + t (...))
+                u = gt.add(gt.const(float(c)), gt.mul(t, u))
+            F = [gt.add(Fj, gt.mul(u, fj)) for Fj, fj in zip(F, gt.import_nodes(g, list(f), x))]
+        self.tangent = tuple(F) + (gt.one,)
+        self.levels = [gt.import_nodes(g, list(outs), x)]  # y^(k) on [x; t]
+        self.at_zero = tuple(g.coords) + (g.zero,)
+        self.done = {}
+
+    def order(self, k):
+        """``[y_k[h] for h in outputs]``: nodes of the System's graph."""
+        while len(self.levels) <= k:
+            self.levels.append(self.gt.jvp(self.levels[-1], self.tangent))
+        if k not in self.done:
+            back = self.g.import_nodes(self.gt, self.levels[k], self.at_zero)
+            self.done[k] = [self.g.div(e, self.g.const(float(math.factorial(k)))) for e in back]
+        return self.done[k]
 
 
 def _coefficient(system, a, k, i):
@@ -248,14 +301,9 @@ class SeriesOrders(Recursion):
 
 
 def run_series(ctx: Context, *, seed: int, max_order=None):
-    """Absorb ``dy_k`` order by order (:class:`SeriesOrders`).
-
-    How many orders a model needs is known only at the end; with many samples, a first
-    run on the first :data:`EXPLORE_SAMPLES` samples finds it, so the run on all samples
-    evaluates one program reaching that order (the largest one the exploring run made)
-    instead of a first guess and its continuation. Every rank decision of the result is
-    still taken on all samples, in the same order, so the result is the same as without
-    the exploration.
+    """Absorb ``dy_k`` order by order (:class:`SeriesOrders`), on the decision samples of
+    ``ctx`` (:data:`uio_jax._analysis.context.DECISION_SAMPLES`; the final span is certified
+    on all of them when the report is built).
 
     Returns:
         ``(history, stop_reason, k_reached)``: one Step per order ``k = 0..K``
@@ -264,11 +312,7 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     n = ctx.system.n
     cap = n if max_order is None else int(max_order)
     series = _Series(ctx, seed, cap)
-    first = None
-    if ctx.samples >= EXPLORE_FROM:
-        with step_listener(None):  # the exploring run's steps are not the report's
-            first = iterate(SeriesOrders(ctx.subset(EXPLORE_SAMPLES), series, cap)).m
-    out = iterate(SeriesOrders(ctx, series, cap, first))
+    out = iterate(SeriesOrders(ctx, series, cap))
     return out.history, out.stop.message, out.m
 
 

@@ -53,19 +53,10 @@ _COMPARE = {"lt": np.less, "le": np.less_equal, "gt": np.greater, "ge": np.great
 _FLAT = frozenset({"sign", "floor", "ceil", "round", "not"})
 
 
-def _add(a, b):
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return a + b
-
-
 def schedule(graph, roots):
-    """``(order, last)``: the nodes behind ``roots`` ascending, and per position the
-    positions of the nodes whose last use it is (freed after it)."""
+    """``(order, frees, peak)``: the nodes behind ``roots`` ascending, per position the
+    nodes whose last use it is (freed after it), and the most nodes alive at once."""
     order = graph.reachable(roots)
-    pos = {k: p for p, k in enumerate(order)}
     last_use = {}
     args = graph.args
     for p, k in enumerate(order):
@@ -77,12 +68,58 @@ def schedule(graph, roots):
         if a not in keep:
             frees[p].append(a)
     peak = live = 0
-    for p, k in enumerate(order):
+    for p in range(len(order)):
         live += 1
         peak = max(peak, live)
         live -= len(frees[p])
-    del pos
     return order, frees, peak
+
+
+def columns(graph, order):
+    """Per node, the coordinates it depends on (a sorted tuple), and per (node, operand) the
+    rows of the operand's gradient inside the node's (an index array, None when equal).
+
+    A node's gradient is zero outside its coordinates: with sparse gradients each node
+    carries ``(len(cols), S)`` instead of ``(n, S)`` (on the EORC's extended states the
+    average node depends on a quarter of them).
+    """
+    ops, args, params = graph.op, graph.args, graph.param
+    cols, where = {}, {}
+    for k in order:
+        if ops[k] == "x":
+            cols[k] = (params[k],)
+            continue
+        if not args[k]:
+            cols[k] = ()
+            continue
+        united = set()
+        for a in args[k]:
+            united.update(cols[a])
+        c = tuple(sorted(united))
+        cols[k] = c
+        pos = None
+        for a in args[k]:
+            ca = cols[a]
+            if ca == c or not ca:
+                where[k, a] = None
+                continue
+            if pos is None:
+                pos = {v: i for i, v in enumerate(c)}
+            where[k, a] = np.fromiter((pos[v] for v in ca), dtype=np.intp, count=len(ca))
+    return cols, where
+
+
+#: Sparse gradients (:func:`columns`) from this many gradient entries per node (``n S``):
+#: below it, dense ``(n, S)`` arrays cost less than the bookkeeping.
+SPARSE_FROM = 32768
+
+
+def _add(a, b):
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return a + b
 
 
 def evaluate(graph, roots, xs, gradients: bool = True):
@@ -104,23 +141,49 @@ def evaluate(graph, roots, xs, gradients: bool = True):
     order, frees, peak = schedule(graph, roots)
     per_sample = 8 * (1 + (n if gradients else 0)) * max(peak, 1)
     chunk = max(64, min(S, CHUNK_BYTES // per_sample)) if S else 1
+    sparse = gradients and n * min(S, chunk) >= SPARSE_FROM
+    cols, where = columns(graph, order) if sparse else (None, None)
     values = np.empty((S, len(roots)))
-    grads = np.empty((S, len(roots), n)) if gradients else None
+    grads = np.zeros((S, len(roots), n)) if gradients else None
     for start in range(0, S, chunk):
         part = xs[start:start + chunk]
-        v, g = _walk(graph, order, frees, roots, part, gradients)
+        v, g = _walk(graph, order, frees, part, gradients, cols, where)
         for r, root in enumerate(roots):
             values[start:start + chunk, r] = v[root]
-            if gradients:
-                gr = g[root]
-                grads[start:start + chunk, r] = 0.0 if gr is None else gr.T
+            gr = g.get(root) if gradients else None
+            if gr is not None:
+                if sparse:
+                    grads[start:start + chunk, r][:, list(cols[root])] = gr.T
+                else:
+                    grads[start:start + chunk, r] = gr.T
     return (values, grads) if gradients else values
 
 
-def _walk(graph, order, frees, roots, xs, gradients):
+def _walk(graph, order, frees, xs, gradients, cols=None, where=None):
+    """Values ``{node: (S,)}`` and gradients ``{node: (rows, S) or None}`` of the nodes of
+    ``order``; ``cols``/``where`` (:func:`columns`): sparse gradients, rows = the node's
+    coordinates; None: dense, rows = every coordinate."""
     S, n = xs.shape
     ops, args, params = graph.op, graph.args, graph.param
     V, G = {}, {}
+    sparse = cols is not None
+
+    def term(k, a, factor=None):
+        """The operand's gradient (times ``factor``) in the node's rows."""
+        g = G[a]
+        if g is None:
+            return None
+        if factor is not None:
+            g = g * factor
+        if not sparse:
+            return g
+        idx = where.get((k, a))
+        if idx is None:
+            return g
+        out = np.zeros((len(cols[k]), S))
+        out[idx] = g
+        return out
+
     with np.errstate(all="ignore"):
         for p, k in enumerate(order):
             op, a = ops[k], args[k]
@@ -129,20 +192,22 @@ def _walk(graph, order, frees, roots, xs, gradients):
                 i = params[k]
                 v = xs[:, i]
                 if gradients:
-                    g = np.zeros((n, S))
-                    g[i] = 1.0
+                    if sparse:
+                        g = np.ones((1, S))
+                    else:
+                        g = np.zeros((n, S))
+                        g[i] = 1.0
             elif op == "c":
                 v = np.full(S, graph.value_of(k))
             elif op == "add":
                 v = V[a[0]] + V[a[1]]
                 if gradients:
-                    g = _add(G[a[0]], G[a[1]])
+                    g = _add(term(k, a[0]), term(k, a[1]))
             elif op == "mul":
                 va, vb = V[a[0]], V[a[1]]
                 v = va * vb
                 if gradients:
-                    ga, gb = G[a[0]], G[a[1]]
-                    g = _add(None if ga is None else ga * vb, None if gb is None else gb * va)
+                    g = _add(term(k, a[0], vb), term(k, a[1], va))
             elif op == "neg":
                 v = -V[a[0]]
                 if gradients and G[a[0]] is not None:
@@ -151,9 +216,8 @@ def _walk(graph, order, frees, roots, xs, gradients):
                 va, vb = V[a[0]], V[a[1]]
                 v = va / vb
                 if gradients:
-                    ga, gb = G[a[0]], G[a[1]]
-                    num = _add(ga, None if gb is None else -(gb * v))
-                    g = None if num is None else num / vb
+                    inv = 1.0 / vb
+                    g = _add(term(k, a[0], inv), term(k, a[1], -v * inv))
             elif op == "ipow":
                 kk = params[k]
                 va = V[a[0]]
@@ -164,7 +228,7 @@ def _walk(graph, order, frees, roots, xs, gradients):
                 pred = V[a[0]] != 0
                 v = np.where(pred, V[a[2]], V[a[1]])
                 if gradients:
-                    gf, gt = G[a[1]], G[a[2]]
+                    gf, gt = term(k, a[1]), term(k, a[2])
                     if gf is not None or gt is not None:
                         g = np.where(pred, 0.0 if gt is None else gt, 0.0 if gf is None else gf)
             elif op in _COMPARE:
@@ -173,17 +237,13 @@ def _walk(graph, order, frees, roots, xs, gradients):
                 va, vb = V[a[0]], V[a[1]]
                 v = va ** vb
                 if gradients:
-                    ga, gb = G[a[0]], G[a[1]]
-                    g = _add(None if gb is None else gb * (v * np.log(va)),
-                             None if ga is None else ga * (v * vb / va))
+                    g = _add(term(k, a[0], v * vb / va), term(k, a[1], v * np.log(va)))
             elif op == "atan2":
                 va, vb = V[a[0]], V[a[1]]
                 v = np.arctan2(va, vb)
                 if gradients:
-                    ga, gb = G[a[0]], G[a[1]]
                     den = va * va + vb * vb
-                    g = _add(None if ga is None else ga * (vb / den),
-                             None if gb is None else gb * (-va / den))
+                    g = _add(term(k, a[0], vb / den), term(k, a[1], -va / den))
             else:  # unary elementary function
                 va = V[a[0]]
                 v = _UNARY_VALUE[op](va)
@@ -199,4 +259,4 @@ def _walk(graph, order, frees, roots, xs, gradients):
     return V, G
 
 
-__all__ = ["evaluate", "schedule", "CHUNK_BYTES"]
+__all__ = ["evaluate", "schedule", "columns", "CHUNK_BYTES", "SPARSE_FROM"]

@@ -1,0 +1,43 @@
+"""The recursion decides on the first DECISION_SAMPLES samples; the final span is
+certified on all of them (``Context.certify``).
+
+Oracle: the same analysis with every sample deciding (``DECISION_SAMPLES`` raised above the
+sample count) gives the same dims, verdicts and generators; the evaluations of the run are
+at the decision samples except one, of the kept generators, at all samples.
+"""
+
+from helpers import zoo_system
+
+import uio_jax as uj
+from uio_jax._analysis import context as _context
+from uio_jax._engine import graph_numpy
+
+SAMPLES = 1024
+
+
+def test_decisions_on_the_first_samples_certified_on_all(monkeypatch):
+    rows = []
+    real = graph_numpy.evaluate
+
+    def recording(graph, roots, xs, gradients=True):
+        rows.append((xs.shape[0], len(roots)))
+        return real(graph, roots, xs, gradients)
+
+    monkeypatch.setattr(graph_numpy, "evaluate", recording)
+    two_phase = uj.analyze(zoo_system("vehicle_wind", "wind_unknown"), samples=SAMPLES)
+    assert {s for s, _ in rows} == {_context.DECISION_SAMPLES, SAMPLES}
+    at_all = [r for s, r in rows if s == SAMPLES]
+    assert at_all == [two_phase.dim]  # one evaluation at all samples: the kept generators
+    monkeypatch.setattr(_context, "DECISION_SAMPLES", 10**6)
+    every = uj.analyze(zoo_system("vehicle_wind", "wind_unknown"), samples=SAMPLES)
+    assert two_phase.dims == every.dims == (3, 5, 6, 6)
+    assert two_phase.observable == every.observable and two_phase.generators == every.generators
+    for rep in (two_phase, every):
+        cert = rep.certificate
+        assert cert.samples == SAMPLES and cert.used == SAMPLES and cert.fraction == 1.0
+
+
+def test_the_eorc_reads_its_final_verdicts_on_all_samples():
+    rep = uj.analyze(zoo_system("gps", "inputs_unknown"), method="eorc", samples=SAMPLES)
+    assert rep.dim == 3 and all(rep.observable.values())
+    assert rep.certificate.samples == SAMPLES and rep.certificate.used == SAMPLES
