@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._analysis.settle import WEAK_DECADES, Settler, is_weak
+from uio_jax._analysis.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
 from uio_jax._engine import graph_exact
 from uio_jax._engine.graph import Graph
 
@@ -74,10 +74,12 @@ def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided():
 
 
 def test_weakness_rule():
-    """Median within WEAK_DECADES of rtol, or a split vote: weak; clear votes are not."""
+    """Median in the band around rtol, or a split vote: weak; clear votes are not."""
     valid = np.ones(100, dtype=bool)
     assert is_weak(np.full(100, 1e-9), valid, 1e-8, 1.0)
-    assert not is_weak(np.full(100, 1e-8 * 10 ** (WEAK_DECADES + 0.5)), valid, 1e-8, 1.0)
+    assert is_weak(np.full(100, 1e-11), valid, 1e-8, 1.0)
+    assert not is_weak(np.full(100, 1e-8 * 10 ** (WEAK_ABOVE + 0.5)), valid, 1e-8, 1.0)
+    assert not is_weak(np.full(100, 1e-8 * 10 ** -(WEAK_BELOW + 0.5)), valid, 1e-8, 1.0)
     assert not is_weak(np.full(100, 1e-15), valid, 1e-8, 1.0)
     assert is_weak(np.full(100, 1e-3), valid, 1e-8, 0.7)
 

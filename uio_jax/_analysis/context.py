@@ -81,27 +81,34 @@ class Context:
         sub._grads = self._grads if not self.certified or sub.certified else {}
         return sub
 
-    def certify(self) -> None:
+    def certify(self, upto: int | None = None) -> None:
         """Decide the final span again at every sample (after the recursion).
 
         The kept generators are absorbed, in order, into a codistribution over all ``S``
         samples: their gradients are evaluated there once. Each acceptance is a vote of the
-        ``S`` samples (weak ones settled beyond float64); a generator the ``S`` samples do
-        not confirm is recorded as an undecided escalation (the two sample sets
-        disagree). The decisions of the recursion (rejected candidates, memberships on
-        the way) keep their votes of the decision samples. Afterwards :attr:`codist` and
-        :attr:`xs` are those of all the samples; a no-op when they already are.
+        ``S`` samples; a weak one, or one that does not confirm the decision samples, is
+        settled beyond float64 (undecided if that fails too). The decisions of the
+        recursion (rejected candidates, memberships on the way) keep their votes of the
+        decision samples. Afterwards :attr:`codist` and :attr:`xs` are those of all the
+        samples; a no-op when they already are and ``upto`` is None.
+
+        Args:
+            upto: keep only the first ``upto`` generators (the span at an earlier step of
+                the recursion, e.g. the last EORC order whose decisions are all certified).
         """
-        if self.certified:
+        if self.certified and upto is None:
             return
-        phase, kept = self.codist, list(self.codist.nodes)
+        phase, kept = self.codist, list(self.codist.nodes)[:upto]
         lo, hi = self.system.box()
         full = Codistribution(self.system.n, len(self.xs_all), hi - lo, phase.rtol)
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
+        full.verified = phase.verified
         self.xs, self._grads, self.certified = self.xs_all, {}, True
         if kept:
+            full.expect_rise = True  # a generator the decision samples kept: settled again if not
             added = self.absorb_into(full, kept)
+            full.expect_rise = False
             for nd in kept:
                 if nd not in added:
                     full.escalations.append(Escalation(
@@ -276,19 +283,25 @@ class Context:
         counted = cd.acceptances + [d for m, d in self.memberships if not m]
         pruned = cd.rejections + [d for m, d in self.memberships if m]
         everything = counted + pruned
+        # the float64 evidence: decisions settled beyond float64 are certified by their
+        # escalation (recorded apart), not by their float64 vote and margins
+        def plain(d):
+            return d.settled in ("", "undecided")
+
         used = int(cd.valid.sum())
         return Certificate(
             samples=self.samples,
             used=used,
             dropped=self.samples - used,
             fraction=final.fraction,
-            min_fraction=min(d.fraction for d in everything),
-            sigma_r_min=min((d.sigma_r_min for d in counted), default=1.0),
+            min_fraction=min((d.fraction for d in everything if plain(d)), default=1.0),
+            sigma_r_min=min((d.sigma_r_min for d in counted if plain(d)), default=1.0),
             conditioning=final.sigma_r_min,
-            sigma_next_max=max((d.sigma_next_max for d in pruned), default=0.0),
+            sigma_next_max=max((d.sigma_next_max for d in pruned if plain(d)), default=0.0),
             rtol=cd.rtol,
             decisions=len(everything),
             escalations=tuple(cd.escalations),
+            verified=cd.verified,
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,

@@ -206,6 +206,7 @@ class _Eorc(Recursion):
         self.steps = []  # per order: frontier size, candidates, compile and eval seconds
         self.frontier = []  # the generators kept at the last order
         self.started = []  # the next order's block, dispatched during this order's rank work
+        self._escalations_seen = 0
 
     # ------------------------------------------------------------------ the recursion
     def init(self) -> Step:
@@ -242,12 +243,18 @@ class _Eorc(Recursion):
                 self.started.append(self.dispatch(added, k + 1))
 
         states, inputs, dim = self.coordinates(k, start_next)
+        escalations = self.ctx.codist.escalations
         extra = {
             "augmented_rank": self.ctx.dim,
             "augmented_dim": self.N + k * self.mw,
             "observable_states": tuple(states),
             "observable_inputs": tuple(inputs),
+            # decisions of this order that neither float64 nor exact arithmetic settled,
+            # and the escalations recorded up to this order (their index)
+            "undecided": sum(e.result == "undecided" for e in escalations[self._escalations_seen:]),
+            "escalations": len(escalations),
         }
+        self._escalations_seen = len(escalations)
         decided = self.ctx.codist.acceptances[-len(added):] if added else []
         fraction = min((d.fraction for d in decided), default=1.0)
         return Step(k, dim, tuple(nd.label for nd in added), fraction, extra)
@@ -387,8 +394,20 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
                                            k_max=K)
         ctx = run.ctx
         last = history[-1]
-        ctx.certify()  # the final span at every sample; the verdicts read there
-        states, _, dim_all = run.coordinates(k)
+        # the EORC is monotone in k: the answer is the one of the last order whose
+        # decisions are all certified (float64 or beyond); later orders are reported, not used
+        uncertain = [st.m for st in history if st.extra["undecided"]]
+        k_used = uncertain[0] - 1 if uncertain and uncertain[0] > 0 else k
+        if k_used < k:
+            at = history[k_used]
+            dropped = ctx.codist.escalations[at.extra["escalations"]:]
+            ctx.codist.escalations = ctx.codist.escalations[:at.extra["escalations"]]
+            ctx.certify(upto=at.extra["augmented_rank"])
+        else:
+            dropped = []
+            ctx.certify()  # the final span at every sample; the verdicts read there
+        states, _, dim_all = run.coordinates(k_used)
+        last = history[k_used]
         view = report_view(system, run.n)  # the known coordinates (time) left out
         observable = {s: s in states for s in view.states}
         first_seen = {}
@@ -396,8 +415,14 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
             for nm in st.extra["observable_inputs"]:
                 first_seen.setdefault(nm, st.m)
     notes = list(notes)
+    if k_used < k:
+        notes.append(
+            f"orders k={k_used + 1}..{k}: {sum(e.result == 'undecided' for e in dropped)} rank decisions could "
+            "not be settled (float64 round-off in derivatives of that order; exact arithmetic found the "
+            f"span inconsistent or could not decide); the verdicts are those of order k={k_used}, whose "
+            "decisions are all certified (the EORC's answer only grows with k)")
     if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
-        notes.append(f"order k={k} decided on the first {DECISION_SAMPLES} samples gave "
+        notes.append(f"order k={k_used} decided on the first {DECISION_SAMPLES} samples gave "
                      f"dim {last.dim}; all {ctx.samples} samples give dim {dim_all}: the report gives the latter")
     if smooth:
         notes.append(
@@ -415,6 +440,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     )
     details = {
         "k": k,
+        "k_verdict": k_used,
         "k_max": run.K,
         "extended_state": list(run.ext.states[: run.N + max(k, 1) * run.mw]),
         "augmented_ranks": [st.extra["augmented_rank"] for st in history],

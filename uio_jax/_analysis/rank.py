@@ -236,6 +236,10 @@ class Codistribution:
         #: votes (:class:`uio_jax._analysis.settle.Settler`), None: not settled again
         self.settle = None
         self.escalations: list = []  # Escalation records, in order
+        #: every candidate is expected to raise the rank (the kept generators re-decided on
+        #: more samples): a vote that it does not is settled again, weak or not
+        self.expect_rise = False
+        self.verified = 0  # clear float64 rises confirmed exactly (not escalations)
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
 
     @property
@@ -257,7 +261,7 @@ class Codistribution:
         c.basis, c.ref = self.basis.copy(), self.ref.copy()
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
-        c.settle, c.escalations = self.settle, []
+        c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
         c._decided = self._decided
         return c
 
@@ -379,12 +383,25 @@ class Codistribution:
         (:func:`uio_jax._analysis.settle.is_weak`) and a ``settle`` is set: the settled
         answer replaces the vote (an undecided one keeps it, marked)."""
         d = decide_increase(rho, valid, self.rtol, self.rank)
-        if self.settle is None or node is None or not is_weak(rho, valid, self.rtol, d.fraction):
+        if self.settle is None or node is None:
             return d
-        said = "independent" if d.rank > self.rank else "dependent"
+        rises = d.rank > self.rank
+        disagrees = self.expect_rise and not rises
+        weak = disagrees or is_weak(rho, valid, self.rtol, d.fraction)
+        said = "independent" if rises else "dependent"
         evidence = (f"{said} ({100 * d.fraction:.1f}% of samples, median rho "
                     f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
-        esc = self.settle(self.nodes, node, evidence)
+        if not weak:
+            if not rises:
+                return d
+            # a clear rise: round-off of a deep derivative can fake one, and one wrong
+            # generator corrupts every later decision; verified exactly where that is cheap
+            esc = self.settle(self.nodes, node, evidence, exact_only=True)
+            if esc is None or esc.result == "independent":
+                self.verified += esc is not None
+                return d
+        else:
+            esc = self.settle(self.nodes, node, evidence)
         self.escalations.append(esc)
         if esc.result == "undecided":
             return replace(d, settled="undecided")

@@ -67,14 +67,16 @@ class Certificate:
         used: states used (finite everywhere).
         dropped: states dropped because a generator was NaN/inf there.
         fraction: fraction of the used samples where the final codistribution has its
-            generic rank (SVD of the row-scaled generator gradients).
-        min_fraction: the smallest agreeing fraction over every rank decision of the run.
+            generic rank in float64 (SVD of the row-scaled generator gradients; below 1
+            where a direction settled beyond float64 is under ``rtol`` at many samples).
+        min_fraction: the smallest agreeing fraction over the rank decisions that rest on
+            their float64 vote (those settled beyond float64 are in ``escalations``).
         sigma_r_min: smallest margin among the agreeing samples over every direction that
-            was counted (kept generators, non-member covectors): the distance of the
-            unit-scaled covector to the span it was added to (for an orthonormal span
-            plus one unit row this is, up to a factor in [1/sqrt(2), 1], the last
-            singular value ``s_{r+1} / s_1``). How close a counted direction came to
-            vanishing.
+            was counted on its float64 vote (kept generators, non-member covectors): the
+            distance of the unit-scaled covector to the span it was added to (for an
+            orthonormal span plus one unit row this is, up to a factor in [1/sqrt(2), 1],
+            the last singular value ``s_{r+1} / s_1``). How close a counted direction came
+            to vanishing.
         sigma_next_max: the same margin, largest value over every direction that was
             *not* counted (pruned candidates, member covectors): how close round-off
             came to faking a rank.
@@ -85,7 +87,10 @@ class Certificate:
         decisions: number of rank decisions taken.
         escalations: the weak decisions settled again beyond float64
             (:class:`uio_jax._analysis.settle.Escalation`: what, the float64 vote, how,
-            the result, the probability bound of a modular answer).
+            the result, the probability bound of a modular answer), and the clear float64
+            rises that exact arithmetic contradicted.
+        verified: clear float64 rises (generators kept) confirmed by exact modular
+            arithmetic (rational models: every generator kept is checked so).
     """
 
     samples: int
@@ -99,6 +104,7 @@ class Certificate:
     decisions: int
     conditioning: float = 1.0
     escalations: tuple = ()
+    verified: int = 0
 
     @property
     def escalated(self) -> int:
@@ -144,7 +150,7 @@ class Certificate:
 
     def _escalation_text(self) -> str:
         if not self.escalations:
-            return ""
+            return f"; {self.verified} kept generators verified exactly" if self.verified else ""
         settled = self.escalated - self.undecided
         text = f"; {self.escalated} weak decision{'s' if self.escalated > 1 else ''} escalated"
         if settled:

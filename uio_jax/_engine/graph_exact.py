@@ -150,6 +150,52 @@ def rank_mod_p(mat, p: int = PRIME) -> int:
     return rank
 
 
+class Echelon:
+    """Rows of ``F_p^n`` in echelon form, grown one row at a time: the rank of a growing
+    list of rows, and whether a row lies in their span, in ``O(r n)`` per row.
+
+    Args:
+        p: the prime.
+    """
+
+    def __init__(self, p: int = PRIME):
+        self.p = p
+        self.rows: list[list[int]] = []
+        self.pivots: list[int] = []
+        self.added = 0  # rows offered to :meth:`add`
+
+    @property
+    def rank(self) -> int:
+        return len(self.rows)
+
+    def reduce(self, row) -> list[int]:
+        """The remainder of ``row`` after eliminating the pivot columns (zero iff in the span)."""
+        p = self.p
+        v = [int(x) % p for x in row]
+        for r, c in zip(self.rows, self.pivots):
+            f = v[c]
+            if f:
+                v = [(a - f * b) % p for a, b in zip(v, r)]
+        return v
+
+    def add(self, row) -> bool:
+        """Append ``row``; whether it raised the rank."""
+        self.added += 1
+        v = self.reduce(row)
+        c = next((i for i, x in enumerate(v) if x), None)
+        if c is None:
+            return False
+        inv = pow(v[c], -1, self.p)
+        self.rows.append([x * inv % self.p for x in v])
+        self.pivots.append(c)
+        return True
+
+    def copy(self) -> "Echelon":
+        e = Echelon(self.p)
+        e.rows, e.pivots, e.added = list(self.rows), list(self.pivots), self.added
+        return e
+
+
 def degrees(graph, roots) -> list[tuple[int, int]]:
     """Upper bounds ``(deg numerator, deg denominator)`` of rational graph nodes written as
     quotients of polynomials in the coordinates (no cancellation assumed)."""
@@ -289,5 +335,5 @@ def gradients_mp(graph, roots, point, dps: int):
     return ExtendedEvaluator(graph, point, dps).gradients(roots)
 
 
-__all__ = ["PRIME", "Singular", "const_mod", "ModularEvaluator", "gradients_mod_p", "rank_mod_p",
+__all__ = ["PRIME", "Singular", "const_mod", "ModularEvaluator", "gradients_mod_p", "rank_mod_p", "Echelon",
            "degrees", "ExtendedEvaluator", "gradients_mp"]
