@@ -208,3 +208,64 @@ def test_case_1_global_form_is_the_local_one_plus_the_quaternion_norm(mod):
     rep = uj.analyze(mod.calibrated_one_acc(), method="eorc", samples=256, k_max=2)
     assert list(rep.dims) == [d + 1 for d in CASE_1_LOCAL_DIMS[:3]]
     assert _in_span(rep, mod.yaw_symmetry, mod.calibrated_one_acc()) < 1e-6
+
+
+@pytest.mark.slow
+def test_case_1_global_form_at_k7_every_function_but_the_yaw(mod):
+    """Case 1 in its 12 global coordinates to the published order k = 7: dim 11 = n - 1,
+    the yaw-invariant components (r_z, v_z, g, B) observable, the yaw symmetry the one
+    unobservable direction; every decision certified (float64 or exact)."""
+    system = mod.calibrated_one_acc()
+    rep = uj.analyze(system, method="eorc", samples=256, k_max=7)
+    assert list(rep.dims) == [d + 1 for d in CASE_1_LOCAL_DIMS]
+    assert rep.dim == system.n - 1 and rep.certificate.undecided == 0
+    assert {s for s, v in rep.observable.items() if v} == {"rz", "vz", "g", "B"}
+    assert _in_span(rep, mod.yaw_symmetry, system) < 1e-6
+
+
+@pytest.mark.slow
+def test_case_1_by_the_general_solution_is_the_smooth_meaning(mod):
+    """Case 1 (yaw-free form) by the general solution, which answers for smooth known
+    inputs: only the two bearings are observable (dim 2). The EORC under the same meaning
+    (the known accelerometer's jets as known coordinates) gives the same 2 to k = 7, while
+    the EORC under the switchable meaning (the paper's computation) shows every state at
+    k = 7. The difference is the meaning of the known input: a switchable a_x can be
+    varied independently of the state, which separates its field from the drift; a smooth
+    one enters only through the drift with its jets, and the five unknown inputs hide
+    every state behind the bearings."""
+    system = mod.calibrated_one_acc_local()
+    exact = uj.analyze(system, method="general_ui", known_inputs="smooth", samples=256)
+    smooth = uj.analyze(system, method="eorc", known_inputs="smooth", k_max=7, samples=256)
+    switchable = uj.analyze(system, method="eorc", k_max=7, samples=256)
+    assert exact.exact and exact.dim == 2 and exact.details["m"] == 2
+    assert smooth.dims == (2,) * 8 and not any(smooth.observable.values())
+    assert switchable.dim == system.n and all(switchable.observable.values())
+
+
+@pytest.mark.slow
+def test_case_2_one_unobservable_direction_the_internal_rotation(mod, cases):
+    """Case 2 (uncalibrated, one accelerometer, 2 features): the EORC reaches the published
+    verdict, one unobservable direction (dim n - 1 = 22, the q_c components unobservable,
+    the internal rotation in the null space), at k = 10 in these coordinates (not at the
+    paper's k = 2: NOT_REPRODUCED). At that order the span's smallest directions are under
+    float64's reach at a single state, so the null space is asked at k = 1 (the symmetry is
+    in it at every order: test_case_2_internal_rotation_in_the_eorc_null_space); at k = 14
+    the query refuses rather than answer wrong."""
+    system = cases["uncalibrated_one_acc"]
+    rep = uj.analyze(system, method="eorc", samples=256)
+    pub = mod.NOT_REPRODUCED["uncalibrated_one_acc"]
+    assert rep.dim == pub["dim"] == system.n - 1 and list(rep.dims).index(22) == 10
+    assert sorted(s for s, v in rep.observable.items() if v) == sorted(pub["observable"])
+    assert rep.certificate.undecided == 0
+    with pytest.raises(uj.ModelError, match="not independent in float64"):
+        rep.unobservable_directions(np.asarray(_point(system, 100)))
+
+
+@pytest.mark.slow
+def test_case_3_every_state_observable_at_k7(mod, cases):
+    """Case 3 (uncalibrated, two accelerometers, 2 features, 24 states): every state
+    observable, the full IMU's verdict, at k = 7 in these coordinates (the paper: k = 2)."""
+    system = cases["uncalibrated_two_acc"]
+    rep = uj.analyze(system, method="eorc", samples=256)
+    assert rep.dim == system.n and all(rep.observable.values()) and rep.details["k"] == 7
+    assert list(rep.dims) == [5, 9, 14, 16, 18, 20, 22, 24]

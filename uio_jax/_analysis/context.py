@@ -17,7 +17,6 @@ from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
-from .._model.system import DEFAULT_BOX
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 from .settle import Escalation, Settler
@@ -323,7 +322,7 @@ class Context:
             n = own.n - known
             members, dim = self.coordinates(own.n, n)
             observable = dict(zip(own.states[:n], members[:n]))
-            space = SampledSpace(self, n=n, dim=dim, fill=0.5 * sum(DEFAULT_BOX))
+            space = SampledSpace(self, n=n, dim=dim)
             history = [dataclasses.replace(st, dim=st.dim - known) for st in history]
             system = report_view(own, n)
         system = system or own
@@ -419,23 +418,25 @@ class SampledSpace(Space):
     ``N`` coordinates of ``ctx.system``; the Report's state is its first ``n`` (``n = N``
     for the ORC and the single-input analysis; for the EORC the extended state
     ``[x; xi]``, whose extra coordinates are set to ``fill`` where a state is given).
+    ``fill`` is one generic point of the extra coordinates' boxes, drawn once (seeded): a
+    point such as the centre of every box can be singular (every input derivative equal).
 
     Args:
         ctx: the finished analysis.
         n: coordinates of the original state (default: all of ``ctx.system``'s).
         dim: dimension of the span intersected with ``span{dx_1..dx_n}`` (default: the
             rank, the whole span when ``n = N``).
-        fill: value of the extra coordinates ``x_{n+1}..x_N`` in
-            :meth:`unobservable_directions`.
     """
 
-    def __init__(self, ctx: Context, n=None, dim=None, fill=1.0):
+    def __init__(self, ctx: Context, n=None, dim=None):
         self._ctx = ctx
         self._nodes = tuple(ctx.codist.nodes)
         self._N = ctx.system.n
         self._n = self._N if n is None else int(n)
         self._dim = len(self._nodes) if dim is None else int(dim)
-        self._fill = float(fill)
+        lo, hi = ctx.system.box()
+        rng = np.random.default_rng(0x5FACE)
+        self._fill = lo[self._n:] + rng.random(self._N - self._n) * (hi[self._n:] - lo[self._n:])
 
     def unobservable_directions(self, x) -> np.ndarray:
         """Annihilator in R^n of the span intersected with ``span{dx_1..dx_n}`` at ``x``.
@@ -464,13 +465,19 @@ class SampledSpace(Space):
             return np.zeros((n, 0))
         if r == 0:
             return np.eye(n)
-        X = np.concatenate([x, np.full(N - n, self._fill)])
+        X = np.concatenate([x, self._fill])
         with jax.enable_x64(True):
             g = self._ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
         if not np.isfinite(g).all():
             raise ModelError("the codistribution is not defined at this state (NaN/inf)")
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
-        _, _, vt = np.linalg.svd(g)
+        _, sv, vt = np.linalg.svd(g)
+        if sv[min(r, N) - 1] < self._ctx.codist.rtol * sv[0]:
+            raise ModelError(
+                f"the {r} kept generators are not independent in float64 at this state "
+                f"(s_r/s_1 = {sv[min(r, N) - 1] / sv[0]:.1e} < rtol): a singular state, or a span "
+                "whose smallest directions are under float64's reach here; the directions would "
+                "not be reliable: ask at another state")
         if N == n:
             return vt[r:].T.copy()
         q = vt[:r]
@@ -498,7 +505,7 @@ class SampledSpace(Space):
         if not self._nodes:
             return None
         system = self._ctx.system
-        full = np.concatenate([np.asarray(z, dtype=np.float64), np.full(self._N - self._n, self._fill)])
+        full = np.concatenate([np.asarray(z, dtype=np.float64), self._fill])
         domain = system.domain
         width = np.array([float(domain[v][1]) - float(domain[v][0]) if v in domain else 1.0
                           for v in system.states])

@@ -436,7 +436,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         )
     notes.append(
         "extended coordinates (unknown inputs and their derivatives) sampled in "
-        f"{DEFAULT_BOX}; unobservable_directions(x) sets them to the centre of that box"
+        f"{DEFAULT_BOX}; unobservable_directions(x) sets them to one generic point of that box (seeded)"
     )
     details = {
         "k": k,
@@ -449,7 +449,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
-    space = SampledSpace(ctx, n=run.n, dim=dim_all, fill=0.5 * sum(DEFAULT_BOX))
+    space = SampledSpace(ctx, n=run.n, dim=dim_all)
     return ctx.report("eorc", history, reason, notes=notes, details=details, system=view,
                       dim=dim_all, observable=observable, space=space,
                       known_inputs=known_inputs)

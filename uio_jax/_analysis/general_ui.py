@@ -670,7 +670,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     if weakest < 0.9:
         notes.append(f"weak zero test: a 'vanishes identically' decision was backed by only "
                      f"{100 * weakest:.0f}% of the samples")
-    space = SampledSpace(omega, n=n, dim=dim, fill=0.5 * sum(DEFAULT_BOX))
+    space = SampledSpace(omega, n=n, dim=dim)
     return omega.report("general_ui", out.history, out.stop.message, notes=notes,
                         details=details, system=report_system or report_view(system, n),
                         dim=dim, observable=observable, space=space,
