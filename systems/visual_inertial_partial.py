@@ -87,26 +87,29 @@ the bias of its second accelerometer: 24 states, where the paper says 23 for bot
 uncalibrated cases. The number of features of cases 2-3 is not given in 004; the default 2
 makes case 2 have 23 states.
 
-**What the EORC gives here** (1024 samples; wall times on 2 shared, loaded cores, cold):
+**What the EORC gives here** (4096 samples, cold, one process on the shared 2-core machine;
+the analyses evaluate the expression graph, decisions on 256 samples, the final span on all,
+weak decisions and every kept generator settled exactly modulo p):
 
 * case 1, local (10 states): dims per order k = 0..7: 2, 2, 3, 5, 7, 8, 9, 10 (augmented
   ranks 2, 4, 7, 12, 18, 24, 30, 36): every state observable at k = 7 and not before, the
-  published order and verdict. 692 s (315 s CPU), the order blocks' compilation dominating.
-* case 1, global (12 states): dims 3, 3, 4, 6 at k = 0..3, the local ones + 1 (``|q|^2``),
-  yaw in the null space; k = 3 at 649 s and k = 4 not reached after 25 minutes, so k = 7 was
-  not run; by the reduction the k = 7 dimension is 10 + 1 = 11 = n - 1, the yaw unobservable.
-* case 2 (``n_f = 2``, 23 states): dims 5, 9, 13, 15, 16 at k = 0..4 (1238 s); the null
-  space contains ``internal_rotation`` at every order (residual < 1e-12). With ``n_f = 5``
-  (32 states): 11, 21, 25 at k = 0..2 (158 s), the same symmetry in the null space. The
-  published k = 2 verdict (a single vector) is not reached: the known accelerometer fields
-  act on V only, so the order-<= 2 Lie derivatives number at most ``1 + 4 p`` (``p`` bearing
-  outputs) and the order-2 ones mix G, P, B with the unknown A and W; the EORC is
-  sufficient only, and higher orders were beyond this session's time.
-* case 3 (``n_f = 2``, 24 states): 5, 9, 14 at k = 0..2 (97 s). With ``n_f = 4`` (30
-  states): 9, 17, 24, 26, 28, 30 at k = 0..5 (augmented ranks 9, 17, 28, 34, 40, 46):
-  every state observable at k = 5 (1677 s wall, 694 s CPU), the full IMU's verdict, but
-  at k = 5 where the paper needs k = 2 (at k = 2: the features, V, omega and q_c
-  observable, G, P and the biases not yet).
+  published order and verdict (about 6 s; 692 s when every order was compiled by XLA).
+* case 1, global (12 states): the local dims + 1 (``|q|^2``) at every order: 11 = n - 1 at
+  k = 7, the yaw-invariant ``r_z, v_z, g, B`` observable, the yaw in the null space; to the
+  default ``k_max = n + 2`` the answer stays 11 (about 50 s, most of it the exact checks).
+* case 2 (``n_f = 2``, 23 states): dims 5, 9, 13, 15, 16, 17, 18, 19, 20, 21, 22 at k = 0..10,
+  then 22 until the span closes: one unobservable direction, the published verdict (only
+  the four ``q_c`` components unobservable, ``internal_rotation`` in the null space, which
+  a test checks at k = 1), at k = 10 where the paper has it at k = 2: the known
+  accelerometer fields act on V only, so the order-<= 2 Lie derivatives number at most
+  ``1 + 4 p`` (``p`` bearing outputs) and mix G, P, B with the unknown A and W.
+* case 3 (``n_f = 2``, 24 states): dims 5, 9, 14, 16, 18, 20, 22, 24 at k = 0..7: every
+  state observable at k = 7 (about 20 s), the full IMU's verdict, where the paper needs
+  k = 2 (at k = 2: the features, V, omega and q_c observable, G, P and the biases not yet).
+* The general solution (``method="general_ui"``) answers for smooth known inputs: on case
+  1's local form, dim 2 (the two bearings; 0.7 s), which the EORC under the same meaning
+  confirms to k = 7; under the switchable meaning every state is observable at k = 7. The
+  difference is the meaning of the known accelerometer, not an error (a test shows both).
 """
 
 import jax.numpy as jnp
@@ -391,12 +394,13 @@ PUBLISHED = {
                                  "observable": list(LOCAL_STATES)},
 }
 
-#: Cases 2 and 3: the paper's verdicts at its order k = 2, NOT reproduced in the coordinates of
-#: this file (the papers' own formulation is not available): the EORC at k = 2 falls short here
-#: (case 2: dims 5, 9, 13, 15, 16 to k = 4 with 2 features; case 3: every state observable at
-#: k = 5 with 4 features, not at k = 2). Kept apart from PUBLISHED so that the reproduction
-#: table lists what this formulation does reproduce; the symmetry of case 2 is in the null
-#: space (tests/test_visual_inertial_partial.py).
+#: Cases 2 and 3: the paper's verdicts at its order k = 2, NOT reproduced at that order in the
+#: coordinates of this file (the papers' own formulation is not available): the EORC at k = 2
+#: falls short here (case 2: dims 5, 9, 13; case 3: 5, 9, 14). The verdicts themselves are
+#: reached at higher orders, with 2 features: case 2 dim n - 1 = 22 from k = 10 (exactly the
+#: q_c components unobservable, the internal rotation in the null space), case 3 every state
+#: observable at k = 7 (tests/test_visual_inertial_partial.py). Kept apart from PUBLISHED so
+#: that the reproduction table lists what this formulation reproduces at the paper's order.
 NOT_REPRODUCED = {
     "uncalibrated_one_acc": {"source": "004 section 11.2.2 case 2 (001 section V-B)", "method": "eorc",
                              "dim": 22, "k_max": 2,
