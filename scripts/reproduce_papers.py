@@ -2,8 +2,9 @@
 
 Each zoo file under ``systems/`` carries a ``PUBLISHED`` dict next to its models
 (``{function: {"source", "method", "dim", "dims", "m_prime", "m_star", "observable",
-"symmetries", "k_max", ...}}``; ``k_max``, where given, is the EORC's highest order, passed
-to :func:`uio_jax.analyze`: the order a paper computed to, where the default ``n + 2`` would
+"symmetries", "k_max", "known_inputs", ...}}``; ``known_inputs``, where given, is the
+meaning of the known inputs the result answers for (default switchable); ``k_max``, where
+given, is the EORC's highest order, passed to :func:`uio_jax.analyze`: the order a paper computed to, where the default ``n + 2`` would
 run far past it). This script analyzes every entry and compares each published
 quantity with ours; it prints a table and writes it as markdown. Exit code 1 on any
 disagreement.
@@ -113,7 +114,8 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             try:
                 rep = uj.analyze(system, method=pub.get("method", "auto"), samples=args.samples,
-                                 seed=args.seed, k_max=pub.get("k_max"))
+                                 seed=args.seed, k_max=pub.get("k_max"),
+                                 known_inputs=pub.get("known_inputs", "switchable"))
             except uj.UioJaxError as exc:
                 table.append((pub["source"], entry, "analysis", "-", f"error: {exc}", False))
                 failures += 1
