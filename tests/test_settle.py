@@ -113,3 +113,21 @@ def test_settler_on_a_graph_by_hand():
     flat = settler.settle(kept, Node("same", None, "scalar", expr=same), "independent")
     assert up.result == "independent" and up.bound == 0.0
     assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30
+
+
+def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table():
+    """The undecided vote rejected y2 (float64: dependent): the verdicts it could change are
+    the 'not observable' ones: x2. The CLI text and the batch row say UNDECIDED."""
+    weak = _two_outputs(erf_inv_part)
+    settled = _two_outputs(lambda x: x[0] + EPS * x[1] ** 2)
+    rep = uj.analyze(weak, samples=256)
+    assert rep.undecided == ("x2",) and rep.to_dict()["undecided"] == ["x2"]
+    assert "x2  UNDECIDED (float64: not observable)" in str(rep)
+    assert uj.analyze(settled, samples=256).undecided == ()
+    result = uj.batch_analyze([weak, settled], samples=256)
+    rows = result.rows
+    assert [r.status for r in rows] == ["undecided", "escalated"]
+    assert rows[0].undecided == ("x2",) and rows[0].to_dict()["status"] == "undecided"
+    table = result.table()
+    assert "UNDECIDED: x2" in table and "escalated" in table
+    assert "UNDECIDED: x2" in result.to_markdown()

@@ -227,6 +227,32 @@ class Report:
         return len(self.variables)
 
     @property
+    def undecided(self) -> tuple[str, ...]:
+        """The states and parameters whose verdict is not certified (empty when every rank
+        decision was clear in float64 or settled beyond it).
+
+        From the undecided escalations of the certificate: the membership of ``e_i``
+        leaves variable ``i``'s verdict open; a generator kept on its float64 vote leaves
+        open every "observable" verdict (the span may be smaller), one rejected every "not
+        observable" one (the span may be larger).
+        """
+        names = self.variables
+        verdict = {**dict(self.observable), **dict(self.identifiable)}
+        open_ = set()
+        for e in self.certificate.escalations:
+            if e.result != "undecided":
+                continue
+            head = e.what.split(" ", 1)[0]
+            if head.startswith("e_") and head[2:].isdigit():
+                i = int(head[2:])
+                if i < len(names):
+                    open_.add(names[i])
+                continue
+            kept = e.float64.startswith("independent")
+            open_.update(v for v in names if verdict.get(v) == kept)
+        return tuple(v for v in names if v in open_)
+
+    @property
     def fully_observable(self) -> bool:
         """True when every state component is observable and every parameter identifiable."""
         return all(self.observable.values()) and all(self.identifiable.values())
@@ -499,6 +525,7 @@ class Report:
             "n": self.n,
             "fully_observable": self.fully_observable,
             "observable": dict(self.observable),
+            "undecided": list(self.undecided),
             "params": list(self.params),
             "identifiable": dict(self.identifiable),
             "dims": list(self.dims),
@@ -587,8 +614,11 @@ class Report:
             lines.append(f"{k}: {v}")
         lines.append("states:")
         width = max(len(s) for s in self.states)
+        undecided = set(self.undecided)
         for s in self.states:
             verdict = "observable" if self.observable[s] else "not observable"
+            if s in undecided:
+                verdict = f"UNDECIDED (float64: {verdict})"
             lines.append(f"  {s:<{width}}  {verdict}")
         if not obs:
             lines.append("  (no single state component is observable)")
@@ -597,6 +627,8 @@ class Report:
             width = max(len(p) for p in self.params)
             for p in self.params:
                 verdict = "identifiable" if self.identifiable[p] else "not identifiable"
+                if p in undecided:
+                    verdict = f"UNDECIDED (float64: {verdict})"
                 lines.append(f"  {p:<{width}}  {verdict}")
         lines.append(f"certificate: {self.certificate}")
         for note in self.notes:

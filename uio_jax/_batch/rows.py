@@ -33,6 +33,11 @@ class BatchRow:
             condition only (the EORC, a capped recursion); None for a failed model.
         inputs: the unknown inputs shown observable (the general solution's
             ``unknown_inputs_observable``, or the EORC's observable input coordinates).
+        status: the certificate's status (:attr:`uio_jax.Certificate.status`): ``"ok"``
+            (every rank decision clear in float64), ``"escalated"`` (weak ones settled beyond
+            float64) or ``"undecided"`` (some could not be settled: the verdicts in
+            ``undecided`` are not certified); None for a failed model.
+        undecided: the states and parameters whose verdict is not certified.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
     """
@@ -51,6 +56,8 @@ class BatchRow:
     reached: str | None = None
     exact: bool | None = None
     inputs: tuple[str, ...] = ()
+    status: str | None = None
+    undecided: tuple[str, ...] = ()
     report: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -72,7 +79,8 @@ class BatchRow:
             "identifiable": list(self.identifiable), "fraction": _num(self.fraction),
             "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
             "error": self.error, "reached": self.reached, "exact": self.exact,
-            "observable_inputs": list(self.inputs),
+            "observable_inputs": list(self.inputs), "status": self.status,
+            "undecided": list(self.undecided),
         }
         return d
 
@@ -142,7 +150,8 @@ class BatchResult:
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
         cols = ["model", "ok", "method", "n", "dim", "unobservable", "observable", "params",
-                "identifiable", "fraction", "gap_decades", "seconds", "error", "reached"]
+                "identifiable", "fraction", "gap_decades", "seconds", "error", "reached", "status",
+                "undecided"]
         writer.writerow(cols)
         for r in self.rows:
             d = r.to_dict()
@@ -197,7 +206,7 @@ class BatchResult:
         headers = ["model", "method", "dim / n", "observable states"]
         if has_params:
             headers.append("identifiable params")
-        headers += ["unobs.", "fraction", "gap (dec.)", "time (s)", "error" if markdown else "status"]
+        headers += ["unobs.", "fraction", "gap (dec.)", "time (s)", "status"]
         body = []
         for r in self.rows:
             if not r.ok:
@@ -208,8 +217,10 @@ class BatchResult:
                 cells = [r.model, method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
                 if has_params:
                     cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
+                status = {"undecided": "UNDECIDED: " + ", ".join(r.undecided) if r.undecided else "UNDECIDED",
+                          "escalated": "escalated", "ok": "ok"}.get(r.status or "ok", r.status)
                 cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
-                          "" if markdown else "ok"]
+                          ("" if status == "ok" else status) if markdown else status]
             body.append(cells)
         return headers, body
 
@@ -231,6 +242,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         params=params, identifiable=tuple(p for p in params if ident.get(p)),
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
         exact=bool(rep.exact), inputs=_observable_inputs(rep),
+        status=rep.certificate.status, undecided=tuple(rep.undecided),
     )
 
 
