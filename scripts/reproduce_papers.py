@@ -4,10 +4,10 @@ Each zoo file under ``systems/`` carries a ``PUBLISHED`` dict next to its models
 (``{function: {"source", "method", "dim", "dims", "m_prime", "m_star", "observable",
 "symmetries", "k_max", "known_inputs", ...}}``; ``known_inputs``, where given, is the
 meaning of the known inputs the result answers for (default switchable); ``k_max``, where
-given, is the EORC's highest order, passed to :func:`uio_jax.analyze`: the order a paper computed to, where the default ``n + 2`` would
-run far past it). This script analyzes every entry and compares each published
-quantity with ours; it prints a table and writes it as markdown. Exit code 1 on any
-disagreement.
+given, is the EORC's highest order, passed to :func:`uio_jax.analyze`: the order a paper
+computed to, where the default ``n + 2`` would run far past it). This script analyzes
+every entry and compares each published quantity with ours; it prints a table and writes
+it as markdown. Exit code 1 on any disagreement.
 
 Conventions: ``m_star`` is the papers' stopping rule (our ``details["m_star_paper"]``; the
 corrected rule may run further, see README); published per-step ``dims`` are compared with
