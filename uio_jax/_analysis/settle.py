@@ -53,8 +53,11 @@ WEAK_ABOVE = 2.0
 #: A decision is weak when fewer than this fraction of the valid samples agree.
 WEAK_FRACTION = 0.9
 
-#: Random points of an escalation.
-POINTS = 3
+#: Random points of an escalation: one settles a decision (a witness of independence is
+#: certain; a dependence holds with a Schwartz-Zippel bound ``D / p``, ``p = 2^127 - 1``,
+#: far below :data:`MAX_BOUND` for any degree our graphs reach); a second point is drawn
+#: when the bound is not small enough. mpmath uses this many points too.
+POINTS = 1
 
 #: Decimal digits of the two mpmath evaluations.
 DIGITS = (30, 60)
@@ -126,6 +129,7 @@ class Settler:
         self._modular = None  # ModularEvaluator at POINTS points
         self._echelons = {}  # point -> {kept expressions: Echelon}
         self._rational_nodes = set()  # nodes known to be rational operations
+        self._degrees = {}  # node -> degree bounds (graph_exact.degrees)
         self._extended = None  # per point, one ExtendedEvaluator per precision
 
     def settle(self, kept, candidate, float64: str, exact_only: bool = False) -> Escalation | None:
@@ -210,7 +214,7 @@ class Settler:
         if rank_kept < r:
             return Escalation(what, float64, how + f": the span has rank {rank_kept} < {r} there",
                               "undecided")
-        degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs))
+        degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
         bound = min(1.0, degree / p) ** len(grads)
         if bound > MAX_BOUND:
             return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",

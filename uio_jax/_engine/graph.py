@@ -77,6 +77,7 @@ class Graph:
         param: ``param[i]``: the value of a constant, the index of a coordinate, the
             exponent of an ``ipow``; None otherwise.
         zero, one: the constant nodes 0 and 1.
+        facts: per kind, facts derived from the nodes and kept by evaluators.
     """
 
     def __init__(self, n: int):
@@ -86,6 +87,9 @@ class Graph:
         self.param: list = []
         self._intern: dict = {}
         self._tangents: dict = {}
+        #: facts about nodes that evaluators derive once and keep (node -> value, per
+        #: kind): they never change, since a node never changes
+        self.facts: dict = {}
         self.zero = self.const(0.0)
         self.one = self.const(1.0)
         self.coords = tuple(self._node("x", (), i) for i in range(self.n))

@@ -196,12 +196,18 @@ class Echelon:
         return e
 
 
-def degrees(graph, roots) -> list[tuple[int, int]]:
+def degrees(graph, roots, memo=None) -> list[tuple[int, int]]:
     """Upper bounds ``(deg numerator, deg denominator)`` of rational graph nodes written as
-    quotients of polynomials in the coordinates (no cancellation assumed)."""
+    quotients of polynomials in the coordinates (no cancellation assumed).
+
+    ``memo``: a dict kept by the caller between calls on the same graph (node -> bounds),
+    so that each node is visited once over many calls.
+    """
     ops, args, params = graph.op, graph.args, graph.param
-    D = {}
-    for k in graph.reachable(roots):
+    D = {} if memo is None else memo
+    for k in graph.reachable([r for r in roots if r not in D]):
+        if k in D:
+            continue
         op, a = ops[k], args[k]
         if op == "x":
             D[k] = (1, 0)

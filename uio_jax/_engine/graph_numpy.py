@@ -81,11 +81,15 @@ def columns(graph, order):
 
     A node's gradient is zero outside its coordinates: with sparse gradients each node
     carries ``(len(cols), S)`` instead of ``(n, S)`` (on the EORC's extended states the
-    average node depends on a quarter of them).
+    average node depends on a quarter of them). Both are kept in ``graph.facts`` (a node
+    never changes), so each node is worked out once over every evaluation.
     """
     ops, args, params = graph.op, graph.args, graph.param
-    cols, where = {}, {}
+    cols = graph.facts.setdefault("columns", {})
+    where = graph.facts.setdefault("operand_rows", {})
     for k in order:
+        if k in cols:
+            continue
         if ops[k] == "x":
             cols[k] = (params[k],)
             continue
