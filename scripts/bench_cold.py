@@ -92,7 +92,7 @@ def ours_in_process(spec, method, repeats):
         uj.analyze(system, method=method, samples=SAMPLES)
         warms.append(time.perf_counter() - t0)
     return {"first_s": _median(firsts), "firsts": firsts, "warm_s": _median(warms), "warms": warms,
-            "method": rep.method, "dims": list(rep.dims), "dim": rep.dim, "n": len(rep.states),
+            "method": rep.method, "dims": list(rep.dims), "dim": rep.dim, "n": rep.n,
             "status": rep.certificate.status, "k": rep.details.get("k"), "load1": _load1()}
 
 
@@ -172,15 +172,11 @@ def strikepy_cached(name):
 
 def zoo_models():
     """Every zoo entry (``systems/*.py`` functions returning a System, the data files)."""
-    import uio_jax as uj
     from uio_jax._batch.discovery import discover
 
-    out = []
-    for entry in discover([str(ROOT / "systems")]):
-        label = getattr(entry, "label", None)
-        if label and not isinstance(entry, uj.BatchRow):
-            out.append(os.path.relpath(label, ROOT) if label.startswith(str(ROOT)) else label)
-    return out
+    entries, _skipped = discover([str(ROOT / "systems")])
+    return [os.path.relpath(e.label, ROOT) if e.label.startswith(str(ROOT)) else e.label
+            for e in entries if getattr(e, "system", None) is not None]
 
 
 # ------------------------------------------------------------------ report

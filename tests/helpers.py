@@ -8,8 +8,7 @@ import uio_jax as uj
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-#: Samples used by the paper tests: enough for a certificate, cheap to evaluate (the cost
-#: of an analysis is dominated by compilation, not by the sample count).
+#: Samples used by the paper tests: enough for a certificate, cheap to evaluate.
 SAMPLES = 1024
 
 
@@ -24,6 +23,15 @@ def zoo_system(module: str, name: str) -> uj.System:
 @functools.cache
 def zoo_report(module: str, name: str, method: str = "auto", samples: int = SAMPLES, seed: int = 0):
     return uj.analyze(zoo_system(module, name), method=method, samples=samples, seed=seed)
+
+
+@functools.cache
+def script_module(name: str):
+    """The module ``scripts/NAME.py`` (an oracle or a tool of the repository), loaded once."""
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "scripts", f"{name}.py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 @functools.cache

@@ -10,7 +10,7 @@ import os
 
 import jax.numpy as jnp
 import pytest
-from helpers import ROOT
+from helpers import ROOT, script_module
 
 import uio_jax as uj
 
@@ -212,13 +212,7 @@ def test_multi_ui_zoo_entry_matches_its_derived_verdict(name):
 
 # ------------------------------------------------------------------ against the exact oracle
 def _oracle():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "general_ui_oracle", os.path.join(ROOT, "scripts", "general_ui_oracle.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return script_module("general_ui_oracle")
 
 
 @pytest.mark.slow

@@ -18,13 +18,13 @@ visual-inertial EORCs, the multi-UI general solutions and the Vi-SfM with partia
 knowledge used to take tens of minutes and were left out).
 """
 
-import importlib.util
 import json
 import math
 import os
 
 import pytest
 from conftest import ROOT
+from helpers import script_module
 
 import uio_jax as uj
 
@@ -37,11 +37,7 @@ UNRECORDED = ()
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "snapshot_reports", os.path.join(ROOT, "scripts", "snapshot_reports.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return script_module("snapshot_reports")
 
 
 def _close(old, new, path=""):

@@ -72,6 +72,7 @@ import numpy as np
 
 from .._calculus.blocks import Stream, blocks_for
 from .._errors import ModelError
+from .._model.naming import derivative_names
 from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import DECISION_SAMPLES, Context, SampledSpace, report_view
@@ -94,21 +95,13 @@ def input_names(system: System, K: int) -> tuple[str, ...]:
     """Names of the extended coordinates ``w, w^(1), .., w^(K-1)`` (order-major).
 
     Each unknown input keeps its name for order 0 and gets ``^(d)`` for its d-th derivative;
-    a clash with a state name gets a ``'`` appended.
+    a clash with a state name gets a ``'`` appended
+    (:func:`uio_jax._model.naming.derivative_names`).
 
     Returns:
         ``K * m_w`` names, ordered ``[w_1..w_mw, w_1^(1)..w_mw^(1), ...]`` as in 004 eq. 4.
     """
-    taken = set(system.states)
-    out = []
-    for d in range(K):
-        for w in system.unknown:
-            nm = w if d == 0 else f"{w}^({d})"
-            while nm in taken:
-                nm += "'"
-            taken.add(nm)
-            out.append(nm)
-    return tuple(out)
+    return derivative_names(tuple(system.unknown), K, system.states, order_major=True)
 
 
 def extended_system(system: System, K: int) -> System:

@@ -25,6 +25,7 @@ import weakref
 
 import jax.numpy as jnp
 
+from .naming import derivative_names
 from .system import DEFAULT_BOX, System, derived_system
 
 _WITH_JETS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # System -> {R: System}
@@ -37,18 +38,9 @@ def jet_names(system: System, order: int) -> tuple[str, ...]:
     """Names of the jet coordinates ``u_i^(r)``, ``r = 0..order`` (input-major).
 
     Order 0 keeps the input's name, order r gets ``^(r)``; a clash with a state name gets a
-    ``'`` appended.
+    ``'`` appended (:func:`uio_jax._model.naming.derivative_names`).
     """
-    taken = set(system.states)
-    out = []
-    for u in system.known:
-        for r in range(order + 1):
-            nm = u if r == 0 else f"{u}^({r})"
-            while nm in taken:
-                nm += "'"
-            taken.add(nm)
-            out.append(nm)
-    return tuple(out)
+    return derivative_names(tuple(system.known), order + 1, system.states)
 
 
 def with_input_jets(system: System, order: int) -> System:
