@@ -156,6 +156,18 @@ def _residuals(basis, ref, cands):
     return rho, direction
 
 
+#: From this many rising candidates on, their sequential Gram-Schmidt is a batched QR.
+QR_FROM = 8
+
+
+def _sequential_qr(res):
+    """``(Q (S, n, k), d (S, k))``: per sample, the QR of the residual columns ``res``
+    ``(C, S, n)`` (``k = min(n, C)``): column ``j`` of ``Q`` is the direction of candidate
+    ``j`` after the ones before it, ``d[:, j] = R_jj`` its signed distance."""
+    q, r = np.linalg.qr(np.transpose(res, (1, 2, 0)))
+    return q, np.diagonal(r, axis1=1, axis2=2)
+
+
 def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
     """Does a candidate raise the generic rank? (host, numpy)
 
@@ -226,7 +238,7 @@ class Codistribution:
         self.col_scale = np.asarray(col_scale, dtype=np.float64)
         self.rtol = float(rtol)
         self.valid = np.ones(samples, dtype=bool)
-        self.grads = np.zeros((samples, 0, n))
+        self._rows = np.zeros((samples, n, n))  # the kept rows, column-scaled (first rank)
         self.basis = np.zeros((samples, n, n))
         self.ref = np.zeros(samples)
         self.nodes = []
@@ -243,6 +255,11 @@ class Codistribution:
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
 
     @property
+    def grads(self) -> np.ndarray:
+        """``(S, r, n)``: the column-scaled gradients of the kept generators."""
+        return self._rows[:, : self.rank]
+
+    @property
     def rank(self) -> int:
         """The generic rank ``r`` of the span: the number of kept generators."""
         return len(self.nodes)
@@ -257,7 +274,7 @@ class Codistribution:
         """
         c = Codistribution.__new__(Codistribution)
         c.n, c.col_scale, c.rtol = self.n, self.col_scale, self.rtol
-        c.valid, c.grads = self.valid.copy(), self.grads.copy()
+        c.valid, c._rows = self.valid.copy(), self._rows.copy()
         c.basis, c.ref = self.basis.copy(), self.ref.copy()
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
@@ -287,7 +304,7 @@ class Codistribution:
 
     def _keep(self, node, cand, rho, direction, decision):
         r = self.rank
-        self.grads = np.concatenate([self.grads, cand[:, None, :]], axis=1)
+        self._rows[:, r] = cand
         # a direction settled independent beyond float64 is kept wherever it stands out of
         # round-off (its distance may sit under rtol at every sample)
         floor = SETTLED_FLOOR if decision.settled in ("exact mod p", "mpmath") else self.rtol
@@ -358,11 +375,18 @@ class Codistribution:
         # residuals of the rising candidates against the current span; each kept direction
         # is projected out of the later ones (twice), so no candidate is re-tested in full
         res = rho[rising, :, None] * dirs[rising]
+        # many rising candidates (the final span re-decided on all samples): their
+        # sequential Gram-Schmidt is one batched QR per sample (LAPACK), valid as long as
+        # every candidate rises; the first that does not ends it (the loop goes on)
+        qr = _sequential_qr(res) if len(rising) >= QR_FROM else None
         for j, i in enumerate(rising):
             if self.rank >= self.n:
                 break
             if j == 0:  # tested against the current span already
                 d, r_i, dir_i = first[i], rho[i], dirs[i]
+            elif qr is not None and j < qr[0].shape[2]:
+                r_i, dir_i = np.abs(qr[1][:, j]), qr[0][:, :, j] * np.sign(qr[1][:, j])[:, None]
+                d = self._decide(r_i, nodes[i], self.valid)
             else:
                 r_i = np.linalg.norm(res[j], axis=-1)
                 dir_i = res[j] / np.where(r_i > 0, r_i, 1.0)[:, None]
@@ -370,12 +394,19 @@ class Codistribution:
             if d.rank > self.rank:
                 self._keep(nodes[i], cands[i], r_i, dir_i, d)
                 added.append(nodes[i])
-                new = self.basis[:, self.rank - 1]  # (S, n), zero where not independent
-                for _ in range(2):
-                    coef = np.einsum("csn,sn->cs", res[j + 1:], new)
-                    res[j + 1:] -= coef[..., None] * new
+                if qr is None:
+                    new = self.basis[:, self.rank - 1]  # (S, n), zero where not independent
+                    for _ in range(2):
+                        coef = np.einsum("csn,sn->cs", res[j + 1:], new)
+                        res[j + 1:] -= coef[..., None] * new
             else:
                 self.rejections.append(d)
+                if qr is not None:  # the QR took this one in: the rest against the span
+                    qr = None
+                    rest = [rising[t] for t in range(j + 1, len(rising))]
+                    if rest:
+                        r_rest, d_rest = _residuals(self.basis[:, : max(self.rank, 1)], self.ref, cands[rest])
+                        res[j + 1:] = r_rest[..., None] * d_rest
         return added
 
     def _decide(self, rho, node, valid) -> RankDecision:
