@@ -1,7 +1,7 @@
 """``uio-jax batch --scheduler`` / ``uj.batch_analyze(client=...)`` on a Dask cluster.
 
 Each test that needs a cluster gets one started here: a scheduler and 2 worker processes
-(one thread each, their nannies) on the loopback interface, no dashboard, with
+(one thread each, their nannies) on the loopback interface (HTTP on a free port), with
 ``allowed-failures`` 1 (a model whose worker dies is run once more elsewhere). Every test
 is bounded in time (:func:`_deadline`). Oracle: the in-process batch of the same models
 (the same rows, in the same order).
@@ -148,7 +148,7 @@ def client():
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
         cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                           host="127.0.0.1", dashboard_address=None,
+                                           host="127.0.0.1", dashboard_address="127.0.0.1:0",
                                            silence_logs=logging.CRITICAL)
     c = distributed.Client(cluster, set_as_default=False)
     c.wait_for_workers(2, timeout=120)
@@ -360,3 +360,33 @@ def _alive(pid) -> bool:
             return "Z" not in next(ln for ln in f if ln.startswith("State:"))
     except (FileNotFoundError, ProcessLookupError):
         return False
+
+
+def test_a_worker_claims_a_cpu_no_other_worker_holds(tmp_path):
+    """Two worker processes of one host bind themselves to two different CPUs (the lock
+    files of the first are held while it lives); ``UIO_JAX_PIN_WORKERS=0`` leaves a worker
+    unbound."""
+    import subprocess
+    import sys
+
+    if not hasattr(os, "sched_setaffinity") or len(os.sched_getaffinity(0)) < 2:
+        assert __import__("uio_jax._filter.cluster", fromlist=["x"]).claim_one_cpu() is None
+        return
+    code = ("import os, sys, time; from uio_jax._filter.cluster import claim_one_cpu; "
+            "cpu = claim_one_cpu(); print(cpu, sorted(os.sched_getaffinity(0)), flush=True); "
+            "time.sleep(float(sys.argv[1]))")
+    env = dict(os.environ, TMPDIR=str(tmp_path))
+    first = subprocess.Popen([sys.executable, "-c", code, "30"], stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        cpu1, mask1 = first.stdout.readline().split(" ", 1)
+        out = subprocess.run([sys.executable, "-c", code, "0"], capture_output=True, text=True, env=env,
+                             timeout=120).stdout
+        cpu2, mask2 = out.split(" ", 1)
+        assert cpu1 != cpu2 and mask1.strip() == f"[{cpu1}]" and mask2.strip() == f"[{cpu2}]"
+        off = subprocess.run([sys.executable, "-c", code, "0"], capture_output=True, text=True, timeout=120,
+                             env=dict(env, UIO_JAX_PIN_WORKERS="0")).stdout
+        assert off.startswith("None ")
+    finally:
+        first.kill()
+        first.wait()
+        first.stdout.close()

@@ -4,7 +4,7 @@
 Oracle: the one-process run with the same seed (this process, one CPU device): the
 per-trial records, the kept trajectories and so every statistic are equal bit for bit.
 The cluster is started here: a scheduler and 2 worker processes on 127.0.0.1 (one thread
-each, no dashboard); every test is bounded in time. Without Dask distributed (the
+each, HTTP on a free port); every test is bounded in time. Without Dask distributed (the
 ``cluster`` extra, part of ``dev``) the module is skipped, which fails under CI
 (``tests/strict_skips.py``).
 """
@@ -50,7 +50,7 @@ def _deadline():
 def client():
     """A client of a local cluster: 2 worker processes on 127.0.0.1, one thread each."""
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address=None,
+                                       host="127.0.0.1", dashboard_address="127.0.0.1:0",
                                        silence_logs=logging.CRITICAL)
     c = distributed.Client(cluster, set_as_default=False)
     c.wait_for_workers(2, timeout=120)

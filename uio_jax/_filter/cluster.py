@@ -45,7 +45,7 @@ import uuid
 
 import numpy as np
 
-from .._errors import OptionError
+from .._errors import OptionError, UioJaxError
 from .._progress import Progress
 
 #: How to install the optional engine (named in the errors).
@@ -346,13 +346,15 @@ def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, simulate_t
                    for k, a in enumerate(starts)]
         try:
             pending = set(range(len(futures)))
+            lonely = None
             while pending:
                 _drain(done, bar, size, trials, starts, wait_s=0.2)
                 for k in list(pending):
                     if futures[k].done():
                         pending.discard(k)
-                        if futures[k].status == "error":
-                            futures[k].result()  # raises the shard's error here
+                        if futures[k].status != "finished":
+                            _raise_shard_error(futures[k], starts[k], min(starts[k] + size, trials))
+                lonely = _check_workers(c, lonely)
             results = [f.result() for f in futures]
             _drain(done, bar, size, trials, starts, wait_s=0.0)
         except BaseException:  # Ctrl-C, or a shard's error: the other shards are stopped
@@ -376,6 +378,34 @@ def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, simulate_t
         "device_kind": timings[0]["device_kind"],
     }
     return stats, results[0][1], out
+
+
+def _raise_shard_error(future, first, end):
+    """The error of a shard that did not finish: its own when uio_jax raised it (a
+    ModelError, as in one process), else one line naming the shard."""
+    exc = future.exception() if future.status == "error" else None
+    if isinstance(exc, UioJaxError):
+        raise exc
+    if exc is None:
+        why = "cancelled"
+    else:
+        text = str(exc).strip()
+        why = f"{type(exc).__name__}: {text.splitlines()[0][:200]}" if text else type(exc).__name__
+    raise UioJaxError(f"the Monte Carlo trials {first}..{end - 1} failed on the cluster ({why})")
+
+
+def _check_workers(client, since):
+    """``since`` (when the cluster was first seen without a worker, or None); an error
+    once it has had none for :data:`NO_WORKER_S` seconds."""
+    try:
+        if worker_threads(client):
+            return None
+    except Exception:  # the scheduler does not answer: as if it had no worker
+        pass
+    now = time.monotonic()
+    if since is not None and now - since >= NO_WORKER_S:
+        raise UioJaxError(f"the Dask cluster had no worker for {NO_WORKER_S:g} s: Monte Carlo stopped")
+    return now if since is None else since
 
 
 def _drain(events, bar, size, trials, starts, wait_s):
