@@ -32,6 +32,9 @@ CASES = {
     "hiv": ("multi_ui.py:hiv", 4, "switchable", "systems/multi_ui.py:hiv"),
     "tac2025": ("multi_ui.py:tac2025", 4, "switchable", "systems/multi_ui.py:tac2025"),
     "visfm_case1": ("visual_inertial_partial.py:calibrated_one_acc", 7, "smooth", None),
+    "visfm_case1_local": ("visual_inertial_partial.py:calibrated_one_acc_local", 7, "smooth", None),
+    "extension_two_kept": ("multi_ui.py:extension_two_kept", 4, "switchable",
+                           "systems/multi_ui.py:extension_two_kept"),
 }
 
 _CHILD = r"""
