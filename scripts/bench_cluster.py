@@ -363,9 +363,9 @@ def main(argv=None):
     res = {"engines": engines, "batch": batch, "montecarlo": montecarlo}[args.what](args)
     res["machine"] = {"cores": os.cpu_count(), "python": sys.version.split()[0]}
     text = json.dumps(res, indent=1)
-    print(text)
-    if args.out:
+    if args.out:  # first: a closed stdout (``| head``) must not lose the measurements
         Path(args.out).write_text(text)
+    print(text)
     return 0
 
 
