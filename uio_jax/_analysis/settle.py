@@ -227,13 +227,11 @@ class Settler:
         if self._extended is None:
             scale = self.hi - self.lo
             points = [self.lo + self.rng.random(self.graph.n) * scale for _ in range(POINTS)]
-            self._extended = [[graph_exact.ExtendedEvaluator(self.graph, pt, d) for d in DIGITS]
-                              for pt in points]
+            self._extended = [[_Orthonormal(graph_exact.ExtendedEvaluator(self.graph, pt, d), scale)
+                               for d in DIGITS] for pt in points]
         independent = dependent = 0
-        scale = self.hi - self.lo
-        for evaluators in self._extended:
-            rho1, rho2 = [_distance(ev.gradients(exprs)[1], scale, r, d)
-                          for ev, d in zip(evaluators, DIGITS)]
+        for spans in self._extended:
+            rho1, rho2 = [span.distance(exprs[:r], exprs[r]) for span in spans]
             tiny1, tiny2 = [10.0 ** (-0.6 * d) for d in DIGITS]
             if rho1 is None or rho2 is None:
                 continue  # the span is degenerate at this point
@@ -250,36 +248,60 @@ class Settler:
         return Escalation(what, float64, how + ": the two precisions disagree", "undecided")
 
 
-def _distance(grads, scale, r, dps):
-    """Distance of the unit-scaled last row to the span of the first ``r`` rows (mpmath
-    numbers), columns scaled by ``scale``; None when the first ``r`` rows are dependent
-    there."""
-    import mpmath
+class _Orthonormal:
+    """The kept rows at one point in mpmath, orthonormalized once (Gram-Schmidt, twice) and
+    cached by the kept expressions: a longer list extends its longest cached prefix.
 
-    ctx = mpmath.MPContext()
-    ctx.dps = dps
-    rows = [[ctx.mpf(g) * ctx.mpf(float(s)) for g, s in zip(row, scale)] for row in grads]
-    tiny = ctx.mpf(10) ** (-int(0.6 * dps))
-    basis = []
-    for i, row in enumerate(rows):
-        norm = ctx.sqrt(sum(v * v for v in row))
+    Args:
+        evaluator: the :class:`~uio_jax._engine.graph_exact.ExtendedEvaluator` of the point.
+        scale: the column scale (box widths), as in the float64 test.
+    """
+
+    def __init__(self, evaluator, scale):
+        self.ev = evaluator
+        ctx = evaluator.ctx
+        self.scale = [ctx.mpf(float(s)) for s in scale]
+        self.tiny = ctx.mpf(10) ** (-int(0.6 * ctx.dps))
+        self.cache = {(): []}  # kept expressions -> orthonormal rows (None: degenerate)
+
+    def _residual(self, basis, expr):
+        """``(rho, unit residual)`` of the scaled, unit-normalized gradient of ``expr``."""
+        ctx = self.ev.ctx
+        row = [g * s for g, s in zip(self.ev.gradients([expr])[1][0], self.scale)]
+        norm = ctx.sqrt(ctx.fsum(v * v for v in row))
         if norm == 0:
-            if i < r:
-                return None
-            return 0.0
+            return ctx.mpf(0), None
         v = [x / norm for x in row]
         for _ in range(2):
             for b in basis:
-                c = sum(x * y for x, y in zip(v, b))
+                c = ctx.fdot(v, b)
                 v = [x - c * y for x, y in zip(v, b)]
-        rho = ctx.sqrt(sum(x * x for x in v))
-        if i < r:
-            if rho < tiny:
-                return None
-            basis.append([x / rho for x in v])
-        else:
-            return float(rho)
-    return None
+        rho = ctx.sqrt(ctx.fsum(x * x for x in v))
+        return rho, ([x / rho for x in v] if rho > 0 else None)
+
+    def basis(self, kept: tuple):
+        found = self.cache.get(kept)
+        if found is not None or kept in self.cache:
+            return found
+        k = len(kept) - 1
+        while kept[:k] not in self.cache:
+            k -= 1
+        basis = self.cache[kept[:k]]
+        for i in range(k, len(kept)):
+            if basis is None:
+                break
+            rho, direction = self._residual(basis, kept[i])
+            basis = None if rho < self.tiny else basis + [direction]
+            self.cache[kept[:i + 1]] = basis
+        return basis
+
+    def distance(self, kept, candidate):
+        """Distance of the candidate to the span of the kept rows (a float), None when the
+        kept rows are dependent at this point."""
+        basis = self.basis(tuple(kept))
+        if basis is None:
+            return None
+        return float(self._residual(basis, candidate)[0])
 
 
 __all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "DIGITS", "MAX_BOUND", "Escalation", "Settler",
