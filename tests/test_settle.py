@@ -131,3 +131,15 @@ def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table():
     table = result.table()
     assert "UNDECIDED: x2" in table and "escalated" in table
     assert "UNDECIDED: x2" in result.to_markdown()
+
+
+def test_is_observable_settles_or_refuses():
+    """``is_observable`` of ``x1 + 1e-9 x2^2`` on the span of dx1 alone (y1 = x1): float64
+    says dependent, exact arithmetic says not (False, settled); the same question outside
+    the graph cannot be settled: an error, not an uncertified answer."""
+    rep = uj.analyze(uj.System(states=("x1", "x2"), outputs={"y1": lambda x: x[0]}), samples=256)
+    assert rep.dim == 1
+    assert rep.is_observable(lambda x: x[0] + EPS * x[1] ** 2) is False
+    assert rep.is_observable(lambda x: 2.0 * x[0]) is True
+    with pytest.raises(uj.ModelError, match="undecided"):
+        rep.is_observable(erf_inv_part)

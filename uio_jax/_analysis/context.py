@@ -536,7 +536,12 @@ class SampledSpace(Space):
         if getattr(out, "shape", None) != ():
             raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
         of_state = fn if n == self._N else (lambda X: fn(X[:n]))
-        node = Node(getattr(fn, "__name__", "fn"), of_state, "scalar")
+        # in the expression graph when fn translates (numpy, a weak vote settled exactly)
+        node = self._ctx.builder.function(getattr(fn, "__name__", "fn"), of_state)
         grads = self._ctx.gradients([node])  # (S, 1, N), zero past n
-        member, _ = self._ctx.codist.contains(np.moveaxis(grads, 1, 0))[0]
+        member, decision = self._ctx.codist.contains(np.moveaxis(grads, 1, 0), nodes=[node])[0]
+        if decision.settled == "undecided":
+            esc = self._ctx.codist.escalations[-1]
+            raise ModelError(f"is_observable: undecided (float64: {esc.float64}; {esc.how}): "
+                             "the answer would not be certified")
         return bool(member)
