@@ -1,8 +1,11 @@
 """Shared machinery of the analyses: samples, memoized nodes, the growing codistribution.
 
-Each recursion (ORC, single unknown input, EORC) is a Python loop over steps m (bounded
-by n + 2); inside a step the new candidate generators are evaluated in one jitted,
-vmapped call and pruned by :class:`~uio_jax._rank.Codistribution`.
+Each recursion (ORC, single unknown input, EORC, general solution) is a Python loop over
+steps m; inside a step the new candidate generators are evaluated in one call (numpy over
+the System's expression graph, or a compiled program for a model outside it) at the first
+:data:`DECISION_SAMPLES` samples and pruned by
+:class:`~uio_jax._analysis.rank.Codistribution`; the final span is certified on all the
+samples (:meth:`Context.certify`).
 """
 
 import dataclasses

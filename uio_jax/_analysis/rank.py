@@ -22,6 +22,12 @@ evaluate the gradients at S random states of the domain and decide on the host.
   conditioned sample; both are minorities and the majority resists both. Every decision
   carries its evidence (:class:`RankDecision`): the agreeing fraction and the margins on
   both sides of ``rtol``.
+* **Beyond float64**: a weak vote (near ``rtol``, or split) is settled again in exact or
+  extended arithmetic, and a generator kept on a clear vote of a rational model is verified
+  exactly (:attr:`Codistribution.settle`, :mod:`uio_jax._analysis.settle`).
+
+Everything here is numpy: the kernels are a few batched products per call, and compiling
+them would cost more than they run on a first call.
 """
 
 from dataclasses import dataclass, replace
