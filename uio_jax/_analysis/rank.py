@@ -257,7 +257,7 @@ class Codistribution:
         #: every candidate is expected to raise the rank (the kept generators re-decided on
         #: more samples): a vote that it does not is settled again, weak or not
         self.expect_rise = False
-        self.verified = 0  # clear float64 rises confirmed exactly (not escalations)
+        self.verified = 0  # clear float64 rises confirmed exactly (kept generators, non-members)
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
 
     @property

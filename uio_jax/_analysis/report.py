@@ -89,8 +89,9 @@ class Certificate:
             (:class:`uio_jax._analysis.settle.Escalation`: what, the float64 vote, how,
             the result, the probability bound of a modular answer), and the clear float64
             rises that exact arithmetic contradicted.
-        verified: clear float64 rises (generators kept) confirmed by exact modular
-            arithmetic (rational models: every generator kept is checked so).
+        verified: clear float64 rank increases confirmed by exact modular arithmetic: every
+            generator kept and every covector found outside the span (a "not observable"
+            verdict) of a rational model is checked so.
     """
 
     samples: int
@@ -150,7 +151,7 @@ class Certificate:
 
     def _escalation_text(self) -> str:
         if not self.escalations:
-            return f"; {self.verified} kept generators verified exactly" if self.verified else ""
+            return f"; {self.verified} rank increases verified exactly" if self.verified else ""
         settled = self.escalated - self.undecided
         text = f"; {self.escalated} weak decision{'s' if self.escalated > 1 else ''} escalated"
         if settled:
