@@ -434,9 +434,11 @@ class Codistribution:
             # a clear rise: round-off of a deep derivative can fake one, and one wrong
             # generator corrupts every later decision; verified exactly where that is cheap
             esc = self.settle(self.nodes, node, evidence, exact_only=True)
-            if esc is None or esc.result == "independent":
-                self.verified += esc is not None
+            if esc is None:
                 return d
+            if esc.result == "independent":
+                self.verified += 1
+                return replace(d, settled="exact mod p")
         else:
             esc = self.settle(self.nodes, node, evidence)
         self.escalations.append(esc)
