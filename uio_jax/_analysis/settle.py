@@ -19,8 +19,8 @@ A weak decision is settled again (:class:`Settler`) in the System's expression g
 :data:`POINTS` random points:
 
 * **exact modular arithmetic** when every node involved is rational: the rank of the
-  gradients modulo ``p = 2^31 - 1`` at random points of ``F_p^n``
-  (:class:`uio_jax._engine.graph_exact.ModularEvaluator`, ``p = 2^127 - 1``). A point where the candidate
+  gradients modulo ``p = 2^127 - 1`` at random points of ``F_p^n``
+  (:class:`uio_jax._engine.graph_exact.ModularEvaluator`). A point where the candidate
   raises the rank proves it raises the generic rank (a point's rank never exceeds the
   generic one); "does not raise" holds unless every point is a root of a nonzero minor,
   with probability at most ``(D / p)^points``, ``D`` the minor's degree bound
@@ -34,6 +34,12 @@ singular; the two precisions disagree): the decision is **undecided**. The float
 majority is kept for the rest of the run, and the report says that its verdicts are not
 certified (:attr:`uio_jax.Certificate.undecided`). Every escalation is recorded
 (:class:`Escalation`) in the certificate.
+
+A clear float64 vote that the rank rises is also checked exactly when the model is rational
+(``Settler.settle(..., exact_only=True)``, from :meth:`uio_jax._analysis.rank.Codistribution._decide`):
+round-off of a deep derivative can fake a rise with a clear vote, and one wrong generator
+corrupts every later decision. A confirmation is counted (``Certificate.verified``), a
+contradiction recorded as an escalation.
 """
 
 import dataclasses
@@ -55,8 +61,8 @@ WEAK_FRACTION = 0.9
 
 #: Random points of an escalation: one settles a decision (a witness of independence is
 #: certain; a dependence holds with a Schwartz-Zippel bound ``D / p``, ``p = 2^127 - 1``,
-#: far below :data:`MAX_BOUND` for any degree our graphs reach); a second point is drawn
-#: when the bound is not small enough. mpmath uses this many points too.
+#: far below :data:`MAX_BOUND` for the degrees our graphs reach; above it the decision is
+#: undecided). mpmath uses this many points too.
 POINTS = 1
 
 #: Decimal digits of the two mpmath evaluations.
