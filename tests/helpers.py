@@ -1,8 +1,11 @@
 """Shared helpers: cached analyses of zoo entries and their published numbers."""
 
+import contextlib
 import functools
 import importlib.util
+import logging
 import os
+import signal
 
 import uio_jax as uj
 
@@ -48,3 +51,49 @@ def published(module: str, name: str) -> dict:
 
 def observable_set(report) -> set:
     return {s for s, ok in report.observable.items() if ok}
+
+
+def one_line_error(capsys) -> str:
+    """The CLI's error as the tests expect it: one line on stderr, ``uio-jax: error: ...``,
+    no traceback anywhere; returns that line."""
+    out, err = capsys.readouterr()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("uio-jax: error: ")
+    assert "Traceback" not in err + out
+    return lines[0]
+
+
+@contextlib.contextmanager
+def deadline(seconds: int, what: str = "test"):
+    """Fail the block if it runs past ``seconds`` (SIGALRM, in the main thread)."""
+    def expired(signum, frame):
+        raise TimeoutError(f"{what} ran past {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+@contextlib.contextmanager
+def local_cluster_client(config=None):
+    """A Dask client of a local cluster: 2 worker processes on 127.0.0.1, one thread each,
+    the dashboard on a free port; ``config``: Dask settings while the cluster starts."""
+    import dask
+    import distributed
+
+    with dask.config.set(config or {}):
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                           host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                                           silence_logs=logging.CRITICAL)
+    client = distributed.Client(cluster, set_as_default=False)
+    try:
+        client.wait_for_workers(2, timeout=120)
+        yield client
+    finally:
+        client.close()
+        cluster.close()

@@ -10,7 +10,7 @@ import textwrap
 
 import jax
 import pytest
-from helpers import zoo_path
+from helpers import one_line_error, zoo_path
 
 import uio_jax as uj
 from uio_jax import cli
@@ -71,15 +71,6 @@ def _write(path, source):
 @pytest.fixture
 def zoo_file(tmp_path):
     return _write(tmp_path / "tiny_zoo.py", ZOO)
-
-
-def _one_line_error(capsys):
-    out, err = capsys.readouterr()
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert lines[0].startswith("uio-jax: error: ")
-    assert "Traceback" not in err + out
-    return lines[0]
 
 
 def test_zoo_file_discovery(zoo_file):
@@ -197,7 +188,7 @@ def test_bad_model_files_are_rows(tmp_path):
 ])
 def test_cli_batch_usage_errors(capsys, argv, message):
     assert cli.main(argv + ["--no-cache"]) == 2
-    assert message in _one_line_error(capsys)
+    assert message in one_line_error(capsys)
 
 
 def test_directory_and_glob(tmp_path, zoo_file):

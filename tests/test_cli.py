@@ -8,7 +8,7 @@ import sys
 import textwrap
 
 import pytest
-from helpers import zoo_path
+from helpers import one_line_error, zoo_path
 
 from uio_jax import cli
 
@@ -44,21 +44,12 @@ def _write(tmp_path, name, source):
     return str(path)
 
 
-def _one_line_error(capsys):
-    out, err = capsys.readouterr()
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert lines[0].startswith("uio-jax: error: ")
-    assert "Traceback" not in err + out
-    return lines[0]
-
-
 @pytest.mark.parametrize("name", sorted(BAD_MODELS))
 def test_bad_model_files(tmp_path, capsys, name):
     source, message = BAD_MODELS[name]
     path = _write(tmp_path, name, source)
     assert cli.main(["analyze", f"{path}:f"]) == 2
-    assert message in _one_line_error(capsys)
+    assert message in one_line_error(capsys)
 
 
 @pytest.mark.parametrize(
@@ -79,7 +70,7 @@ def test_bad_model_files(tmp_path, capsys, name):
 )
 def test_bad_arguments(capsys, argv, message):
     assert cli.main(argv) == 2
-    assert message in _one_line_error(capsys)
+    assert message in one_line_error(capsys)
 
 
 def test_analyze_prints_a_report_and_writes_json(tmp_path, capsys):
@@ -131,7 +122,7 @@ def test_analyze_progress_only_on_a_terminal(capsys, monkeypatch):
 
 def test_unwritable_json_is_one_line(tmp_path, capsys):
     assert cli.main(["analyze", GOOD, "--samples", "64", "--json", str(tmp_path / "no" / "r.json")]) == 2
-    _one_line_error(capsys)
+    one_line_error(capsys)
 
 
 def test_installed_script_smoke():
@@ -207,7 +198,7 @@ EORC_MODEL = f"{zoo_path('gps')}:inputs_unknown"  # two unknown inputs (run with
 def test_option_ranges_are_one_line_usage_errors(monkeypatch, capsys, argv, message):
     monkeypatch.setenv("UIO_JAX_MEMORY_LIMIT", "8G")
     assert cli.main(argv + ["--no-progress"] if argv[0] != "montecarlo" else argv) == 2
-    assert message in _one_line_error(capsys)
+    assert message in one_line_error(capsys)
 
 
 def test_a_seed_past_2_63_runs(capsys):
@@ -221,7 +212,7 @@ def test_fast_falls_back_to_orc_on_the_command_line(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "fast: no Taylor rule for 'sort' -> ORC" in out and "dim 2 of 2" in out
     assert cli.main(["analyze", f"{path}:f", "--method", "series", "--samples", "64"]) == 2
-    assert "sort" in _one_line_error(capsys)
+    assert "sort" in one_line_error(capsys)
 
 
 def test_cache_dir_help_states_the_default_rule(capsys):

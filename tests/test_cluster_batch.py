@@ -10,7 +10,6 @@ Without Dask distributed (the ``cluster`` extra, part of ``dev``) the module is 
 which fails under CI (``tests/strict_skips.py``).
 """
 
-import logging
 import os
 import signal
 import socket
@@ -18,7 +17,7 @@ import textwrap
 import time
 
 import pytest
-from helpers import zoo_path
+from helpers import deadline, local_cluster_client, one_line_error, zoo_path
 
 distributed = pytest.importorskip("distributed")
 
@@ -130,31 +129,17 @@ def _fields(row):
 
 @pytest.fixture(autouse=True)
 def _deadline():
-    """Fail a test that runs past :data:`DEADLINE_S` (SIGALRM in this, the main, thread)."""
-    def expired(signum, frame):
-        raise TimeoutError(f"cluster test ran past {DEADLINE_S} s")
-
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(DEADLINE_S)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+    """Fail a test that runs past :data:`DEADLINE_S`."""
+    with deadline(DEADLINE_S, "cluster test"):
+        yield
 
 
 @pytest.fixture(scope="module")
 def client():
-    """A client of a local cluster: 2 worker processes on 127.0.0.1, one thread each."""
-    import dask
-
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
-        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                           host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                                           silence_logs=logging.CRITICAL)
-    c = distributed.Client(cluster, set_as_default=False)
-    c.wait_for_workers(2, timeout=120)
-    yield c
-    c.close()
-    cluster.close()
+    """A client of a local cluster: 2 worker processes on 127.0.0.1, one thread each; a
+    model whose worker dies is re-run once."""
+    with local_cluster_client({"distributed.scheduler.allowed-failures": 1}) as c:
+        yield c
 
 
 def _two_workers(client):
@@ -171,15 +156,6 @@ def _closed_port():
         return s.getsockname()[1]
 
 
-def _one_line_error(capsys):
-    out, err = capsys.readouterr()
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert lines[0].startswith("uio-jax: error: ")
-    assert "Traceback" not in err + out
-    return lines[0]
-
-
 # ---------------------------------------------------------------------- bad input, no cluster
 @pytest.mark.parametrize("address, needle", [
     ("foo", "missing port number"),
@@ -188,16 +164,16 @@ def _one_line_error(capsys):
     ("tcp://127.0.0.1:99999", "bad host or port"),
     (None, "connection refused"),  # a port nothing listens on
 ])
-def test_bad_scheduler_is_one_line_error(address, needle, capsys):
+def test_bad_scheduler_isone_line_error(address, needle, capsys):
     address = f"tcp://127.0.0.1:{_closed_port()}" if address is None else address
     code = cli.main(["batch", zoo_path("gps"), "--samples", str(SAMPLES), "--scheduler", address])
     assert code == 2
-    assert needle in _one_line_error(capsys)
+    assert needle in one_line_error(capsys)
 
 
 def test_scheduler_with_jobs_is_a_usage_error(capsys):
     code = cli.main(["batch", zoo_path("gps"), "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"])
-    assert code == 2 and "--jobs 2 and --scheduler exclude each other" in _one_line_error(capsys)
+    assert code == 2 and "--jobs 2 and --scheduler exclude each other" in one_line_error(capsys)
     with pytest.raises(uj.OptionError, match="exclude each other"):
         uj.batch_analyze(zoo_path("gps"), jobs=2, client="tcp://127.0.0.1:1")
 
@@ -207,10 +183,10 @@ def test_a_client_of_another_type_is_refused():
         uj.batch_analyze(zoo_path("gps"), client=8786)
 
 
-def test_without_the_extra_a_cluster_run_is_one_line_error(monkeypatch, capsys):
+def test_without_the_extra_a_cluster_run_isone_line_error(monkeypatch, capsys):
     monkeypatch.setitem(__import__("sys").modules, "distributed", None)  # import fails
     code = cli.main(["batch", zoo_path("gps"), "--scheduler", "tcp://127.0.0.1:8786"])
-    assert code == 2 and 'pip install "uio_jax[cluster]"' in _one_line_error(capsys)
+    assert code == 2 and 'pip install "uio_jax[cluster]"' in one_line_error(capsys)
 
 
 def test_specs_travel_as_absolute_paths():

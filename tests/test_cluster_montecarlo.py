@@ -10,13 +10,12 @@ each, HTTP on a free port); every test is bounded in time. Without Dask distribu
 """
 
 import json
-import logging
-import signal
 import socket
 
 import numpy as np
 import pytest
 from conftest import zoo
+from helpers import deadline, local_cluster_client
 
 distributed = pytest.importorskip("distributed")
 
@@ -36,27 +35,15 @@ N_STEPS, TRIALS, SEED = 2000, 37, 5
 
 @pytest.fixture(autouse=True)
 def _deadline():
-    def expired(signum, frame):
-        raise TimeoutError(f"cluster test ran past {DEADLINE_S} s")
-
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.alarm(DEADLINE_S)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+    with deadline(DEADLINE_S, "cluster test"):
+        yield
 
 
 @pytest.fixture(scope="module")
 def client():
     """A client of a local cluster: 2 worker processes on 127.0.0.1, one thread each."""
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                                       silence_logs=logging.CRITICAL)
-    c = distributed.Client(cluster, set_as_default=False)
-    c.wait_for_workers(2, timeout=120)
-    yield c
-    c.close()
-    cluster.close()
+    with local_cluster_client() as c:
+        yield c
 
 
 def _experiment():
