@@ -123,10 +123,6 @@ class Graph:
             return self._node("c", (), "nan")
         return self._node("c", (), v)
 
-    def is_const(self, i: int) -> bool:
-        """Whether node ``i`` is a constant."""
-        return self.op[i] == "c"
-
     def value_of(self, i: int) -> float:
         """The value of constant node ``i``."""
         p = self.param[i]
@@ -327,10 +323,6 @@ class Graph:
         """Whether every node behind ``roots`` is a rational operation (:data:`RATIONAL_OPS`)."""
         op = self.op
         return all(op[i] in RATIONAL_OPS for i in self.reachable(roots))
-
-    def size(self, roots) -> int:
-        """Number of nodes behind ``roots``."""
-        return len(self.reachable(roots))
 
     # ------------------------------------------------------------------ derivatives
     def jvp(self, roots, tangent) -> list[int]:

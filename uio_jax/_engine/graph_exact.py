@@ -15,7 +15,7 @@ points:
   minor vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero
   minor: by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of
   degree ``D`` (:func:`degrees` bounds it).
-* **mpmath** (:func:`gradients_mp`), for any graph: values and gradients in ``dps``
+* **mpmath** (:class:`ExtendedEvaluator`), for any graph: values and gradients in ``dps``
   decimal digits. Repeated at two precisions, a genuine small number keeps its value
   while round-off shrinks with the precision.
 """
@@ -335,11 +335,5 @@ class ExtendedEvaluator:
         return [V[r] for r in roots], [G[r] for r in roots]
 
 
-def gradients_mp(graph, roots, point, dps: int):
-    """Values and gradients of graph nodes at one point, in ``dps`` decimal digits (a
-    one-off :class:`ExtendedEvaluator`): lists of mpmath numbers."""
-    return ExtendedEvaluator(graph, point, dps).gradients(roots)
-
-
 __all__ = ["PRIME", "Singular", "const_mod", "ModularEvaluator", "gradients_mod_p", "rank_mod_p", "Echelon",
-           "degrees", "ExtendedEvaluator", "gradients_mp"]
+           "degrees", "ExtendedEvaluator"]
