@@ -30,7 +30,8 @@ import numpy as np
 from .._engine import graph_numpy as _graph_numpy
 from .._engine import program_cache as _program_cache
 from .._engine.graph import Graph
-from .._engine.graph_trace import IndexOutOfRange, expressed, translate
+from .._engine.graph_rules import IndexOutOfRange
+from .._engine.graph_trace import expressed, translate
 from . import lie as _lie
 from .powers import lie_power
 

@@ -1,8 +1,9 @@
 """One jaxpr interpreter: a walk over the equations, a rule per primitive from a table.
 
-Every jaxpr evaluation of the engine (Taylor arithmetic in :mod:`.taylor`, the Taylor flow
-recurrence in :mod:`.taylor_flow`, structural sparsity in :mod:`.sparsity`, vectorised
-float64 trig in :mod:`.fast_trig`) is :func:`interpret` with a rule table of its own
+Every jaxpr evaluation of the engine (the translation into the expression graph in
+:mod:`.graph_rules`, Taylor arithmetic in :mod:`.taylor`, the Taylor flow recurrence in
+:mod:`.taylor_flow`, structural sparsity in :mod:`.sparsity`, vectorised float64 trig in
+:mod:`.fast_trig`) is :func:`interpret` with a rule table of its own
 (:class:`Rules`) and a state of its own:
 
 * the walk binds the jaxpr's constants and arguments to its variables, then takes the

@@ -32,7 +32,8 @@ import numpy as np
 
 from .._engine.graph import Graph
 from .._engine.graph_numpy import evaluate
-from .._engine.graph_trace import IndexOutOfRange, translate
+from .._engine.graph_rules import IndexOutOfRange
+from .._engine.graph_trace import translate
 from .._errors import ModelError
 
 Field = Callable[[jax.Array], jax.Array]
