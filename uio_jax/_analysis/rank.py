@@ -140,7 +140,7 @@ def _residuals(basis, ref, cands):
     """Distance of unit-normalized candidates to the span of an orthonormal basis.
 
     Args:
-        basis: ``(S, r, n)`` per-sample orthonormal rows (zero rows are ignored).
+        basis: ``(r, S, n)`` per-sample orthonormal rows (zero rows are ignored).
         ref: ``(S,)`` largest norm of the kept rows at each sample (zero-row guard).
         cands: ``(C, S, n)`` candidate covectors (column-scaled).
 
@@ -153,8 +153,8 @@ def _residuals(basis, ref, cands):
     unit = np.where(zero[..., None], 0.0, cands / np.where(zero, 1.0, norms)[..., None])
 
     def project_out(v):
-        coef = np.einsum("sri,csi->csr", basis, v, optimize=True)
-        return v - np.einsum("csr,sri->csi", coef, basis, optimize=True)
+        coef = np.einsum("rsi,csi->csr", basis, v, optimize=True)
+        return v - np.einsum("csr,rsi->csi", coef, basis, optimize=True)
 
     res = project_out(project_out(unit))  # Gram-Schmidt, twice is enough
     rho = np.linalg.norm(res, axis=-1)
@@ -167,11 +167,13 @@ QR_FROM = 8
 
 
 def _sequential_qr(res):
-    """``(Q (S, n, k), d (S, k))``: per sample, the QR of the residual columns ``res``
-    ``(C, S, n)`` (``k = min(n, C)``): column ``j`` of ``Q`` is the direction of candidate
-    ``j`` after the ones before it, ``d[:, j] = R_jj`` its signed distance."""
+    """``(Q (k, S, n), d (S, k))``: per sample, the QR of the residual columns ``res``
+    ``(C, S, n)`` (``k = min(n, C)``): ``Q[j]`` is the direction of candidate ``j`` after the
+    ones before it, ``d[:, j] = R_jj`` its signed distance. ``Q`` is returned candidate-major
+    (one transposing copy, cache-friendly per sample): taking ``Q[..., j]`` out of LAPACK's
+    ``(S, n, k)`` one candidate at a time reads every cache line ``k`` times."""
     q, r = np.linalg.qr(np.transpose(res, (1, 2, 0)))
-    return q, np.diagonal(r, axis1=1, axis2=2)
+    return np.ascontiguousarray(np.moveaxis(q, 2, 0)), np.diagonal(r, axis1=1, axis2=2)
 
 
 def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
@@ -244,8 +246,9 @@ class Codistribution:
         self.col_scale = np.asarray(col_scale, dtype=np.float64)
         self.rtol = float(rtol)
         self.valid = np.ones(samples, dtype=bool)
-        self._rows = np.zeros((samples, n, n))  # the kept rows, column-scaled (first rank)
-        self.basis = np.zeros((samples, n, n))
+        # per kept row (row-major: writing one is one contiguous block), grown on demand
+        self._rows = np.zeros((0, samples, n))  # (capacity, S, n) the kept rows, column-scaled
+        self.basis = np.zeros((0, samples, n))  # (capacity, S, n) their orthonormal basis
         self.ref = np.zeros(samples)
         self.nodes = []
         self.rejections: list[RankDecision] = []
@@ -262,8 +265,13 @@ class Codistribution:
 
     @property
     def grads(self) -> np.ndarray:
-        """``(S, r, n)``: the column-scaled gradients of the kept generators."""
-        return self._rows[:, : self.rank]
+        """``(S, r, n)``: the column-scaled gradients of the kept generators (a view)."""
+        return np.moveaxis(self._rows[: self.rank], 0, 1)
+
+    def kept_basis(self) -> np.ndarray:
+        """``(S, r, n)``: per sample, the orthonormal rows of the span (zero rows where a kept
+        generator was dependent at that sample; a view)."""
+        return np.moveaxis(self.basis[: self.rank], 0, 1)
 
     @property
     def rank(self) -> int:
@@ -280,8 +288,10 @@ class Codistribution:
         """
         c = Codistribution.__new__(Codistribution)
         c.n, c.col_scale, c.rtol = self.n, self.col_scale, self.rtol
-        c.valid, c._rows = self.valid.copy(), self._rows.copy()
-        c.basis, c.ref = self.basis.copy(), self.ref.copy()
+        r = self.rank
+        c.valid, c.ref = self.valid.copy(), self.ref.copy()
+        c._rows, c.basis = np.zeros(self._rows.shape), np.zeros(self.basis.shape)  # same room
+        c._rows[:r], c.basis[:r] = self._rows[:r], self.basis[:r]
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
         c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
@@ -300,7 +310,7 @@ class Codistribution:
         of about ``_BLOCK_BYTES``."""
         C, S, n = cands.shape
         chunk = max(1, _BLOCK_BYTES // (S * n * 8 * 4))
-        basis = self.basis[:, : max(self.rank, 1)]  # only the kept rows (the others are zero)
+        basis = self.basis[: self.rank]
         rhos, dirs = [], []
         for start in range(0, C, chunk):
             rho, d = _residuals(basis, self.ref, cands[start:start + chunk])
@@ -308,13 +318,27 @@ class Codistribution:
             dirs.append(d)
         return np.concatenate(rhos), np.concatenate(dirs)
 
+    def _reserve(self, rows: int):
+        """Room for ``rows`` kept rows (capacity at least doubled when it grows, at most ``n``)."""
+        cap = len(self._rows)
+        if rows <= cap:
+            return
+        new = min(self.n, max(rows, 4, 2 * cap))
+        S = len(self.valid)
+        for name in ("_rows", "basis"):
+            old = getattr(self, name)
+            grown = np.zeros((new, S, self.n))
+            grown[:cap] = old
+            setattr(self, name, grown)
+
     def _keep(self, node, cand, rho, direction, decision):
+        self._reserve(self.rank + 1)
         r = self.rank
-        self._rows[:, r] = cand
+        self._rows[r] = cand
         # a direction settled independent beyond float64 is kept wherever it stands out of
         # round-off (its distance may sit under rtol at every sample)
         floor = SETTLED_FLOOR if decision.settled in ("exact mod p", "mpmath") else self.rtol
-        self.basis[:, r] = np.where((rho > floor)[:, None], direction, 0.0)
+        self.basis[r] = np.where((rho > floor)[:, None], direction, 0.0)
         self.ref = np.maximum(self.ref, np.linalg.norm(cand, axis=-1))
         self.nodes.append(node)
         self.acceptances.append(decision)
@@ -339,8 +363,8 @@ class Codistribution:
         for a round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm
         is exact, however large the kept gradients are.
         """
-        S, n = self.basis.shape[0], self.n
-        B = self.basis[:, : self.rank]  # (S, r, n)
+        S, n = len(self.valid), self.n
+        B = np.ascontiguousarray(self.kept_basis())  # (S, r, n)
         Bt = np.swapaxes(B, 1, 2)
         r1 = np.eye(n)[:, :count] - Bt @ B[:, :, :count]
         r2 = r1 - Bt @ (B @ r1)  # (S, n, count), column j = residual of e_j
@@ -374,10 +398,18 @@ class Codistribution:
         added = []
         if self.rank >= self.n:
             return added
-        rho, dirs = self._distances(cands) if tested is None else (tested.rho, tested.dirs)
+        if tested is not None:
+            rho, dirs = tested.rho, tested.dirs
+        elif self.rank == 0:  # an empty span (a final span re-decided): distance 1 or 0
+            norms = np.linalg.norm(cands, axis=-1)
+            rho = (norms > 0).astype(np.float64)
+            dirs = cands / np.where(norms > 0, norms, 1.0)[..., None]
+        else:
+            rho, dirs = self._distances(cands)
         first = [self._decide(r, nd, self.valid) for r, nd in zip(rho, nodes)]
         rising = [i for i, d in enumerate(first) if d.rank > self.rank]
         self.rejections.extend(d for d in first if d.rank <= self.rank)
+        self._reserve(min(self.n, self.rank + len(rising)))
         # residuals of the rising candidates against the current span; each kept direction
         # is projected out of the later ones (twice), so no candidate is re-tested in full
         res = rho[rising, :, None] * dirs[rising]
@@ -390,8 +422,8 @@ class Codistribution:
                 break
             if j == 0:  # tested against the current span already
                 d, r_i, dir_i = first[i], rho[i], dirs[i]
-            elif qr is not None and j < qr[0].shape[2]:
-                r_i, dir_i = np.abs(qr[1][:, j]), qr[0][:, :, j] * np.sign(qr[1][:, j])[:, None]
+            elif qr is not None and j < qr[0].shape[0]:
+                r_i, dir_i = np.abs(qr[1][:, j]), qr[0][j] * np.sign(qr[1][:, j])[:, None]
                 d = self._decide(r_i, nodes[i], self.valid)
             else:
                 r_i = np.linalg.norm(res[j], axis=-1)
@@ -401,7 +433,7 @@ class Codistribution:
                 self._keep(nodes[i], cands[i], r_i, dir_i, d)
                 added.append(nodes[i])
                 if qr is None:
-                    new = self.basis[:, self.rank - 1]  # (S, n), zero where not independent
+                    new = self.basis[self.rank - 1]  # (S, n), zero where not independent
                     for _ in range(2):
                         coef = np.einsum("csn,sn->cs", res[j + 1:], new)
                         res[j + 1:] -= coef[..., None] * new
@@ -411,7 +443,7 @@ class Codistribution:
                     qr = None
                     rest = [rising[t] for t in range(j + 1, len(rising))]
                     if rest:
-                        r_rest, d_rest = _residuals(self.basis[:, : max(self.rank, 1)], self.ref, cands[rest])
+                        r_rest, d_rest = _residuals(self.basis[: self.rank], self.ref, cands[rest])
                         res[j + 1:] = r_rest[..., None] * d_rest
         return added
 
