@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from .._engine import graph_exact
+from .._engine.graph import RATIONAL_OPS
 
 #: A decision is weak when the median ``log10 rho`` lies between ``log10 rtol`` minus
 #: :data:`WEAK_BELOW` and plus :data:`WEAK_ABOVE` decades: from 1e-12 (round-off of our
@@ -137,6 +138,7 @@ class Settler:
         self._rational_nodes = set()  # nodes known to be rational operations
         self._degrees = {}  # node -> degree bounds (graph_exact.degrees)
         self._extended = None  # per point, one ExtendedEvaluator per precision
+        self._answers = {}  # (kept expressions, candidate expression) -> settled Escalation
 
     def settle(self, kept, candidate, float64: str, exact_only: bool = False) -> Escalation | None:
         """Does ``candidate`` raise the generic rank of ``span{d k : k in kept}``?
@@ -155,22 +157,28 @@ class Settler:
                 return None
             return Escalation(what, float64, "none: a generator has no expression in the graph",
                               "undecided")
+        known = self._answers.get(tuple(exprs))
+        if known is not None:  # the same question again (the final span re-decided): same answer
+            return dataclasses.replace(known, what=what, float64=float64)
         if self._rational(exprs):
-            return self._settle_modular(what, float64, exprs)
-        if exact_only:
+            answer = self._settle_modular(what, float64, exprs)
+        elif exact_only:
             return None
-        return self._settle_extended(what, float64, exprs)
+        else:
+            answer = self._settle_extended(what, float64, exprs)
+        self._answers[tuple(exprs)] = answer
+        return answer
 
     def _rational(self, exprs) -> bool:
         """Whether every node behind ``exprs`` is rational (memoized per node: the graphs
         of successive decisions share most of their nodes)."""
         known = self._rational_nodes
-        todo = [e for e in exprs if e not in known]
-        if todo:
-            ok = self.graph.is_rational(todo)
-            if not ok:
+        new = self.graph.reachable(exprs, known=known)
+        if new:
+            op = self.graph.op
+            if not all(op[k] in RATIONAL_OPS for k in new):
                 return False
-            known.update(self.graph.reachable(todo))
+            known.update(new)
         return True
 
     # ------------------------------------------------------------------ modulo p

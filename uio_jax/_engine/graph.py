@@ -287,9 +287,7 @@ class Graph:
         """
         memo = self._tangents.setdefault(("import", source, tuple(coord_map)), {})
         sop, sargs, sparam = source.op, source.args, source.param
-        for k in source.reachable([r for r in roots if r not in memo]):
-            if k in memo:
-                continue
+        for k in source.reachable(roots, known=memo):
             op, a = sop[k], sargs[k]
             if op == "x":
                 memo[k] = coord_map[sparam[k]]
@@ -306,14 +304,19 @@ class Graph:
         return [memo[r] for r in roots]
 
     # ------------------------------------------------------------------ structure
-    def reachable(self, roots) -> list[int]:
-        """Every node the ``roots`` depend on (themselves included), ascending."""
+    def reachable(self, roots, known=()) -> list[int]:
+        """Every node the ``roots`` depend on (themselves included), ascending.
+
+        ``known``: nodes to leave out together with everything reached only through them
+        (a cache whose every node came with its operands: the walk stops there, so a
+        growing graph is not walked again from the bottom at every call).
+        """
         seen = set()
         stack = [r for r in roots]
         args = self.args
         while stack:
             i = stack.pop()
-            if i in seen:
+            if i in seen or i in known:
                 continue
             seen.add(i)
             stack.extend(args[i])

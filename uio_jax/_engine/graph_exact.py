@@ -73,7 +73,7 @@ class ModularEvaluator:
         V, G = self.V, self.G
         P, n = self.points.shape
         ops, args, params = graph.op, graph.args, graph.param
-        todo = [k for k in graph.reachable([r for r in roots if r not in V]) if k not in V]
+        todo = graph.reachable(roots, known=V)
         for k in todo:
             op, a = ops[k], args[k]
             if op == "x":
@@ -205,9 +205,7 @@ def degrees(graph, roots, memo=None) -> list[tuple[int, int]]:
     """
     ops, args, params = graph.op, graph.args, graph.param
     D = {} if memo is None else memo
-    for k in graph.reachable([r for r in roots if r not in D]):
-        if k in D:
-            continue
+    for k in graph.reachable(roots, known=D):
         op, a = ops[k], args[k]
         if op == "x":
             D[k] = (1, 0)
@@ -284,9 +282,7 @@ class ExtendedEvaluator:
                    "and": lambda a, b: bool(a) and bool(b), "or": lambda a, b: bool(a) or bool(b)}
         ops, args, params = graph.op, graph.args, graph.param
         V, G = self.V, self.G
-        for k in graph.reachable([r for r in roots if r not in V]):
-            if k in V:
-                continue
+        for k in graph.reachable(roots, known=V):
             op, a = ops[k], args[k]
             if op == "x":
                 i = params[k]
