@@ -137,6 +137,7 @@ def test_the_estimate_is_the_arrays_the_analysis_allocates():
     ctx = context_module.Context(sys, S, 0, 1e-8)
     parts = memory.analysis_bytes(S, sys.n)
     assert parts["the sampled states"] == np.asarray(ctx.xs).nbytes
+    ctx.codist._reserve(sys.n)  # the basis at full rank (rows are allocated as the span grows)
     assert parts["the rank basis"] == ctx.codist.basis.nbytes
     tested = ctx.codist.test_units(sys.n)  # cands and dirs (and two residuals of their size)
     assert parts["the unit-covector test"] == 2 * (tested.cands.nbytes + tested.dirs.nbytes)
@@ -145,8 +146,15 @@ def test_the_estimate_is_the_arrays_the_analysis_allocates():
     ext = extended_system(gps, 7)
     assert ext.n == gps.n + 7 * len(gps.unknown)
     assert check_eorc_memory(gps, S, 7) == sum(memory.analysis_bytes(S, ext.n, gps.n).values())
-    assert Codistribution(ext.n, S, np.ones(ext.n), 1e-8).basis.nbytes == memory.analysis_bytes(S, ext.n)[
-        "the rank basis"]
+    full = Codistribution(ext.n, S, np.ones(ext.n), 1e-8)
+    full._reserve(ext.n)
+    assert full.basis.nbytes == memory.analysis_bytes(S, ext.n)["the rank basis"]
+    # past the certificate's cap, the rank arrays span fewer samples than were drawn
+    big = 10**6
+    cap = memory.certify_samples(big, ext.n, ext.n)
+    assert memory.DECISION_SAMPLES <= cap < big
+    assert memory.analysis_bytes(big, ext.n)["the rank basis"] == 8 * cap * ext.n**2
+    assert memory.analysis_bytes(big, ext.n)["the sampled states"] == 8 * big * ext.n
 
 
 class _Reached(Exception):
@@ -215,12 +223,13 @@ def test_huge_samples_are_refused_before_allocating(monkeypatch, no_allocation, 
         uj.analyze(sys, **options)
     msg = str(e.value)
     assert "\n" not in msg and all(w in msg for w in words), msg
-    # 8 S n (1 + n + 4 n) with S = 1e9, n = 3: 384 GB
-    assert "needs about 384 GB" in msg
+    # 8 N (S + S' (N + 4 n)) with S = 1e9, N = n = 3: the sampled states alone are 24 GB (the
+    # rank arrays span the certificate's capped samples S')
+    assert "needs about 24.2 GB (the sampled states alone: 24.0 GB)" in msg
 
 
 def test_huge_k_max_is_refused_before_allocating(monkeypatch, no_allocation):
-    monkeypatch.setenv(memory.ENV, "8G")
+    monkeypatch.setenv(memory.ENV, "1G")
     gps = zoo("gps", "inputs_unknown")  # two unknown inputs
     with pytest.raises(uj.OptionError) as e:
         uj.analyze(gps, k_max=1000, method="eorc")

@@ -20,17 +20,10 @@ from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
+from .memory import CERTIFY_BYTES, DECISION_SAMPLES, certify_samples
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 from .settle import Escalation, Settler
-
-#: The recursion decides on the first this-many samples (every candidate, every
-#: membership on the way); the final span is then certified at all of them
-#: (:meth:`Context.certify`). A decision is the vote of these samples, settled beyond
-#: float64 when weak (:mod:`uio_jax._analysis.settle`), so the rest of the samples add
-#: coverage of the domain, not correctness: they are spent once, on the final generators,
-#: instead of on every candidate of every step (``docs/benchmarks/engine.md``).
-DECISION_SAMPLES = 256
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
@@ -102,11 +95,12 @@ class Context:
             return
         phase, kept = self.codist, list(self.codist.nodes)[:upto]
         lo, hi = self.system.box()
-        full = Codistribution(self.system.n, len(self.xs_all), hi - lo, phase.rtol)
+        count = certify_samples(len(self.xs_all), len(kept), self.system.n)
+        full = Codistribution(self.system.n, count, hi - lo, phase.rtol)
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
-        self.xs, self._grads, self.certified = self.xs_all, {}, True
+        self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
         if kept:
             full.expect_rise = True  # a generator the decision samples kept: settled again if not
             added = self.absorb_into(full, kept)
@@ -114,8 +108,8 @@ class Context:
             for nd in kept:
                 if nd not in added:
                     full.escalations.append(Escalation(
-                        f"{nd.label} (kept on {len(phase.valid)} samples)", "dependent on all samples",
-                        f"all {len(self.xs_all)} samples", "undecided"))
+                        f"{nd.label} (kept on {len(phase.valid)} samples)",
+                        f"dependent on the {count} certifying samples", f"{count} samples", "undecided"))
         full.rejections = phase.rejections + full.rejections
         self.codist = full
 
@@ -291,10 +285,12 @@ class Context:
             return d.settled in ("", "undecided")
 
         used = int(cd.valid.sum())
+        certifying = len(cd.valid)
         return Certificate(
             samples=self.samples,
             used=used,
-            dropped=self.samples - used,
+            dropped=certifying - used,
+            capped=self.samples - certifying,
             fraction=final.fraction,
             min_fraction=min((d.fraction for d in everything if plain(d)), default=1.0),
             sigma_r_min=min((d.sigma_r_min for d in counted if plain(d)), default=1.0),
@@ -333,11 +329,18 @@ class Context:
             observable = self.observable_states()
         notes = list(system.notes) + list(notes)
         cert = self.certificate()
-        if cert.dropped > DROPPED_NOTE_FRACTION * cert.samples:
+        certifying = cert.samples - cert.capped
+        if cert.dropped > DROPPED_NOTE_FRACTION * certifying:
             notes.append(
-                f"{cert.dropped} of {cert.samples} sampled states "
-                f"({100 * cert.dropped / cert.samples:.0f} %) were dropped: the model is NaN/inf there"
+                f"{cert.dropped} of {certifying} sampled states "
+                f"({100 * cert.dropped / certifying:.0f} %) were dropped: the model is NaN/inf there"
             )
+        if cert.capped:
+            r, N = self.codist.rank, self.system.n
+            notes.append(
+                f"the final span ({r} generators on {N} coordinates) was certified on the first "
+                f"{certifying} of the {cert.samples} samples, where its gradients fit in "
+                f"{CERTIFY_BYTES >> 20} MiB; {cert.verified} rank increases were verified exactly")
         if cert.undecided:
             what = "; ".join(f"{e.what}: {e.how}" for e in cert.escalations if e.result == "undecided")
             notes.append(

@@ -416,7 +416,8 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
             "decisions are all certified (the EORC's answer only grows with k)")
     if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
         notes.append(f"order k={k_used} decided on the first {DECISION_SAMPLES} samples gave "
-                     f"dim {last.dim}; all {ctx.samples} samples give dim {dim_all}: the report gives the latter")
+                     f"dim {last.dim}; the {len(ctx.xs)} certifying samples give dim {dim_all}: the report "
+                     "gives the latter")
     if smooth:
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "

@@ -1,26 +1,34 @@
-"""How much memory an analysis needs, refused before it is allocated.
+"""How many samples each phase of an analysis evaluates, and how much memory that takes,
+refused before it is allocated.
 
-Every analysis evaluates its codistribution at ``S`` sampled states of its ``N`` coordinates
-(``N = n`` for the ORC, the single-input analysis and the series test; ``N = n + K m_w`` for
-the EORC on ``Sigma^(K)``, ``K = k_max``). Those arrays are allocated whatever the run turns
-out to be (float64, 8 bytes per entry):
+Every analysis samples ``S`` states of its ``N`` coordinates (``N = n`` for the ORC, the
+single-input analysis and the series test; ``N = n + K m_w`` for the EORC on
+``Sigma^(K)``, ``K = k_max``) and works in two phases (:class:`~uio_jax._analysis.context.Context`):
+
+* the **recursion** decides every candidate and membership on the first
+  :data:`DECISION_SAMPLES`;
+* the **certificate** re-decides the final span of ``r`` generators on the first
+  :func:`certify_samples` (all ``S`` unless the span is very large).
+
+The largest arrays (float64, 8 bytes per entry), at the span's full rank ``r = N``:
 
 ==============================  =============  ==================================================
 array                           shape          where
 ==============================  =============  ==================================================
-the sampled states              ``(S, N)``     :class:`~uio_jax._analysis.context.Context` ``xs``
-the rank basis                  ``(S, N, N)``  :class:`~uio_jax._analysis.rank.Codistribution`
-                                               ``basis`` (per sample, an orthonormal basis)
+the sampled states              ``(S, N)``     :class:`~uio_jax._analysis.context.Context` ``xs_all``
+the rank basis                  ``(N, S', N)`` :class:`~uio_jax._analysis.rank.Codistribution`
+                                               ``basis`` (per sample, an orthonormal basis; rows
+                                               allocated as the span grows)
 the unit-covector test          4 x            :meth:`~uio_jax._analysis.rank.Codistribution.test_units`
-                                ``(S, N, n)``  of ``e_1..e_n`` (covectors, the two residuals,
+                                ``(S', N, n)`` of ``e_1..e_n`` (covectors, the two residuals,
                                                the directions): the verdict per state
 ==============================  =============  ==================================================
 
-so :func:`analysis_bytes` = ``8 S N (1 + N + 4 n)`` is a floor: the kept gradients
-``(S, r, N)``, the candidate blocks ``(S, c, N)`` of each step and JAX's own buffers come on
-top, and depend on the run. A request whose floor exceeds the limit cannot fit and is
-refused (:func:`check_memory`) with a one-line :class:`~uio_jax.OptionError` before the
-first array exists.
+with ``S'`` the larger of the two phases' sample counts (:func:`rank_samples`), so
+:func:`analysis_bytes` = ``8 N (S + S' (N + 4 n))``. The kept gradients, the candidate
+blocks of each step and JAX's own buffers come on top and depend on the run. A request
+whose estimate exceeds the limit cannot fit and is refused (:func:`check_memory`) with a
+one-line :class:`~uio_jax.OptionError` before the first array exists.
 
 **The limit** (:func:`memory_limit`): ``$UIO_JAX_MEMORY_LIMIT`` if set (bytes, or a number
 with a binary suffix: ``512M``, ``4G``, ``1.5T``; ``K`` = 1024), else half of the physical
@@ -41,6 +49,41 @@ PHYSICAL_FRACTION = 0.5
 
 #: The limit where the physical memory is unknown (no ``os.sysconf``), bytes.
 FALLBACK_LIMIT = 8 * 2**30
+
+#: The recursion decides on the first this-many samples (every candidate, every
+#: membership on the way); the final span is then certified on more
+#: (:meth:`~uio_jax._analysis.context.Context.certify`). A decision is the vote of these
+#: samples, settled beyond float64 when weak (:mod:`uio_jax._analysis.settle`), so the
+#: rest of the samples add coverage of the domain, not correctness: they are spent once,
+#: on the final generators, instead of on every candidate of every step
+#: (``docs/benchmarks/engine.md``).
+DECISION_SAMPLES = 256
+
+#: The final span is certified on all the samples while its gradients there,
+#: ``(S, r, N)`` float64 (``r`` kept generators on ``N`` coordinates), take at most this
+#: many bytes; a larger span (a deep EORC: ``r N`` in the thousands) is certified on the
+#: first samples that fit, never fewer than :data:`DECISION_SAMPLES`. Its basis, their QR
+#: and the membership tests are a few arrays of that size per sample, and their cost grows
+#: like ``S r^2 N``: on the visual-inertial EORCs (``r N`` of 5 000-12 000) all 4096
+#: samples took 5-15 s and 0.3-0.7 GB, for votes that the exact verification of every kept
+#: generator of a rational model (:mod:`uio_jax._analysis.settle`) already certifies. The
+#: report says how many samples certified the span (:attr:`uio_jax.Certificate.capped`).
+CERTIFY_BYTES = 32 * 2**20
+
+
+def certify_samples(samples: int, rank: int, coords: int) -> int:
+    """How many of ``samples`` certify a final span of ``rank`` generators on ``coords``
+    coordinates: all of them while ``8 S rank coords <= CERTIFY_BYTES``, else as many as
+    fit, never fewer than :data:`DECISION_SAMPLES` (nor more than ``samples``)."""
+    fit = CERTIFY_BYTES // (_FLOAT * max(int(rank), 1) * max(int(coords), 1))
+    return int(min(samples, max(DECISION_SAMPLES, fit)))
+
+
+def rank_samples(samples: int, coords: int) -> int:
+    """``S'``: the most samples a rank array of an analysis on ``coords`` coordinates spans
+    (the recursion's, or the certificate's of a full-rank span)."""
+    return max(min(int(samples), DECISION_SAMPLES), certify_samples(samples, coords, coords))
+
 
 _SUFFIX = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40, "P": 2**50}
 _FLOAT = 8  # bytes per float64 entry
@@ -88,7 +131,7 @@ def memory_limit() -> tuple[int, str]:
 
 
 def analysis_bytes(samples: int, coords: int, states: int | None = None) -> dict[str, int]:
-    """The arrays every analysis allocates (the floor of its memory), bytes per array.
+    """The largest arrays of an analysis (module docstring), bytes per array.
 
     Args:
         samples: S, sampled states.
@@ -96,15 +139,17 @@ def analysis_bytes(samples: int, coords: int, states: int | None = None) -> dict
         states: n, original states whose unit covectors are tested (default ``N``).
 
     Returns:
-        ``{"the sampled states": 8 S N, "the rank basis": 8 S N^2,
-        "the unit-covector test": 32 S N n}`` (Python ints: no overflow).
+        ``{"the sampled states": 8 S N, "the rank basis": 8 S' N^2,
+        "the unit-covector test": 32 S' N n}`` with ``S'`` = :func:`rank_samples`
+        (Python ints: no overflow).
     """
     S, N = int(samples), int(coords)
     n = N if states is None else int(states)
+    Sr = rank_samples(S, N)
     return {
         "the sampled states": _FLOAT * S * N,
-        "the rank basis": _FLOAT * S * N * N,
-        "the unit-covector test": 4 * _FLOAT * S * N * n,
+        "the rank basis": _FLOAT * Sr * N * N,
+        "the unit-covector test": 4 * _FLOAT * Sr * N * n,
     }
 
 
@@ -144,5 +189,6 @@ def check_memory(samples: int, coords: int, states: int | None = None, *, what: 
     return total
 
 
-__all__ = ["ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "parse_size", "physical_memory",
-           "memory_limit", "analysis_bytes", "format_bytes", "check_memory"]
+__all__ = ["ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "DECISION_SAMPLES", "CERTIFY_BYTES",
+           "certify_samples", "rank_samples", "parse_size", "physical_memory", "memory_limit",
+           "analysis_bytes", "format_bytes", "check_memory"]

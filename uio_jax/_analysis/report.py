@@ -66,6 +66,9 @@ class Certificate:
         samples: states requested.
         used: states used (finite everywhere).
         dropped: states dropped because a generator was NaN/inf there.
+        capped: states not evaluated on the final span because its gradients there would
+            exceed :data:`uio_jax._analysis.context.CERTIFY_BYTES` (a deep EORC): the span
+            is certified on the first ``samples - capped`` states (``used + dropped``).
         fraction: fraction of the used samples where the final codistribution has its
             generic rank in float64 (SVD of the row-scaled generator gradients; below 1
             where a direction settled beyond float64 is under ``rtol`` at many samples).
@@ -106,6 +109,7 @@ class Certificate:
     conditioning: float = 1.0
     escalations: tuple = ()
     verified: int = 0
+    capped: int = 0
 
     @property
     def escalated(self) -> int:
@@ -140,8 +144,9 @@ class Certificate:
 
     def __str__(self):
         gap = "inf" if math.isinf(self.gap_decades) else f"{self.gap_decades:.1f}"
+        capped = (f", {self.capped} not evaluated on the final span (its size)" if self.capped else "")
         return (
-            f"{self.used}/{self.samples} samples used ({self.dropped} dropped), "
+            f"{self.used}/{self.samples} samples used ({self.dropped} dropped{capped}), "
             f"{100 * self.fraction:.1f}% at the generic rank (worst decision "
             f"{100 * self.min_fraction:.1f}%); margins: smallest kept "
             f"{self.sigma_r_min:.2e}, largest rejected {self.sigma_next_max:.2e} "
