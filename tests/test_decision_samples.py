@@ -41,3 +41,28 @@ def test_the_eorc_reads_its_final_verdicts_on_all_samples():
     rep = uj.analyze(zoo_system("gps", "inputs_unknown"), method="eorc", samples=SAMPLES)
     assert rep.dim == 3 and all(rep.observable.values())
     assert rep.certificate.samples == SAMPLES and rep.certificate.used == SAMPLES
+
+
+def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
+    """Past ``CERTIFY_BYTES`` the final span is re-decided on the first samples that fit (never
+    fewer than the decision samples): the certificate and a note say how many, the verdicts
+    are those of the uncapped run."""
+    from uio_jax._analysis import memory
+
+    model = zoo_system("vehicle_wind", "wind_unknown")  # final span: 6 generators on 7 states
+    full = uj.analyze(model, samples=SAMPLES)
+    assert full.certificate.capped == 0
+    fit = 600
+    monkeypatch.setattr(memory, "CERTIFY_BYTES", 8 * 6 * 7 * fit)
+    assert memory.certify_samples(SAMPLES, 6, 7) == fit
+    capped = uj.analyze(model, samples=SAMPLES)
+    cert = capped.certificate
+    assert cert.samples == SAMPLES and cert.capped == SAMPLES - fit
+    assert cert.used + cert.dropped == fit and cert.used == fit
+    assert capped.dims == full.dims and capped.observable == full.observable
+    assert any(f"certified on the first {fit} of the {SAMPLES} samples" in note for note in capped.notes)
+    assert f"{SAMPLES - fit} not evaluated on the final span" in str(cert)
+    # the floor: never fewer than the decision samples
+    monkeypatch.setattr(memory, "CERTIFY_BYTES", 1)
+    assert memory.certify_samples(SAMPLES, 6, 7) == memory.DECISION_SAMPLES
+    assert memory.certify_samples(100, 6, 7) == 100

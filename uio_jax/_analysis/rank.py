@@ -473,7 +473,8 @@ class Codistribution:
                 return replace(d, settled="exact mod p")
         else:
             esc = self.settle(self.nodes, node, evidence)
-        self.escalations.append(esc)
+        if not any(e is esc for e in self.escalations):  # asked again: recorded once
+            self.escalations.append(esc)
         if esc.result == "undecided":
             return replace(d, settled="undecided")
         how = "exact mod p" if esc.how.startswith("exact") else "mpmath"

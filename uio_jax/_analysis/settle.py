@@ -158,8 +158,8 @@ class Settler:
             return Escalation(what, float64, "none: a generator has no expression in the graph",
                               "undecided")
         known = self._answers.get(tuple(exprs))
-        if known is not None:  # the same question again (the final span re-decided): same answer
-            return dataclasses.replace(known, what=what, float64=float64)
+        if known is not None:  # the same question again (the final span re-decided): the
+            return known       # same answer, the same record (kept once in a certificate)
         if self._rational(exprs):
             answer = self._settle_modular(what, float64, exprs)
         elif exact_only:
