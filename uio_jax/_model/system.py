@@ -20,8 +20,6 @@ with parameters, ``t`` a scalar of shape ``()``); the analyses run on the autono
 
 import contextlib
 import contextvars
-import keyword
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -35,21 +33,21 @@ from .._engine.graph_numpy import evaluate
 from .._engine.graph_rules import IndexOutOfRange
 from .._engine.graph_trace import translate
 from .._errors import ModelError
+from .arguments import ANGLE_BOX as ANGLE_BOX  # the sampling boxes, imported from here too
+from .arguments import DEFAULT_BOX as DEFAULT_BOX
+from .arguments import DEFAULT_TIME_BOX as DEFAULT_TIME_BOX
+from .arguments import (
+    as_callables,
+    as_domain,
+    as_names,
+    as_params,
+    as_time,
+    check_input_names,
+)
 
 Field = Callable[[jax.Array], jax.Array]
 Scalar = Callable[[jax.Array], jax.Array]
 
-#: Sampling box of a state that is not listed in ``System.domain`` (and not an angle).
-#: It stays away from 0, where many models have their singular set (1/r, atan2, norms);
-#: for analytic models the generic rank is the same on every open set of a connected domain.
-DEFAULT_BOX = (0.5, 1.5)
-#: Sampling box of the time variable (``System.time``) when ``domain`` does not list it, in
-#: seconds: the first second of an experiment that starts at t = 0. Any open interval gives the
-#: same generic ranks for an analytic model; list the time name in ``domain`` to move it (e.g.
-#: away from a singular instant such as the 0 of ``1/t``).
-DEFAULT_TIME_BOX = (0.0, 1.0)
-#: Sampling box of a state listed in ``System.angles``.
-ANGLE_BOX = (-math.pi, math.pi)
 #: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
 _CHECK_SAMPLES = 64
 #: A function finite at fewer than this fraction of the ``_CHECK_SAMPLES`` states is
@@ -143,17 +141,17 @@ class System:
     time: str | None = None
 
     def __post_init__(self):
-        states = _as_names(self.states, "states")
+        states = as_names(self.states, "states")
         if not states:
             raise ModelError("a System needs at least one state")
         object.__setattr__(self, "states", states)
-        angles = _as_names(self.angles, "angles")
+        angles = as_names(self.angles, "angles")
         for a in angles:
             if a not in states:
                 raise ModelError(f"angle {a!r} is not a state (states: {', '.join(states)})")
         object.__setattr__(self, "angles", angles)
         for attr in ("outputs", "known", "unknown"):
-            object.__setattr__(self, attr, _as_callables(getattr(self, attr), attr))
+            object.__setattr__(self, attr, as_callables(getattr(self, attr), attr))
         if not self.outputs:
             raise ModelError("a System needs at least one output")
         both = set(self.known) & set(self.unknown)
@@ -163,13 +161,13 @@ class System:
             raise ModelError(f"drift must be callable, got {type(self.drift).__name__}")
         if not isinstance(self.name, str):
             raise ModelError(f"name must be a string, got {type(self.name).__name__}")
-        params = _as_params(self.params, states)
+        params = as_params(self.params, states)
         object.__setattr__(self, "params", params)
-        time = _as_time(self.time, states, params, self.known, self.unknown, self.outputs)
+        time = as_time(self.time, states, params, self.known, self.unknown, self.outputs)
         object.__setattr__(self, "time", time)
-        object.__setattr__(self, "domain", _as_domain(self.domain, states, angles, time))
+        object.__setattr__(self, "domain", as_domain(self.domain, states, angles, time))
         if not _DERIVED.get():
-            _check_input_names(self.known, self.unknown, states, params)
+            check_input_names(self.known, self.unknown, states, params)
         notes = (self.notes,) if isinstance(self.notes, str) else tuple(self.notes or ())
         if not all(isinstance(t, str) for t in notes):
             raise ModelError("notes must be strings")
@@ -238,7 +236,7 @@ class System:
 
         Empty for a user's System; set on the System returned by :meth:`joint`.
         """
-        return getattr(self, "_as_params", ())
+        return getattr(self, "as_params", ())
 
     def joint(self) -> "System":
         """The parameter-free System on ``z = [x; p]`` that the analyses run on.
@@ -469,9 +467,9 @@ class System:
             notes=self.notes,
             time=self.time,
         )
-        object.__setattr__(joint, "_as_params", tuple(self.params))
+        object.__setattr__(joint, "as_params", tuple(self.params))
         if self.time is not None:  # built before the joint knew its parameters: mark it too
-            object.__setattr__(joint._autonomous, "_as_params", tuple(self.params))
+            object.__setattr__(joint._autonomous, "as_params", tuple(self.params))
         object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
         return joint
 
@@ -529,16 +527,6 @@ def _as_float(fn):
     return f
 
 
-def _check_input_names(known, unknown, states, params):
-    """An input may not share its name with a state or a parameter (as in model files)."""
-    for kind, table in (("known", known), ("unknown", unknown)):
-        for k in table:
-            if k in states:
-                raise ModelError(f"{kind} input {k!r} has the name of a state")
-            if k in params:
-                raise ModelError(f"{kind} input {k!r} has the name of a parameter")
-
-
 def _check_indexing(what, fn, n, n_params=None, t=None):
     """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
 
@@ -559,103 +547,3 @@ def _check_indexing(what, fn, n, n_params=None, t=None):
         ) from None
     except Exception:  # numpy input not supported by this function: traced checks decide
         pass
-
-
-def _as_names(names, what) -> tuple[str, ...]:
-    if isinstance(names, str):
-        raise ModelError(f"{what} must be a sequence of names, got the string {names!r}")
-    try:
-        names = tuple(names)
-    except TypeError:
-        raise ModelError(f"{what} must be a sequence of names, got {type(names).__name__}") from None
-    seen = set()
-    for nm in names:
-        if not isinstance(nm, str) or not nm:
-            raise ModelError(f"{what} entries must be non-empty strings, got {nm!r}")
-        if nm in seen:
-            raise ModelError(f"duplicate name {nm!r} in {what}")
-        seen.add(nm)
-    return names
-
-
-def _mapping(value, what: str, of: str) -> Mapping:
-    """``value`` as a mapping (None: empty); ``of`` says what it maps, in the error."""
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise ModelError(f"{what} must be a mapping {of}, got {type(value).__name__}")
-    return value
-
-
-def _as_callables(mapping, what) -> Mapping[str, Callable]:
-    out = {}
-    for k, fn in _mapping(mapping, what, "name -> function").items():
-        if not isinstance(k, str) or not k:
-            raise ModelError(f"{what} names must be non-empty strings, got {k!r}")
-        if keyword.iskeyword(k):
-            raise ModelError(f"{what} name {k!r} is a Python keyword")
-        if not callable(fn):
-            raise ModelError(f"{what} entry {k!r} is not callable (got {type(fn).__name__})")
-        out[k] = fn
-    return MappingProxyType(out)
-
-
-def _as_params(params, states) -> Mapping[str, tuple[float, float]]:
-    if params is None:
-        params = {}
-    if not isinstance(params, Mapping) and not isinstance(params, str):
-        try:  # a sequence of names: the default box
-            params = {k: DEFAULT_BOX for k in _as_names(params, "params")}
-        except ModelError:
-            pass
-    out = {}
-    for k, box in _mapping(params, "params", "name -> (lo, hi)").items():
-        if not isinstance(k, str) or not k:
-            raise ModelError(f"parameter names must be non-empty strings, got {k!r}")
-        if k in states:
-            raise ModelError(f"parameter {k!r} has the name of a state")
-        out[k] = _box(box, f"box of parameter {k!r}")
-    return MappingProxyType(out)
-
-
-def _box(box, what: str) -> tuple[float, float]:
-    """A sampling box ``(lo, hi)``: two finite floats with ``lo < hi``; ``what`` names it in errors."""
-    try:
-        lo, hi = (float(v) for v in box)
-    except (TypeError, ValueError):
-        raise ModelError(f"{what} must be a pair (lo, hi), got {box!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        raise ModelError(f"{what} must be finite, got ({lo}, {hi})")
-    if lo >= hi:
-        raise ModelError(f"{what} is empty: lo={lo} >= hi={hi}")
-    return lo, hi
-
-
-def _as_domain(domain, states, angles, time=None) -> Mapping[str, tuple[float, float]]:
-    out = {}
-    for k, box in _mapping(domain, "domain", "state -> (lo, hi)").items():
-        if k not in states and k != time:
-            extra = f", time: {time}" if time is not None else ""
-            raise ModelError(f"domain given for unknown state {k!r} (states: {', '.join(states)}{extra})")
-        out[k] = _box(box, f"domain of {k!r}")
-    for s in states:
-        if s not in out:
-            out[s] = ANGLE_BOX if s in angles else DEFAULT_BOX
-    if time is not None and time not in out:
-        out[time] = DEFAULT_TIME_BOX
-    return MappingProxyType(out)
-
-
-def _as_time(time, states, params, known, unknown, outputs) -> str | None:
-    """The time name: None, or an identifier that names nothing else of the System."""
-    if time is None:
-        return None
-    if not isinstance(time, str) or not time.isidentifier() or keyword.iskeyword(time):
-        raise ModelError(f"time must be the name of the time variable (an identifier such as 't'), "
-                         f"got {time!r}")
-    for what, table in (("state", states), ("parameter", params), ("known input", known),
-                        ("unknown input", unknown), ("output", outputs)):
-        if time in table:
-            raise ModelError(f"time {time!r} has the name of {'an' if what[0] in 'aeiou' else 'a'} {what} "
-                             "(the time variable needs its own name)")
-    return time

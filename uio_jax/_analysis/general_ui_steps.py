@@ -1,0 +1,375 @@
+"""The steps of Martinelli's general unknown-input solution (:mod:`.general_ui` runs them):
+the working system, the closure ``Close``, the reconstructability matrix and the UI extension,
+as stated in the module docstring of :mod:`.general_ui` and in ``docs/general_ui.md``."""
+
+import contextlib
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._calculus.generators import Node, builder_for
+from .._model.smooth_inputs import known_coordinates, known_outputs, with_input_jets
+from .._model.system import DEFAULT_BOX, System, derived_system
+from .context import Context
+from .rank import ZERO_ROW_RTOL, decide_rank
+
+#: Programs of the general solution above this many equations are compiled at XLA
+#: optimization level 0: each runs once, and level 0 halves the compile time of the large
+#: ones (TUIO6's TAC-2025 case: 120 s -> 74 s cold; ``docs/benchmarks/general_ui.md``).
+LARGE_GRAPH = 1000
+
+
+# ------------------------------------------------------------------ zero tests
+@dataclasses.dataclass(frozen=True)
+class ZeroTest:
+    """The evidence of one "vanishes identically" decision: ``zero`` by majority of the
+    valid samples, ``fraction`` of them agreeing."""
+
+    what: str
+    zero: bool
+    fraction: float
+
+
+def nonzero_votes(values, scale, valid):
+    """``(nonzero: bool, fraction agreeing)``: ``|values| > ZERO_ROW_RTOL * scale`` by majority."""
+    ok = valid & np.isfinite(values) & np.isfinite(scale)
+    if not ok.any():
+        return False, 0.0
+    nz = np.abs(values[ok]) > ZERO_ROW_RTOL * scale[ok]
+    frac = float(nz.mean())
+    return frac > 0.5, max(frac, 1.0 - frac)
+
+
+# ------------------------------------------------------------------ the working system
+@dataclasses.dataclass
+class Working:
+    """The system the algorithm works on at one iteration.
+
+    Attributes:
+        system: the System on ``[x (n); known coordinates; extension states]``; its drift is
+            the augmented drift (``D`` is the Lie derivative along it), its unknown fields
+            the current unknown inputs, in order.
+        ctx: the Context (samples, builder, gradient cache) on ``system``.
+        drift: field node of the augmented drift.
+        uis: field nodes of the current unknown inputs.
+        origin: per current UI, the index of the original UI it stands for.
+        theta: the current observable functions (scalar nodes on ``system``).
+        n0: the original state's dimension (the first ``n0`` coordinates).
+    """
+
+    system: System
+    ctx: Context
+    drift: Node
+    uis: list
+    origin: list
+    theta: list
+    n0: int
+    zero_tests: list = dataclasses.field(default_factory=list)
+    known: frozenset = frozenset()  # labels of the known coordinates' output functions
+
+    def field_values(self, nodes):
+        """Values ``(S, N)`` of field nodes at the samples (one evaluation, cached)."""
+        cache = self.__dict__.setdefault("_values", {})
+        missing = [nd for nd in nodes if nd not in cache]
+        if missing:
+            for nd, v in zip(missing, self.ctx.builder.values(missing, self.ctx.xs)):
+                cache[nd] = np.asarray(v)
+        return [cache[nd] for nd in nodes]
+
+
+def _working_system(states, outputs, drift, unknown, domain, angles, name, known_count, params):
+    """A validated-parts System for the algorithm (no traced checks)."""
+    with derived_system():
+        system = System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
+                        domain=domain, angles=angles, name=name)
+    object.__setattr__(system, "_known_coordinates", known_count)
+    object.__setattr__(system, "_as_params", params)
+    return system
+
+
+def start_working(system, jet_order, samples, seed, rtol) -> Working:
+    """The first working system: ``system`` (joint, autonomous) with the jets of its known
+    inputs to ``jet_order`` in the drift; Theta = its outputs (known coordinates included)."""
+    sys0 = with_input_jets(system, jet_order)
+    if sys0.drift is None:  # no drift, no known input: D is the zero field
+        n = sys0.n
+        sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
+                               dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
+                               known_coordinates(sys0), sys0.joint_param_names)
+    own = sys0 is not with_input_jets(system, jet_order)
+    # the System's builder is shared with the other analyses: see one_off_programs
+    ctx = own_context(sys0, samples, seed, rtol) if own else Context(sys0, samples, seed, rtol)
+    b = ctx.builder
+    drift = b.field("g0", sys0.drift)
+    uis = [ctx.field_node(k) for k in sys0.unknown]
+    return Working(sys0, ctx, drift, uis, list(range(len(uis))), ctx.output_nodes(),
+                   system.n - known_coordinates(system), known=frozenset(known_outputs(sys0)))
+
+
+def own_context(system, samples, seed, rtol) -> Context:
+    """A Context on one of the algorithm's own Systems, whose builder compiles large
+    programs at level 0 (:data:`LARGE_GRAPH`)."""
+    ctx = Context(system, samples, seed, rtol)
+    ctx.builder.large_graph = LARGE_GRAPH
+    return ctx
+
+
+@contextlib.contextmanager
+def one_off_programs(system):
+    """While the block runs, the builder of the System the analysis starts on (possibly the
+    user's, shared with the other analyses) compiles at :data:`LARGE_GRAPH`; restored after."""
+    builder = builder_for(system)
+    before = builder.large_graph
+    builder.large_graph = LARGE_GRAPH
+    try:
+        yield
+    finally:
+        builder.large_graph = before
+
+
+# ------------------------------------------------------------------ Close
+@dataclasses.dataclass
+class Closed:
+    """What a closure returns: the span (a forked Context), or an abort."""
+
+    ctx: Context
+    aborted: bool = False
+    root: Node | None = None
+    order: int = 0
+    passes: int = 0
+
+
+def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=None) -> Closed:
+    """``Close(Theta_0, fields; guard, filter)`` of the module docstring on a fresh span.
+
+    Args:
+        w: the working system.
+        theta0: the scalar nodes to start from (in order).
+        fields: the field nodes to differentiate along (the drift-like field first; all are
+            plain Lie derivatives on the augmented state).
+        guard: field nodes ``G~_k``: abort at the first generator with some
+            ``L_{G~_k} theta`` not identically zero.
+        filter_fields: field nodes ``g_j``: differentiate only the generators with every
+            ``L_{g_j} theta`` identically zero.
+        guard_scale: per guard field, the ``(S,)`` norms it is compared with (default its
+            own): the raw ``g_k`` behind ``G~_k``, so that a ``G~_k`` that vanishes up to
+            round-off is not taken for a field.
+
+    Returns:
+        :class:`Closed`.
+    """
+    ctx = w.ctx.fork()
+    kept = ctx.absorb(theta0)
+    root = {nd: nd for nd in kept}
+    # the known coordinates (time, jets) are in every span with all their derivatives
+    # (D u^(r) = u^(r+1), D t = 1; the unknown-input fields have no such component)
+    frontier, r = [nd for nd in kept if nd.label not in w.known], 0
+    N = w.system.n
+    while frontier:
+        if guard:
+            for theta in frontier:
+                if _any_nonzero(w, ctx, theta, guard, guard_scale):
+                    return Closed(ctx, True, root[theta], r, r)
+        active = frontier
+        if filter_fields:
+            active = [th for th in frontier if not _any_nonzero(w, ctx, th, filter_fields)]
+        if ctx.dim >= N or not active or not fields:
+            break
+        nodes, grads = ctx.lie_block(active, fields)
+        added = ctx.absorb(nodes, grads)
+        index = {nd: i for i, nd in enumerate(nodes)}
+        for nd in added:
+            root[nd] = root[active[index[nd] // len(fields)]]
+        frontier, r = added, r + 1
+    return Closed(ctx, passes=r)
+
+
+def _any_nonzero(w: Working, ctx: Context, theta, fields, scales=None) -> bool:
+    """Whether some ``L_v theta`` (v in ``fields``) is not identically zero at the samples,
+    relative to ``|d theta| |v|`` (``|v|``: ``scales[k]``, default the field's own norm)."""
+    grad = ctx.gradients([theta])[:, 0]
+    gnorm = np.linalg.norm(grad, axis=-1)
+    values = w.field_values(fields)
+    if scales is None:
+        scales = [np.linalg.norm(val, axis=-1) for val in values]
+    for v, val, vnorm in zip(fields, values, scales):
+        lie = np.einsum("sn,sn->s", grad, val)
+        nonzero, frac = nonzero_votes(lie, gnorm * vnorm, ctx.codist.valid)
+        w.zero_tests.append(ZeroTest(f"L_{v.label} {theta.label}", not nonzero, frac))
+        if nonzero:
+            return True
+    return False
+
+
+# ------------------------------------------------------------------ reconstructability
+def _generic_rank(mats, valid, rtol):
+    """Generic rank of a sampled family of matrices ``(S, a, b)`` whose entries are cosines
+    (``L_g theta / (|d theta| |g|)``): per-sample singular values, the largest above
+    ``ZERO_ROW_RTOL`` sets the scale, ranks by ``rtol`` (:func:`decide_rank`)."""
+    if mats.shape[1] == 0 or mats.shape[2] == 0:
+        return decide_rank(np.zeros((mats.shape[0], 0)), valid, rtol)
+    finite = np.isfinite(mats).all(axis=(1, 2))
+    s = np.linalg.svd(np.where(np.isfinite(mats), mats, 0.0), compute_uv=False)
+    top = s[:, :1]
+    ratios = np.where(top > ZERO_ROW_RTOL, s / np.where(top > 0, top, 1.0), 0.0)
+    return decide_rank(ratios, valid & finite, rtol)
+
+
+@dataclasses.dataclass(frozen=True)
+class Reconstructability:
+    """Degree of reconstructability ``m``, the identifier rows and the UI columns chosen."""
+
+    m: int
+    rows: tuple
+    cols: tuple
+    fraction: float
+
+
+def reconstructability(w: Working, theta) -> Reconstructability:
+    """``R_ij = L_{g_j} theta_i`` at the samples (as cosines), its generic rank ``m``, the
+    first independent rows (identifiers) and, among them, the first independent columns."""
+    ctx = w.ctx
+    grads = ctx.gradients(theta)  # (S, r, N)
+    vals = np.stack(w.field_values(w.uis), axis=1)  # (S, mw, N)
+    R = np.einsum("srn,skn->srk", grads, vals)
+    scale = (np.linalg.norm(grads, axis=-1)[:, :, None] * np.linalg.norm(vals, axis=-1)[:, None, :])
+    R = R / np.where(scale > 0, scale, 1.0)
+    valid, rtol = ctx.codist.valid, ctx.codist.rtol
+    full = _generic_rank(R, valid, rtol)
+    fractions = [full.fraction]
+    rows = []
+    for i in range(R.shape[1]):
+        if len(rows) == full.rank:
+            break
+        d = _generic_rank(R[:, rows + [i], :], valid, rtol)
+        fractions.append(d.fraction)
+        if d.rank > len(rows):
+            rows.append(i)
+    cols = []
+    for k in range(R.shape[2]):
+        if len(cols) == len(rows):
+            break
+        d = _generic_rank(R[:, rows][:, :, cols + [k]], valid, rtol)
+        fractions.append(d.fraction)
+        if d.rank > len(cols):
+            cols.append(k)
+    return Reconstructability(len(rows), tuple(rows), tuple(cols), min(fractions))
+
+
+# ------------------------------------------------------------------ UI extension
+def lift(fn, N):
+    """``fn`` of the first ``N`` coordinates, as a function of a longer state."""
+    return lambda Z: fn(Z[:N])
+
+
+def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed, rtol):
+    """The UI extension (module docstring) from the aborted guarded closure's root
+    ``theta_star`` and ``order``; returns ``(Working, info)`` on the extended system."""
+    sysw = w.system
+    N, m = sysw.n, len(hats)
+    names_ui = [list(sysw.unknown)[c] for c in rec.cols] + \
+               [k for i, k in enumerate(sysw.unknown) if i not in rec.cols]
+    taken = set(sysw.states)
+
+    def fresh(nm):
+        while nm in taken:
+            nm += "'"
+        taken.add(nm)
+        return nm
+
+    ids = [w.theta[i].label for i in rec.rows]  # v_j^(i) = d^(i+1) h~_j / dt^(i+1)
+    vnames = [[fresh(f"D{i + 1}({_short(ids[j])})") for i in range(order + 1)] for j in range(m)]
+    L = order + 1
+    hat0_fn, hat_fns = hat0.fn, [h.fn for h in hats]
+
+    def drift_full(Z):  # on [z; v_1^(0..ord); ..; v_m^(0..ord)]
+        z, v = Z[:N], Z[N:].reshape((m, L))
+        dz = hat0_fn(z)
+        for j in range(m):
+            dz = dz + v[j, 0] * hat_fns[j](z)
+        chain = jnp.concatenate([v[:, 1:], jnp.zeros((m, 1), Z.dtype)], axis=1)
+        return jnp.concatenate([dz, chain.reshape(-1)])
+
+    domain = dict(sysw.domain)
+    flat = [nm for row in vnames for nm in row]
+    domain.update({nm: DEFAULT_BOX for nm in flat})
+    star = lift(theta_star.fn, N)
+    full = _working_system(sysw.states + tuple(flat), {"theta*": star}, drift_full, {}, domain,
+                           sysw.angles, sysw.name, known_coordinates(sysw), sysw.joint_param_names)
+    ctx_full = own_context(full, samples, seed, rtol)
+    b = ctx_full.builder
+    theta_v = b.power(b.field("F'", drift_full), b.scalar("theta*", star), order)
+    grad = ctx_full.gradients([theta_v])[:, 0]  # (S, N + m L)
+    gnorm = np.linalg.norm(grad, axis=-1)
+    keep_to = []
+    for j in range(m):
+        top = None
+        for i in range(L):
+            nz, _ = nonzero_votes(grad[:, N + j * L + i], gnorm, ctx_full.codist.valid)
+            if nz:
+                top = i
+        keep_to.append(top)
+    # the final extended system: kept chains only
+    kept_names = [vnames[j][: keep_to[j] + 1] for j in range(m) if keep_to[j] is not None]
+    kept_flat = [nm for row in kept_names for nm in row]
+    pos_full = {nm: N + j * L + i for j in range(m) for i, nm in enumerate(vnames[j])}
+    Nn = N + len(kept_flat)
+    kept_index = {nm: N + i for i, nm in enumerate(kept_flat)}
+    chains = [(j, [kept_index[nm] for nm in vnames[j][: keep_to[j] + 1]])
+              for j in range(m) if keep_to[j] is not None]
+    dropped = [j for j in range(m) if keep_to[j] is None]
+
+    def drift_new(Z):
+        z = Z[:N]
+        dz = hat0_fn(z)
+        tail = jnp.zeros(Nn - N, Z.dtype)
+        for j, idx in chains:
+            dz = dz + Z[idx[0]] * hat_fns[j](z)
+            for a, b_ in zip(idx[:-1], idx[1:]):
+                tail = tail.at[a - N].set(Z[b_])
+        return jnp.concatenate([dz, tail])
+
+    def embed(Z):  # the final state into the full one (dropped coordinates: 0)
+        X = jnp.zeros(N + m * L, Z.dtype).at[:N].set(Z[:N])
+        for nm, i in kept_index.items():
+            X = X.at[pos_full[nm]].set(Z[i])
+        return X
+
+    new_uis, new_origin = {}, []
+    order_idx = list(rec.cols) + [i for i in range(len(w.uis)) if i not in rec.cols]
+    for j in range(m):
+        top = -1 if keep_to[j] is None else keep_to[j]
+        nm = fresh(f"D{top + 2}({_short(ids[j])})")  # the new unknown input
+        if keep_to[j] is None:
+            new_uis[nm] = (lambda f: lambda Z: jnp.concatenate([f(Z[:N]), jnp.zeros(Nn - N, Z.dtype)]))(hat_fns[j])
+        else:
+            unit = kept_index[vnames[j][keep_to[j]]]
+            new_uis[nm] = (lambda u: lambda Z: jnp.zeros(Nn, Z.dtype).at[u].set(1.0))(unit)
+        new_origin.append(w.origin[order_idx[j]])
+    for k, t in enumerate(tildes):
+        nm = fresh(f"{names_ui[m + k]}~")
+        new_uis[nm] = (lambda f: lambda Z: jnp.concatenate([f(Z[:N]), jnp.zeros(Nn - N, Z.dtype)]))(t.fn)
+        new_origin.append(w.origin[order_idx[m + k]])
+    outputs = {th.label: lift(th.fn, N) for th in w.theta}
+    for nm in kept_flat:
+        outputs[nm] = (lambda i: lambda Z: Z[i])(kept_index[nm])
+    tv = theta_v.fn
+    outputs["theta_v"] = lambda Z: tv(embed(Z))
+    domain_new = {k: v for k, v in domain.items() if k in sysw.states or k in kept_flat}
+    new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
+                              domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
+                              sysw.joint_param_names)
+    ctx = own_context(new_sys, samples, seed, rtol)
+    nb = ctx.builder
+    uis = [ctx.field_node(k) for k in new_uis]
+    theta = ctx.output_nodes()
+    info = {"order": order, "root": theta_star.label, "theta_v": theta_v.label,
+            "new_states": kept_flat, "ui_without_chain": [names_ui[j] for j in dropped]}
+    return Working(new_sys, ctx, nb.field("g0", drift_new), uis, new_origin, theta, w.n0,
+                   w.zero_tests, w.known), info
+
+
+def _short(label: str) -> str:
+    """A label fit for a coordinate name (long generator labels are cut)."""
+    return label if len(label) <= 24 else label[:21] + "..."
