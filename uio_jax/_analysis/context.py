@@ -337,10 +337,11 @@ class Context:
             )
         if cert.capped:
             r, N = self.codist.rank, self.system.n
+            exact = f"; {cert.verified} rank increases were verified exactly" if cert.verified else ""
             notes.append(
                 f"the final span ({r} generators on {N} coordinates) was certified on the first "
                 f"{certifying} of the {cert.samples} samples, where its gradients fit in "
-                f"{CERTIFY_BYTES >> 20} MiB; {cert.verified} rank increases were verified exactly")
+                f"{CERTIFY_BYTES >> 20} MiB{exact}")
         if cert.undecided:
             what = "; ".join(f"{e.what}: {e.how}" for e in cert.escalations if e.result == "undecided")
             notes.append(

@@ -233,9 +233,11 @@ class Tested:
 class Codistribution:
     """A growing set of kept generators, evaluated at fixed sample states.
 
-    Holds, per sample, the column-scaled gradients of the kept generators ``(S, r, n)``
-    and an orthonormal basis of their span (Gram-Schmidt, rows zeroed at the samples where
-    a kept row was dependent). A candidate is kept when its distance to the span raises
+    Holds, per sample, the column-scaled gradients of the kept generators and an
+    orthonormal basis of their span (Gram-Schmidt, rows zeroed at the samples where a kept
+    row was dependent), both stored row-major ``(capacity, S, n)`` and grown on demand (one
+    contiguous block per kept row; :attr:`grads` and :meth:`kept_basis` are ``(S, r, n)``
+    views). A candidate is kept when its distance to the span raises
     the generic rank (:func:`decide_increase`); testing costs O(S r n) per candidate, so
     kept generators are never re-evaluated nor re-factorized. The final set is checked by
     a full SVD (:meth:`decision`).
@@ -281,8 +283,8 @@ class Codistribution:
     def copy(self) -> "Codistribution":
         """An independent copy of the span, with no decisions yet.
 
-        The arrays (``valid (S,)``, ``grads (S, r, n)``, ``basis (S, n, n)``, ``ref (S,)``)
-        and the list of kept nodes are copied, so absorbing into the copy leaves this one
+        The arrays (``valid (S,)``, the kept rows and their basis, ``ref (S,)``) and the
+        list of kept nodes are copied, so absorbing into the copy leaves this one
         unchanged; ``acceptances`` and ``rejections`` start empty, so they hold the copy's
         own decisions.
         """

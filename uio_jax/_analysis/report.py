@@ -67,7 +67,7 @@ class Certificate:
         used: states used (finite everywhere).
         dropped: states dropped because a generator was NaN/inf there.
         capped: states not evaluated on the final span because its gradients there would
-            exceed :data:`uio_jax._analysis.context.CERTIFY_BYTES` (a deep EORC): the span
+            exceed :data:`uio_jax._analysis.memory.CERTIFY_BYTES` (a deep EORC): the span
             is certified on the first ``samples - capped`` states (``used + dropped``).
         fraction: fraction of the used samples where the final codistribution has its
             generic rank in float64 (SVD of the row-scaled generator gradients; below 1
