@@ -155,7 +155,8 @@ class Context:
             return members, 0
         fork = codist.copy()
         added = fork.absorb(units[:n], None, tested.first(n))
-        codist.escalations.extend(fork.escalations)
+        seen = {id(e) for e in codist.escalations}  # a question asked again is recorded once
+        codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
         self.memberships += [(False, d) for d in fork.acceptances]
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)
