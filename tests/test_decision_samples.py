@@ -44,7 +44,8 @@ def test_the_eorc_reads_its_final_verdicts_on_all_samples():
 
 
 def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
-    """Past ``CERTIFY_BYTES`` the final span is re-decided on the first samples that fit (never
+    """Past ``CERTIFY_BYTES`` (``N x N`` float64 per sample) the final span is re-decided on
+    the first samples that fit (never
     fewer than the decision samples): the certificate and a note say how many, the verdicts
     are those of the uncapped run."""
     from uio_jax._analysis import memory
@@ -53,8 +54,8 @@ def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
     full = uj.analyze(model, samples=SAMPLES)
     assert full.certificate.capped == 0
     fit = 600
-    monkeypatch.setattr(memory, "CERTIFY_BYTES", 8 * 6 * 7 * fit)
-    assert memory.certify_samples(SAMPLES, 6, 7) == fit
+    monkeypatch.setattr(memory, "CERTIFY_BYTES", 8 * 7 * 7 * fit)  # 7 x 7 per sample
+    assert memory.certify_samples(SAMPLES, 7) == fit
     capped = uj.analyze(model, samples=SAMPLES)
     cert = capped.certificate
     assert cert.samples == SAMPLES and cert.capped == SAMPLES - fit
@@ -64,5 +65,5 @@ def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
     assert f"{SAMPLES - fit} not evaluated on the final span" in str(cert)
     # the floor: never fewer than the decision samples
     monkeypatch.setattr(memory, "CERTIFY_BYTES", 1)
-    assert memory.certify_samples(SAMPLES, 6, 7) == memory.DECISION_SAMPLES
-    assert memory.certify_samples(100, 6, 7) == 100
+    assert memory.certify_samples(SAMPLES, 7) == memory.DECISION_SAMPLES
+    assert memory.certify_samples(100, 7) == 100

@@ -95,7 +95,7 @@ class Context:
             return
         phase, kept = self.codist, list(self.codist.nodes)[:upto]
         lo, hi = self.system.box()
-        count = certify_samples(len(self.xs_all), len(kept), self.system.n)
+        count = certify_samples(len(self.xs_all), self.system.n)
         full = Codistribution(self.system.n, count, hi - lo, phase.rtol)
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
@@ -341,8 +341,8 @@ class Context:
             exact = f"; {cert.verified} rank increases were verified exactly" if cert.verified else ""
             notes.append(
                 f"the final span ({r} generators on {N} coordinates) was certified on the first "
-                f"{certifying} of the {cert.samples} samples, where its gradients fit in "
-                f"{CERTIFY_BYTES >> 20} MiB{exact}")
+                f"{certifying} of the {cert.samples} samples, where its arrays ({N} x {N} per "
+                f"sample) fit in {CERTIFY_BYTES / 2**20:.0f} MiB{exact}")
         if cert.undecided:
             what = "; ".join(f"{e.what}: {e.how}" for e in cert.escalations if e.result == "undecided")
             notes.append(

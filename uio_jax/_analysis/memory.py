@@ -50,6 +50,8 @@ PHYSICAL_FRACTION = 0.5
 #: The limit where the physical memory is unknown (no ``os.sysconf``), bytes.
 FALLBACK_LIMIT = 8 * 2**30
 
+_FLOAT = 8  # bytes per float64 entry
+
 #: The recursion decides on the first this-many samples (every candidate, every
 #: membership on the way); the final span is then certified on more
 #: (:meth:`~uio_jax._analysis.context.Context.certify`). A decision is the vote of these
@@ -59,34 +61,36 @@ FALLBACK_LIMIT = 8 * 2**30
 #: (``docs/benchmarks/engine.md``).
 DECISION_SAMPLES = 256
 
-#: The final span is certified on all the samples while its gradients there,
-#: ``(S, r, N)`` float64 (``r`` kept generators on ``N`` coordinates), take at most this
-#: many bytes; a larger span (a deep EORC: ``r N`` in the thousands) is certified on the
-#: first samples that fit, never fewer than :data:`DECISION_SAMPLES`. Its basis, their QR
-#: and the membership tests are a few arrays of that size per sample, and their cost grows
-#: like ``S r^2 N``: on the visual-inertial EORCs (``r N`` of 5 000-12 000) all 4096
-#: samples took 5-15 s and 0.3-0.7 GB, for votes that the exact verification of every kept
-#: generator of a rational model (:mod:`uio_jax._analysis.settle`) already certifies. The
-#: report says how many samples certified the span (:attr:`uio_jax.Certificate.capped`).
-CERTIFY_BYTES = 32 * 2**20
+#: The final span is certified on all the samples while its per-sample arrays fit in this
+#: many bytes: on ``N`` coordinates they are at most ``N x N`` float64 per sample (the kept
+#: rows and their basis, ``r <= N`` rows of ``N``; the unit-covector test of up to ``N``
+#: coordinates), so all ``S`` samples are used while ``8 S N^2 <= CERTIFY_BYTES``. A larger
+#: span (a deep EORC: ``N`` in the hundreds) is certified on the first samples that fit,
+#: never fewer than :data:`DECISION_SAMPLES`. Its cost grows like ``S r^2 N``: on the
+#: visual-inertial EORCs (``N`` of 80-150) all 4096 samples took 5-15 s and 0.3-0.7 GB, for
+#: votes that the exact verification of every kept generator of a rational model
+#: (:mod:`uio_jax._analysis.settle`) already certifies. The report says how many samples
+#: certified the span (:attr:`uio_jax.Certificate.capped`). The value keeps the default 4096
+#: samples for every analysis on up to 40 coordinates (every ORC of the zoo and of StrikePy's
+#: models): 50 MiB.
+CERTIFY_BYTES = 8 * 4096 * 40**2
 
 
-def certify_samples(samples: int, rank: int, coords: int) -> int:
-    """How many of ``samples`` certify a final span of ``rank`` generators on ``coords``
-    coordinates: all of them while ``8 S rank coords <= CERTIFY_BYTES``, else as many as
-    fit, never fewer than :data:`DECISION_SAMPLES` (nor more than ``samples``)."""
-    fit = CERTIFY_BYTES // (_FLOAT * max(int(rank), 1) * max(int(coords), 1))
+def certify_samples(samples: int, coords: int) -> int:
+    """How many of ``samples`` certify a final span on ``coords`` coordinates: all of them
+    while ``8 S coords^2 <= CERTIFY_BYTES``, else as many as fit, never fewer than
+    :data:`DECISION_SAMPLES` (nor more than ``samples``)."""
+    fit = CERTIFY_BYTES // (_FLOAT * max(int(coords), 1) ** 2)
     return int(min(samples, max(DECISION_SAMPLES, fit)))
 
 
 def rank_samples(samples: int, coords: int) -> int:
     """``S'``: the most samples a rank array of an analysis on ``coords`` coordinates spans
-    (the recursion's, or the certificate's of a full-rank span)."""
-    return max(min(int(samples), DECISION_SAMPLES), certify_samples(samples, coords, coords))
+    (the recursion's or the certificate's)."""
+    return max(min(int(samples), DECISION_SAMPLES), certify_samples(samples, coords))
 
 
 _SUFFIX = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40, "P": 2**50}
-_FLOAT = 8  # bytes per float64 entry
 
 
 def parse_size(text: str) -> int:
