@@ -71,9 +71,9 @@ DECISION_SAMPLES = 256
 #: votes that the exact verification of every kept generator of a rational model
 #: (:mod:`uio_jax._analysis.settle`) already certifies. The report says how many samples
 #: certified the span (:attr:`uio_jax.Certificate.capped`). The value keeps the default 4096
-#: samples for every analysis on up to 40 coordinates (every ORC of the zoo and of StrikePy's
-#: models): 50 MiB.
-CERTIFY_BYTES = 8 * 4096 * 40**2
+#: samples for every analysis on up to 35 coordinates (every ORC of the zoo and of StrikePy's
+#: models, the largest being Arabidopsis with 35): 38 MiB.
+CERTIFY_BYTES = 8 * 4096 * 35**2
 
 
 def certify_samples(samples: int, coords: int) -> int:
