@@ -245,17 +245,18 @@ def test_eta_uses_recorded_times_and_grows_while_a_model_runs():
     assert bar.eta() is None  # nothing known about model 1 yet
     bar.start("a", key=0)
     t0 = bar.running[0][1]
-    assert bar.eta(now=t0 + 2.0) == 8.0 + 2.0 + 30.0  # model 1: the running one's elapsed 2 s
+    assert bar.eta(now=t0 + 2.0) == pytest.approx(8.0 + 2.0 + 30.0, abs=1e-6)  # model 1: 2 s elapsed
     bar.finish("a", "dim 1/1", 6.0, key=0)
     assert bar.eta() == 6.0 + 30.0  # model 1 now at the mean, 6 s
     bar.start("c", key=2)
     t2 = bar.running[2][1]
     early, late, later = (bar.eta(now=t2 + t) for t in (5.0, 100.0, 200.0))
-    assert early == 25.0 + 6.0 and late == 100.0 + 6.0 and later == 200.0 + 6.0  # grows past 30 s
+    # grows past 30 s (``now - start`` on the monotonic clock: equal up to its round-off)
+    assert (early, late, later) == pytest.approx((25.0 + 6.0, 100.0 + 6.0, 200.0 + 6.0), abs=1e-6)
     two = CountProgress(4, stream=io.StringIO(), expected=[10.0] * 4, workers=2)
     assert two.eta() == 20.0  # 40 s of work on two workers
     two.start("a", key=0)
-    assert two.eta(now=two.running[0][1] + 30.0) == 30.0  # the long running model bounds it
+    assert two.eta(now=two.running[0][1] + 30.0) == pytest.approx(30.0, abs=1e-6)  # the long one bounds it
     two.close()
 
 
