@@ -145,7 +145,8 @@ def test_the_estimate_is_the_arrays_the_analysis_allocates():
     gps = zoo("gps", "inputs_unknown")
     ext = extended_system(gps, 7)
     assert ext.n == gps.n + 7 * len(gps.unknown)
-    assert check_eorc_memory(gps, S, 7) == sum(memory.analysis_bytes(S, ext.n, gps.n).values())
+    # every order tests the unit covectors of all its coordinates (the observable inputs too)
+    assert check_eorc_memory(gps, S, 7) == sum(memory.analysis_bytes(S, ext.n, ext.n).values())
     full = Codistribution(ext.n, S, np.ones(ext.n), 1e-8)
     full._reserve(ext.n)
     assert full.basis.nbytes == memory.analysis_bytes(S, ext.n)["the rank basis"]
@@ -237,7 +238,7 @@ def test_huge_k_max_is_refused_before_allocating(monkeypatch, no_allocation):
     msg = str(e.value)
     N = gps.n + 1000 * len(gps.unknown)
     assert f"the EORC to k_max=1000 (samples=4096 x N={N} coordinates" in msg
-    assert f"lower k_max (default {default_k_max(gps)})" in msg and "rank basis alone" in msg
+    assert f"lower k_max (default {default_k_max(gps)})" in msg and "unit-covector test alone" in msg
     with pytest.raises(uj.OptionError, match="lower samples and k_max"):
         uj.analyze(gps, k_max=1000, samples=10**9, method="eorc")
     with pytest.raises(uj.OptionError, match="lower samples$"):

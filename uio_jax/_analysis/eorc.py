@@ -318,9 +318,10 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     """Refuse an EORC whose arrays on ``Sigma^(K)`` cannot fit, before any is allocated.
 
     The codistribution lives on ``N = n + K m_w`` coordinates, so its rank basis alone is
-    ``(S, N, N)`` float64 (:func:`uio_jax._analysis.memory.analysis_bytes`): quadratic in
-    ``k_max``. The message says to lower ``k_max`` when the default order ``n + 2`` fits
-    with these samples, else ``samples`` (and ``k_max`` when above the default).
+    ``(N, S', N)`` float64 (:func:`uio_jax._analysis.memory.analysis_bytes`): quadratic in
+    ``k_max``; every order tests the unit covectors of all its coordinates (the observable
+    inputs), up to ``N`` of them. The message says to lower ``k_max`` when the default order
+    ``n + 2`` fits with these samples, else ``samples`` (and ``k_max`` when above the default).
 
     Returns:
         The estimated bytes.
@@ -331,12 +332,13 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     n, mw = system.n, len(system.unknown)
     N = n + K * mw
     K0 = default_k_max(system)
-    lower_k = K > K0 and sum(analysis_bytes(samples, n + K0 * mw, n).values()) <= memory_limit()[0]
+    N0 = n + K0 * mw
+    lower_k = K > K0 and sum(analysis_bytes(samples, N0, N0).values()) <= memory_limit()[0]
     what = (f"the EORC to k_max={K} (samples={samples} x N={N} coordinates: {n} states + "
             f"{K} x {mw} unknown-input derivatives)")
     advice = (f"lower k_max (default {K0})" if lower_k
               else "lower samples and k_max" if K > K0 else "lower samples")
-    return check_memory(samples, N, n, what=what, advice=advice)
+    return check_memory(samples, N, N, what=what, advice=advice)
 
 
 def run_eorc(system, *, samples, seed, rtol, k_max=None):

@@ -21,7 +21,8 @@ the rank basis                  ``(N, S', N)`` :class:`~uio_jax._analysis.rank.C
                                                allocated as the span grows)
 the unit-covector test          4 x            :meth:`~uio_jax._analysis.rank.Codistribution.test_units`
                                 ``(S', N, n)`` of ``e_1..e_n`` (covectors, the two residuals,
-                                               the directions): the verdict per state
+                                               the directions): the verdict per state (the
+                                               EORC tests every coordinate: ``n = N``)
 ==============================  =============  ==================================================
 
 with ``S'`` the larger of the two phases' sample counts (:func:`rank_samples`), so
