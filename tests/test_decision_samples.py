@@ -1,5 +1,6 @@
 """The recursion decides on the first DECISION_SAMPLES samples; the final span is
-certified on all of them (``Context.certify``).
+certified on all of them (``Context.certify``), or on the first that fit when it is very
+large (``memory.CERTIFY_BYTES``).
 
 Oracle: the same analysis with every sample deciding (``DECISION_SAMPLES`` raised above the
 sample count) gives the same dims, verdicts and generators; the evaluations of the run are
@@ -45,9 +46,8 @@ def test_the_eorc_reads_its_final_verdicts_on_all_samples():
 
 def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
     """Past ``CERTIFY_BYTES`` (``N x N`` float64 per sample) the final span is re-decided on
-    the first samples that fit (never
-    fewer than the decision samples): the certificate and a note say how many, the verdicts
-    are those of the uncapped run."""
+    the first samples that fit (never fewer than the decision samples): the certificate and
+    a note say how many, the verdicts are those of the uncapped run."""
     from uio_jax._analysis import memory
 
     model = zoo_system("vehicle_wind", "wind_unknown")  # final span: 6 generators on 7 states
