@@ -75,6 +75,8 @@ class Builder:
         self._nodes: dict[tuple, Node] = {}
         self._gradient_cache: dict = {}  # states key -> {expr: (S, n)}
         self._gradient_bytes = 0
+        #: ``(states key, WalkMemo)``: node arrays kept between walks at the latest states
+        self._walk_memo = (None, None)
         self._compiled: dict[tuple, object] = {}
         self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
         self.stats: list[CompileStat] = []
@@ -284,7 +286,10 @@ class Builder:
 
         The gradients already evaluated at the same states (a warm call of ``analyze`` with
         the same samples and seed) are kept, up to :data:`GRADIENT_CACHE_BYTES` per System:
-        a warm call evaluates nothing twice.
+        a warm call evaluates nothing twice. Successive calls at the same states share a
+        :class:`~uio_jax._engine.graph_numpy.WalkMemo` (the latest states only): an order
+        that differentiates the last one's generators walks its new layer of the graph,
+        not the whole graph again.
         """
         key = _states_key(xs)
         cache = self._gradient_cache.get(key)
@@ -295,7 +300,10 @@ class Builder:
             cache = self._gradient_cache[key] = {}
         missing = [nd for nd in dict.fromkeys(nodes) if nd.expr not in cache]
         if missing:
-            grads = _graph_numpy.evaluate(self.graph, [nd.expr for nd in missing], xs)[1]
+            if self._walk_memo[0] != key:
+                self._walk_memo = (key, _graph_numpy.WalkMemo())
+            grads = _graph_numpy.evaluate(self.graph, [nd.expr for nd in missing], xs,
+                                          memo=self._walk_memo[1])[1]
             for i, nd in enumerate(missing):
                 cache[nd.expr] = grads[:, i]
             self._gradient_bytes += grads.nbytes
