@@ -147,11 +147,14 @@ def test_copy_is_independent_and_starts_without_decisions():
     codist = Codistribution(n, S, np.ones(n), default_rtol())
     codist.absorb([Node(f"g{i}", None, "scalar") for i in range(2)], rng.normal(size=(S, 2, n)))
     before = (codist.grads.copy(), codist.kept_basis().copy(), list(codist.nodes), len(codist.acceptances))
-    fork = codist.copy()
-    assert fork.rank == 2 and fork.acceptances == [] and fork.rejections == []
-    np.testing.assert_array_equal(fork.kept_basis(), codist.kept_basis())
-    fork.absorb([Node("e", None, "scalar")], rng.normal(size=(S, 1, n)))
-    assert fork.rank == 3 and len(fork.acceptances) == 1
-    np.testing.assert_array_equal(codist.grads, before[0])
-    np.testing.assert_array_equal(codist.kept_basis(), before[1])
-    assert codist.nodes == before[2] and len(codist.acceptances) == before[3]
+    new = rng.normal(size=(S, 1, n))
+    for trial in (False, True):  # a trial copy shares the storage, the span is unchanged too
+        fork = codist.copy(trial=trial)
+        assert fork.rank == 2 and fork.acceptances == [] and fork.rejections == []
+        np.testing.assert_array_equal(fork.kept_basis(), codist.kept_basis())
+        fork.absorb([Node("e", None, "scalar")], new)
+        assert fork.rank == 3 and len(fork.acceptances) == 1
+        np.testing.assert_array_equal(codist.grads, before[0])
+        np.testing.assert_array_equal(codist.kept_basis(), before[1])
+        assert codist.nodes == before[2] and len(codist.acceptances) == before[3]
+        assert (fork._rows is codist._rows) == (trial and len(codist._rows) >= 3)

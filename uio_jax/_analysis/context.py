@@ -100,7 +100,9 @@ class Context:
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
+        decided, decision_count = self._grads, len(self.xs)
         self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
+        self._grads.update(self._extended(kept, decided, decision_count))
         if kept:
             full.expect_rise = True  # a generator the decision samples kept: settled again if not
             added = self.absorb_into(full, kept)
@@ -112,6 +114,16 @@ class Context:
                         f"dependent on the {count} certifying samples", f"{count} samples", "undecided"))
         full.rejections = phase.rejections + full.rejections
         self.codist = full
+
+    def _extended(self, nodes, head, count) -> dict:
+        """Gradients ``{node: (S, n)}`` at :attr:`xs` of the ``nodes`` whose gradients at its
+        first ``count`` samples are in ``head`` (the decision samples are the first of the
+        certifying ones): only the other samples are evaluated."""
+        have = [nd for nd in dict.fromkeys(nodes) if nd in head]
+        if not have or count >= len(self.xs):
+            return {nd: head[nd][:len(self.xs)] for nd in have}
+        tail = self.builder.gradients(have, self.xs[count:])
+        return {nd: np.concatenate([head[nd], tail[:, i]]) for i, nd in enumerate(have)}
 
     def absorb_into(self, codist, nodes) -> list:
         """Absorb ``nodes`` into ``codist`` with their gradients at :attr:`xs`."""
@@ -142,19 +154,27 @@ class Context:
             ``n`` are all members).
         """
         codist = self.codist
-        tested = codist.test_units(count)
+        known = codist.unit_members  # decided members at an earlier call: the span only grew
+        todo = [i for i in range(count) if i not in known]
+        tested = codist.test_units(count, only=todo)
         units = self.unit_nodes(count)
-        results = codist.contains(None, tested, nodes=units)
+        results = codist.contains(None, tested, nodes=[units[i] for i in todo]) if todo else []
         self.memberships.extend(results)
-        members = [m for m, _ in results]
+        for i, (member, d) in zip(todo, results):
+            if member and d.settled != "undecided":
+                known[i] = d
+        vote = {i: member for i, (member, _) in zip(todo, results)}
+        members = [i in known or vote[i] for i in range(count)]
         if all(members[:n]):
             return members, n
         if meanwhile is not None:
             meanwhile()
         if codist.rank == 0:
             return members, 0
-        fork = codist.copy()
-        added = fork.absorb(units[:n], None, tested.first(n))
+        fork = codist.copy(trial=True)  # discarded below
+        # the members are dependent on the span itself: only the others can raise the rank
+        at = [p for p, i in enumerate(todo) if i < n and not members[i]]
+        added = fork.absorb([units[todo[p]] for p in at], None, tested.take(at))
         seen = {id(e) for e in codist.escalations}  # a question asked again is recorded once
         codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
         self.memberships += [(False, d) for d in fork.acceptances]

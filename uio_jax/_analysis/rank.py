@@ -229,6 +229,11 @@ class Tested:
         """The first ``count`` covectors of the family (same samples)."""
         return Tested(self.cands[:count], self.finite, self.rho[:count], self.dirs[:count])
 
+    def take(self, positions) -> "Tested":
+        """The covectors at ``positions`` of the family, in that order (same samples)."""
+        at = np.asarray(positions, dtype=np.intp)
+        return Tested(self.cands[at], self.finite, self.rho[at], self.dirs[at])
+
 
 class Codistribution:
     """A growing set of kept generators, evaluated at fixed sample states.
@@ -264,6 +269,9 @@ class Codistribution:
         self.expect_rise = False
         self.verified = 0  # clear float64 rises confirmed exactly (kept generators, non-members)
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
+        #: unit covectors ``e_i`` decided members of the span (``i -> RankDecision``): the
+        #: span only grows, so they are not tested again
+        self.unit_members: dict = {}
 
     @property
     def grads(self) -> np.ndarray:
@@ -280,24 +288,33 @@ class Codistribution:
         """The generic rank ``r`` of the span: the number of kept generators."""
         return len(self.nodes)
 
-    def copy(self) -> "Codistribution":
-        """An independent copy of the span, with no decisions yet.
+    def copy(self, trial: bool = False) -> "Codistribution":
+        """A copy of the span, with no decisions yet.
 
         The arrays (``valid (S,)``, the kept rows and their basis, ``ref (S,)``) and the
         list of kept nodes are copied, so absorbing into the copy leaves this one
         unchanged; ``acceptances`` and ``rejections`` start empty, so they hold the copy's
         own decisions.
+
+        ``trial``: the copy shares the storage of the kept rows and their basis instead
+        (no copying of the ``(r, S, n)`` arrays): it writes only the rows past this span's
+        rank, which this span does not read, so this span is still unchanged; the copy is
+        valid until this span keeps another generator (a trial absorb, then discarded).
         """
         c = Codistribution.__new__(Codistribution)
         c.n, c.col_scale, c.rtol = self.n, self.col_scale, self.rtol
         r = self.rank
         c.valid, c.ref = self.valid.copy(), self.ref.copy()
-        c._rows, c.basis = np.zeros(self._rows.shape), np.zeros(self.basis.shape)  # same room
-        c._rows[:r], c.basis[:r] = self._rows[:r], self.basis[:r]
+        if trial:
+            c._rows, c.basis = self._rows, self.basis
+        else:
+            c._rows, c.basis = np.zeros(self._rows.shape), np.zeros(self.basis.shape)  # same room
+            c._rows[:r], c.basis[:r] = self._rows[:r], self.basis[:r]
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
         c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
         c._decided = self._decided
+        c.unit_members = dict(self.unit_members)
         return c
 
     def _scaled(self, cands):
@@ -355,8 +372,9 @@ class Codistribution:
         rho, dirs = self._distances(cands) if len(cands) else (np.zeros((0, len(finite))), cands)
         return Tested(cands, finite, rho, dirs)
 
-    def test_units(self, count: int) -> "Tested":
-        """:meth:`test` of the unit covectors ``e_1..e_count`` (same arithmetic, cheaper).
+    def test_units(self, count: int, only=None) -> "Tested":
+        """:meth:`test` of the unit covectors ``e_1..e_count`` (same arithmetic, cheaper);
+        ``only``: the indices (0-based, below ``count``) of the ones to test, in that order.
 
         With ``B (S, r, n)`` the kept orthonormal rows, the residuals of every ``e_j`` at
         once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
@@ -366,15 +384,16 @@ class Codistribution:
         is exact, however large the kept gradients are.
         """
         S, n = len(self.valid), self.n
+        at = np.arange(count) if only is None else np.asarray(only, dtype=np.intp)
         B = np.ascontiguousarray(self.kept_basis())  # (S, r, n)
         Bt = np.swapaxes(B, 1, 2)
-        r1 = np.eye(n)[:, :count] - Bt @ B[:, :, :count]
-        r2 = r1 - Bt @ (B @ r1)  # (S, n, count), column j = residual of e_j
-        res = np.moveaxis(r2, 2, 0)  # (count, S, n)
+        r1 = np.eye(n)[:, at] - Bt @ B[:, :, at]
+        r2 = r1 - Bt @ (B @ r1)  # (S, n, len(at)), column j = residual of e_at[j]
+        res = np.moveaxis(r2, 2, 0)  # (len(at), S, n)
         rho = np.linalg.norm(res, axis=-1)
         dirs = res / np.where(rho > 0, rho, 1.0)[..., None]
-        cands = np.zeros((count, S, n))
-        cands[np.arange(count), :, np.arange(count)] = np.broadcast_to(self.col_scale, (n,))[:count, None]
+        cands = np.zeros((len(at), S, n))
+        cands[np.arange(len(at)), :, at] = np.broadcast_to(self.col_scale, (n,))[at, None]
         return Tested(cands, np.ones(S, dtype=bool), rho, dirs)
 
     def absorb(self, nodes, grads, tested: "Tested | None" = None):
