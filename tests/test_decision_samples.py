@@ -10,7 +10,7 @@ at the decision samples except one, of the kept generators, at the other samples
 from helpers import zoo_system
 
 import uio_jax as uj
-from uio_jax._analysis import context as _context
+from uio_jax._analysis import memory
 from uio_jax._engine import graph_numpy
 
 SAMPLES = 1024
@@ -21,18 +21,23 @@ def test_decisions_on_the_first_samples_certified_on_all(monkeypatch):
     real = graph_numpy.evaluate
 
     def recording(graph, roots, xs, gradients=True, **options):
-        rows.append((xs.shape[0], len(roots)))
+        (rows if gradients else screened).append((xs.shape[0], len(roots)))
         return real(graph, roots, xs, gradients, **options)
 
+    screened = []
     monkeypatch.setattr(graph_numpy, "evaluate", recording)
-    two_phase = uj.analyze(zoo_system("vehicle_wind", "wind_unknown"), samples=SAMPLES)
-    rest = SAMPLES - _context.DECISION_SAMPLES
-    assert {s for s, _ in rows} == {_context.DECISION_SAMPLES, rest}
+    model = zoo_system("vehicle_wind", "wind_unknown")
+    two_phase = uj.analyze(model, samples=SAMPLES)
+    # the samples screened once: the values of the outputs and of the fields' components
+    fields = len(model.fields())
+    assert [r for r in screened if r[0] == SAMPLES] == [(SAMPLES, len(model.outputs) + fields * model.n)]
+    rest = SAMPLES - memory.DECISION_SAMPLES  # the model is defined on its whole box
+    assert {s for s, _ in rows} == {memory.DECISION_SAMPLES, rest}
     at_rest = [r for s, r in rows if s == rest]
     # one evaluation at the other samples: the kept generators (the decision samples are
     # the first certifying ones, their gradients are reused)
     assert at_rest == [two_phase.dim]
-    monkeypatch.setattr(_context, "DECISION_SAMPLES", 10**6)
+    monkeypatch.setattr(memory, "DECISION_SAMPLES", 10**6)
     every = uj.analyze(zoo_system("vehicle_wind", "wind_unknown"), samples=SAMPLES)
     assert two_phase.dims == every.dims == (3, 5, 6, 6)
     assert two_phase.observable == every.observable and two_phase.generators == every.generators
@@ -51,7 +56,6 @@ def test_a_large_final_span_is_certified_on_the_samples_that_fit(monkeypatch):
     """Past ``CERTIFY_BYTES`` (``N x N`` float64 per sample) the final span is re-decided on
     the first samples that fit (never fewer than the decision samples): the certificate and
     a note say how many, the verdicts are those of the uncapped run."""
-    from uio_jax._analysis import memory
 
     model = zoo_system("vehicle_wind", "wind_unknown")  # final span: 6 generators on 7 states
     full = uj.analyze(model, samples=SAMPLES)

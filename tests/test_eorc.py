@@ -14,7 +14,7 @@ from conftest import ROOT, zoo
 from helpers import zoo_report
 
 import uio_jax as uj
-from uio_jax._analysis import context as _context
+from uio_jax._analysis import memory
 from uio_jax._analysis.eorc import extended_system
 from uio_jax._analysis.rank import default_rtol
 from uio_jax._calculus import blocks as _blocks
@@ -282,7 +282,7 @@ def test_streamed_blocks_give_the_same_report(monkeypatch):
     as the blocks over all samples at once; here every block after order 1 is streamed.
     (The compiled route, ``UIO_JAX_ENGINE=xla``, every sample deciding.)"""
     monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
-    monkeypatch.setattr(_context, "DECISION_SAMPLES", 10**6)
+    monkeypatch.setattr(memory, "DECISION_SAMPLES", 10**6)
     case = "unicycle_disturbance.py:gamma_known_range"
     plain = uj.analyze(uj.load_system(zoo(case)), method="eorc", samples=SAMPLES, k_max=3)
     batches = []

@@ -179,3 +179,43 @@ def test_is_observable_settles_or_refuses():
     assert rep.is_observable(lambda x: 2.0 * x[0]) is True
     with pytest.raises(uj.ModelError, match="undecided"):
         rep.is_observable(erf_inv_part)
+
+
+def test_a_step_that_keeps_nothing_is_settled_exactly(monkeypatch):
+    """``y = x1``, ``x1' = x1 + eps x2``: ``d L_f y = (1, eps)`` lies ``eps`` (scaled) from
+    ``span{dy}``, under float64's round-off band for ``eps = 1e-14``: the vote rejects it
+    clearly, the step keeps nothing, and a step that keeps nothing would end the ORC with
+    ``x2`` unobservable. It is settled exactly instead (a rational model): independent,
+    kept, ``x2`` observable (``x2 = (y' - y) / eps``). Without the check the answer is
+    dim 1."""
+    from uio_jax._analysis import rank as _rank
+
+    def model(eps):
+        return uj.System(("x1", "x2"), {"y": lambda x: x[0]},
+                         drift=lambda x: jnp.array([x[0] + eps * x[1], 0.0]))
+
+    rep = uj.analyze(model(1e-14), samples=256)
+    assert rep.dims == (1, 2) and rep.observable == {"x1": True, "x2": True}
+    found = [e for e in rep.certificate.escalations if e.what == "L_f0 y against rank 1"]
+    assert len(found) == 1 and found[0].result == "independent" and found[0].float64.startswith("dependent")
+    monkeypatch.setattr(_rank.Codistribution, "_confirm_empty", lambda self, *args: [])
+    assert uj.analyze(model(1e-14), samples=256).dims == (1, 1)
+
+
+def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkeypatch):
+    """``d(x1^2)`` lies in ``span{d x1}``: modulo p the dependence holds at every point, with
+    probability bound ``(D / p)^points``; where one point's bound exceeds ``MAX_BOUND``,
+    points are added up to ``MAX_POINTS`` (else: undecided)."""
+    from uio_jax._analysis import settle as _settle
+    from uio_jax._calculus.generators import Node
+
+    g = Graph(2)
+    x1 = g.coords[0]
+    kept, cand = [Node("x1", None, "scalar", expr=x1)], Node("x1^2", None, "scalar", expr=g.mul(x1, x1))
+    one = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
+    assert one.result == "dependent" and one.how.endswith("at 1 point")
+    monkeypatch.setattr(_settle, "MAX_BOUND", one.bound ** 1.5)  # two points needed
+    two = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
+    assert two.result == "dependent" and two.how.endswith("at 2 points") and two.bound == one.bound ** 2
+    monkeypatch.setattr(_settle, "MAX_POINTS", 1)
+    assert Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent").result == "undecided"

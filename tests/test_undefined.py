@@ -73,3 +73,26 @@ def test_model_nan_everywhere_is_refused_with_a_true_message(what, kw):
     msg = str(err.value)
     assert msg.startswith(f"{what} returns NaN/inf at every one of 4160 states drawn in the sampling box")
     assert "(64 at validation, 4096 more" in msg and "\n" not in msg
+
+
+def test_the_recursion_decides_on_as_many_defined_states_on_a_partly_undefined_model():
+    """The decision samples are the first ones holding ``DECISION_SAMPLES`` states where the
+    outputs and fields are finite: that many where the model is defined on its whole box,
+    about twice as many where on half of it, all that the certificate may use where fewer
+    are defined."""
+    from uio_jax._analysis import memory
+    from uio_jax._analysis.context import Context
+
+    D, S = memory.DECISION_SAMPLES, 1024
+    for cut in (0.4, 1.0, 1.45):  # NaN for x1 < cut: none, half, 95 % of (0.5, 1.5)
+        ctx = Context(chain(lambda x, cut=cut: jnp.sqrt(x[0] - cut)), S, 0, 1e-8)
+        defined = ctx.xs_all[:, 0] >= cut
+        assert len(ctx.xs) == ctx.decisions
+        if cut < 0.5:
+            assert ctx.decisions == D
+        elif cut == 1.0:
+            assert defined[: ctx.decisions].sum() == D and defined[ctx.decisions - 1]
+            assert 1.6 * D < ctx.decisions < 2.4 * D
+        else:
+            assert defined.sum() < D and ctx.decisions == memory.certify_samples(S, 2) == S
+    assert memory.decision_count(None, S, 2) == D  # a model outside the graph: not screened

@@ -3,7 +3,7 @@
 Each recursion (ORC, single unknown input, EORC, general solution) is a Python loop over
 steps m; inside a step the new candidate generators are evaluated in one call (numpy over
 the System's expression graph, or a compiled program for a model outside it) at the first
-:data:`DECISION_SAMPLES` samples and pruned by
+samples (:data:`DECISION_SAMPLES` of them where the model is defined) and pruned by
 :class:`~uio_jax._analysis.rank.Codistribution`; the final span is certified on all the
 samples (:meth:`Context.certify`).
 """
@@ -20,7 +20,7 @@ from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
-from .memory import CERTIFY_BYTES, DECISION_SAMPLES, certify_samples
+from .memory import CERTIFY_BYTES, certify_samples, decision_count
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 from .settle import Escalation, Settler
@@ -49,13 +49,25 @@ class Context:
         self.samples = samples
         self.seed = seed
         with jax.enable_x64(True):
-            self._start(sample_states(system, samples, seed), rtol)
+            xs_all = sample_states(system, samples, seed)
+            self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n))
 
-    def _start(self, xs_all, rtol):
+    def _defined(self, xs_all):
+        """``(S,)``: whether the outputs and fields are finite at each sample (None for a
+        model outside the expression graph: not screened, nothing is compiled for it)."""
+        nodes = [*self.output_nodes(), *(self.field_node(f) for f in self.system.fields())]
+        if self.builder.graph is None or any(nd.expr is None for nd in nodes):
+            return None
+        values = self.builder.values(nodes, xs_all)
+        return np.all([np.isfinite(v.reshape(len(xs_all), -1)).all(axis=1) for v in values], axis=0)
+
+    def _start(self, xs_all, rtol, decisions):
         """Samples ``xs_all`` ``(S, n)``; the decision samples ``xs`` (the first
-        :data:`DECISION_SAMPLES`) and an empty codistribution on them."""
+        ``decisions``, :func:`~uio_jax._analysis.memory.decision_count`) and an empty
+        codistribution on them."""
         self.xs_all = xs_all
-        self.xs = xs_all[:DECISION_SAMPLES]
+        self.decisions = decisions
+        self.xs = xs_all[:decisions]
         self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
@@ -72,7 +84,7 @@ class Context:
         sub = Context.__new__(Context)
         sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
         sub.seed = self.seed
-        sub._start(self.xs_all, self.codist.rtol)
+        sub._start(self.xs_all, self.codist.rtol, self.decisions)
         sub._grads = self._grads if not self.certified or sub.certified else {}
         return sub
 
@@ -222,6 +234,11 @@ class Context:
     def absorb(self, nodes, grads=None) -> list[Node]:
         """Keep the candidate nodes that raise the generic rank.
 
+        A step of a recursion that keeps nothing ends it (the span is closed under its
+        fields), so its rejections are then settled exactly where the model is rational
+        (:meth:`~uio_jax._analysis.rank.Codistribution.absorb`, ``confirm_empty``): a
+        genuine direction of a deep derivative can sit under float64's round-off.
+
         Args:
             nodes: scalar Nodes.
             grads: their gradients ``(S, c, n)`` if already evaluated.
@@ -232,7 +249,7 @@ class Context:
         if grads is None:
             grads = self.gradients(nodes)
         try:
-            return self.codist.absorb(nodes, grads)
+            return self.codist.absorb(nodes, grads, confirm_empty=True)
         except FloatingPointError:
             bad = [nd.label for i, nd in enumerate(nodes)
                    if not np.isfinite(grads[:, i]).any()]

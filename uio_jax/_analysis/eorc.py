@@ -75,7 +75,7 @@ from .._errors import ModelError
 from .._model.naming import derivative_names
 from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
-from .context import DECISION_SAMPLES, Context, SampledSpace, report_view
+from .context import Context, SampledSpace, report_view
 from .driver import Recursion, StopReason, iterate
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report, Step
@@ -417,7 +417,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
             f"span inconsistent or could not decide); the verdicts are those of order k={k_used}, whose "
             "decisions are all certified (the EORC's answer only grows with k)")
     if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
-        notes.append(f"order k={k_used} decided on the first {DECISION_SAMPLES} samples gave "
+        notes.append(f"order k={k_used} decided on the first {ctx.decisions} samples gave "
                      f"dim {last.dim}; the {len(ctx.xs)} certifying samples give dim {dim_all}: the report "
                      "gives the latter")
     if smooth:

@@ -6,7 +6,7 @@ single-input analysis and the series test; ``N = n + K m_w`` for the EORC on
 ``Sigma^(K)``, ``K = k_max``) and works in two phases (:class:`~uio_jax._analysis.context.Context`):
 
 * the **recursion** decides every candidate and membership on the first
-  :data:`DECISION_SAMPLES`;
+  :func:`decision_count` samples (:data:`DECISION_SAMPLES` where the model is defined);
 * the **certificate** re-decides the final span of ``r`` generators on the first
   :func:`certify_samples` (all ``S`` unless the span is very large).
 
@@ -40,6 +40,8 @@ import math
 import os
 import re
 
+import numpy as np
+
 from .._errors import OptionError
 
 #: The environment variable that sets the limit, in bytes (suffixes K, M, G, T: powers of 1024).
@@ -53,14 +55,16 @@ FALLBACK_LIMIT = 8 * 2**30
 
 _FLOAT = 8  # bytes per float64 entry
 
-#: The recursion decides on the first this-many samples (every candidate, every
-#: membership on the way); the final span is then certified on more
-#: (:meth:`~uio_jax._analysis.context.Context.certify`). A decision is the vote of these
-#: samples, settled beyond float64 when weak (:mod:`uio_jax._analysis.settle`), so the
-#: rest of the samples add coverage of the domain, not correctness: they are spent once,
-#: on the final generators, instead of on every candidate of every step
+#: The recursion decides on the first samples that hold this many states where the model
+#: (its outputs and fields) is defined: the first this-many on a model defined on its whole
+#: box, more on one undefined on a part of it (never more than :func:`certify_samples`),
+#: so that every vote has that many states (:func:`decision_count`). The final span is then
+#: certified on more (:meth:`~uio_jax._analysis.context.Context.certify`). A decision is the
+#: vote of these samples, settled beyond float64 when weak (:mod:`uio_jax._analysis.settle`),
+#: so the rest of the samples add coverage of the domain, not correctness: they are spent
+#: once, on the final generators, instead of on every candidate of every step
 #: (``docs/benchmarks/engine.md``).
-DECISION_SAMPLES = 256
+DECISION_SAMPLES = 128
 
 #: The final span is certified on all the samples while its per-sample arrays fit in this
 #: many bytes: on ``N`` coordinates they are at most ``N x N`` float64 per sample (the kept
@@ -83,6 +87,24 @@ def certify_samples(samples: int, coords: int) -> int:
     :data:`DECISION_SAMPLES` (nor more than ``samples``)."""
     fit = CERTIFY_BYTES // (_FLOAT * max(int(coords), 1) ** 2)
     return int(min(samples, max(DECISION_SAMPLES, fit)))
+
+
+def decision_count(defined, samples: int, coords: int) -> int:
+    """How many of the first samples decide: the fewest holding :data:`DECISION_SAMPLES`
+    states where the model is defined, at most :func:`certify_samples` (all of those when
+    fewer are defined).
+
+    Args:
+        defined: ``(S,)`` booleans, the model defined at each sample (None: unknown, taken
+            as defined everywhere).
+        samples: ``S``.
+        coords: the analysis' coordinates ``N``.
+    """
+    cap = certify_samples(samples, coords)
+    if defined is None:
+        return min(samples, DECISION_SAMPLES)
+    at = np.flatnonzero(np.asarray(defined, dtype=bool)[:cap])
+    return cap if len(at) < DECISION_SAMPLES else int(at[DECISION_SAMPLES - 1]) + 1
 
 
 def rank_samples(samples: int, coords: int) -> int:
@@ -194,6 +216,6 @@ def check_memory(samples: int, coords: int, states: int | None = None, *, what: 
     return total
 
 
-__all__ = ["ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "DECISION_SAMPLES", "CERTIFY_BYTES",
+__all__ = ["ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "DECISION_SAMPLES", "decision_count", "CERTIFY_BYTES",
            "certify_samples", "rank_samples", "parse_size", "physical_memory", "memory_limit",
            "analysis_bytes", "format_bytes", "check_memory"]

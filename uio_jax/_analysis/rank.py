@@ -320,8 +320,10 @@ class Codistribution:
     def _scaled(self, cands):
         """Column-scale ``(C, S, n)`` covectors; non-finite -> 0, plus the finite mask (S,)."""
         cands = np.asarray(cands, dtype=np.float64)
-        finite = np.isfinite(cands).all(axis=(0, 2))
-        cands = np.where(np.isfinite(cands), cands, 0.0)
+        mask = np.isfinite(cands)
+        finite = mask.all(axis=(0, 2))
+        if not finite.all():
+            cands = np.where(mask, cands, 0.0)
         return cands * self.col_scale, finite
 
     def _distances(self, cands):
@@ -396,13 +398,17 @@ class Codistribution:
         cands[np.arange(len(at)), :, at] = np.broadcast_to(self.col_scale, (n,))[at, None]
         return Tested(cands, np.ones(S, dtype=bool), rho, dirs)
 
-    def absorb(self, nodes, grads, tested: "Tested | None" = None):
+    def absorb(self, nodes, grads, tested: "Tested | None" = None, confirm_empty: bool = False):
         """Keep the candidates that raise the generic rank, in order.
 
         Args:
             nodes: c candidate Nodes.
             grads: their gradients at the samples, ``(S, c, n)`` (unused when ``tested``).
             tested: :meth:`test` of the same ``(c, S, n)`` covectors against this span.
+            confirm_empty: when no candidate is kept, settle every rejection exactly where
+                the graph is rational (:meth:`_confirm_empty`): a step that adds nothing
+                ends a recursion, and a genuine direction of a deep derivative can sit
+                under the float64 round-off.
 
         Returns:
             The list of kept nodes.
@@ -466,7 +472,42 @@ class Codistribution:
                     if rest:
                         r_rest, d_rest = _residuals(self.basis[: self.rank], self.ref, cands[rest])
                         res[j + 1:] = r_rest[..., None] * d_rest
+        if confirm_empty and not added and grads is not None:
+            return self._confirm_empty(nodes, grads, first, cands, rho, dirs)
         return added
+
+    def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
+        """No candidate was kept: each float64 rejection is settled exactly (modulo ``p``,
+        where the graph is rational; elsewhere the vote stands). A confirmed dependence is
+        counted (:attr:`verified`); the first candidate found independent is kept (its
+        escalation recorded, its rejection withdrawn) and the others are absorbed against
+        the grown span. Returns the kept nodes."""
+        if self.settle is None or self.rank >= self.n:
+            return []
+        for i, (node, d) in enumerate(zip(nodes, first)):
+            if node is None or d.settled:  # settled beyond float64 already
+                continue
+            esc = self.settle(self.nodes, node, self._evidence(d, rho[i], self.valid), exact_only=True)
+            if esc is None:
+                continue
+            if esc.result == "dependent":
+                self.verified += 1
+                continue
+            if not any(e is esc for e in self.escalations):
+                self.escalations.append(esc)
+            if esc.result == "independent":
+                self.rejections = [r for r in self.rejections if r is not d]
+                self._keep(node, cands[i], rho[i], dirs[i], replace(d, rank=self.rank + 1, settled="exact mod p"))
+                rest = list(range(i + 1, len(nodes)))
+                more = self.absorb([nodes[j] for j in rest], np.asarray(grads)[:, rest]) if rest else []
+                return [node, *more]
+        return []
+
+    def _evidence(self, d, rho, valid) -> str:
+        """The float64 vote of a decision, for the record of its escalation."""
+        said = "independent" if d.rank > len(self.nodes) else "dependent"
+        return (f"{said} ({100 * d.fraction:.1f}% of samples, median rho "
+                f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
 
     def _decide(self, rho, node, valid) -> RankDecision:
         """:func:`decide_increase` of one candidate, settled again when its vote is weak
@@ -478,9 +519,7 @@ class Codistribution:
         rises = d.rank > self.rank
         disagrees = self.expect_rise and not rises
         weak = disagrees or is_weak(rho, valid, self.rtol, d.fraction)
-        said = "independent" if rises else "dependent"
-        evidence = (f"{said} ({100 * d.fraction:.1f}% of samples, median rho "
-                    f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
+        evidence = self._evidence(d, rho, valid)
         if not weak:
             if not rises:
                 return d

@@ -302,7 +302,7 @@ class SeriesOrders(Recursion):
 
 def run_series(ctx: Context, *, seed: int, max_order=None):
     """Absorb ``dy_k`` order by order (:class:`SeriesOrders`), on the decision samples of
-    ``ctx`` (:data:`uio_jax._analysis.context.DECISION_SAMPLES`; the final span is certified
+    ``ctx`` (``ctx.xs``, :func:`uio_jax._analysis.memory.decision_count`; the final span is certified
     on all of them when the report is built).
 
     Returns:

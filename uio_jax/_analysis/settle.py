@@ -24,7 +24,8 @@ A weak decision is settled again (:class:`Settler`) in the System's expression g
   raises the rank proves it raises the generic rank (a point's rank never exceeds the
   generic one); "does not raise" holds unless every point is a root of a nonzero minor,
   with probability at most ``(D / p)^points``, ``D`` the minor's degree bound
-  (Schwartz-Zippel; :attr:`Escalation.bound`, certified below :data:`MAX_BOUND`);
+  (Schwartz-Zippel; :attr:`Escalation.bound`, certified below :data:`MAX_BOUND`: points
+  are added, up to :data:`MAX_POINTS`, while a deep derivative's ``D`` needs them);
 * **extended precision** otherwise (mpmath at :data:`DIGITS` = 30 and 60 decimal digits at
   states of the sampling box): a genuine distance keeps its value between the two
   precisions, round-off shrinks below ``10^-(0.6 digits)``.
@@ -54,7 +55,7 @@ from .._engine.graph import RATIONAL_OPS
 #: :data:`WEAK_BELOW` and plus :data:`WEAK_ABOVE` decades: from 1e-12 (round-off of our
 #: scaled gradients stays under 1e-13; a genuine direction of a deep Lie derivative can be
 #: as small as 1e-11) to 1e-6.
-WEAK_BELOW = 4.0
+WEAK_BELOW = 5.0
 WEAK_ABOVE = 2.0
 
 #: A decision is weak when fewer than this fraction of the valid samples agree.
@@ -65,6 +66,10 @@ WEAK_FRACTION = 0.9
 #: far below :data:`MAX_BOUND` for the degrees our graphs reach; above it the decision is
 #: undecided). mpmath uses this many points too.
 POINTS = 1
+
+#: At most this many points settle a dependence modulo ``p`` (more are drawn, after
+#: :data:`POINTS`, while the degree bound needs them: ``(D / p)^points <= MAX_BOUND``).
+MAX_POINTS = 4
 
 #: Decimal digits of the two mpmath evaluations.
 DIGITS = (30, 60)
@@ -133,7 +138,7 @@ class Settler:
         self.graph = graph
         self.lo, self.hi = np.asarray(lo, float), np.asarray(hi, float)
         self.rng = np.random.default_rng([int(seed), 0x5E771E])
-        self._modular = None  # ModularEvaluator at POINTS points
+        self._modular = {}  # point number -> ModularEvaluator at that point
         self._echelons = {}  # point -> {kept expressions: Echelon}
         self._rational_nodes = set()  # nodes known to be rational operations
         self._degrees = {}  # node -> degree bounds (graph_exact.degrees)
@@ -182,21 +187,22 @@ class Settler:
         return True
 
     # ------------------------------------------------------------------ modulo p
-    def _modular_gradients(self, exprs):
-        """``(P, R, n)`` residues at the Settler's points (drawn again where a denominator
-        vanishes, at most four times); None if every draw is singular."""
+    def _modular_evaluator(self, point: int, exprs):
+        """The :class:`~uio_jax._engine.graph_exact.ModularEvaluator` of random point
+        ``point`` of ``F_p^n`` with ``exprs`` evaluated (the point drawn again where a
+        denominator vanishes, at most four times); None if every draw is singular."""
         for _ in range(4):
-            if self._modular is None:
-                points = [[int(v) for v in self.rng.integers(1, 2**62, size=self.graph.n)]
-                          for _ in range(POINTS)]
-                self._modular = graph_exact.ModularEvaluator(self.graph, points)
+            if self._modular.get(point) is None:
+                draw = [int(v) for v in self.rng.integers(1, 2**62, size=self.graph.n)]
+                self._modular[point] = graph_exact.ModularEvaluator(self.graph, [draw])
             try:
-                return self._modular.gradients(exprs)[1]
+                self._modular[point].evaluate(exprs)
+                return self._modular[point]
             except graph_exact.Singular:
-                self._modular, self._echelons = None, {}
+                self._modular[point], self._echelons[point] = None, {}
         return None
 
-    def _echelon(self, point: int, kept: tuple, grads):
+    def _echelon(self, point: int, kept: tuple, evaluator):
         """The echelon form of the kept rows at ``point`` (cached by the kept expressions;
         a longer list of kept rows extends the form of its longest cached prefix)."""
         cache = self._echelons.setdefault(point, {})
@@ -208,31 +214,44 @@ class Settler:
             k -= 1
         ech = cache[kept[:k]].copy() if k else graph_exact.Echelon()
         for i in range(k, len(kept)):
-            ech.add(grads[i])
+            ech.add(evaluator.row(kept[i], 0))
         cache[kept] = ech
         return ech
 
     def _settle_modular(self, what, float64, exprs):
+        """Independent at a point where the kept rows have full rank: certain. Dependent at
+        every point so far: certified when ``(D / p)^points <= MAX_BOUND``, so points are
+        added (up to :data:`MAX_POINTS`) while the degree bound ``D`` needs them."""
         p = graph_exact.PRIME
         r = len(exprs) - 1
-        grads = self._modular_gradients(exprs)
-        if grads is None:
-            return Escalation(what, float64, "exact mod p: every point singular", "undecided")
-        how = f"exact mod p = 2^127 - 1 at {len(grads)} points"
-        rank_kept = 0
-        for i, point in enumerate(grads):
-            ech = self._echelon(i, tuple(exprs[:r]), point)
-            rank_kept = max(rank_kept, ech.rank)
-            if ech.rank == r and any(ech.reduce(point[r])):
+        kept = tuple(exprs[:r])
+        needed, full, point, degree = POINTS, 0, 0, None
+        while full < needed and point < MAX_POINTS + 4:
+            evaluator = self._modular_evaluator(point, exprs)
+            point += 1
+            if evaluator is None:
+                continue
+            ech = self._echelon(point - 1, kept, evaluator)
+            if ech.rank < r:
+                continue  # the kept rows are dependent at this point: it says nothing
+            full += 1
+            how = f"exact mod p = 2^127 - 1 at {full} point{'s' if full > 1 else ''}"
+            if any(ech.reduce(evaluator.row(exprs[r], 0))):
                 return Escalation(what, float64, how, "independent", 0.0)
-        if rank_kept < r:
-            return Escalation(what, float64, how + f": the span has rank {rank_kept} < {r} there",
+            if full == needed:
+                if degree is None:
+                    degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
+                if degree >= p:
+                    break
+                needed = max(POINTS, math.ceil(math.log(MAX_BOUND) / math.log(degree / p)))
+                if needed > MAX_POINTS:
+                    break
+        if full == 0:
+            return Escalation(what, float64, "exact mod p: every point singular or the span degenerate there",
                               "undecided")
-        degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
-        bound = min(1.0, degree / p) ** len(grads)
-        if bound > MAX_BOUND:
-            return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",
-                              bound)
+        bound = min(1.0, degree / p) ** full if degree is not None else 1.0
+        if full < needed or degree is None:
+            return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided", bound)
         return Escalation(what, float64, how, "dependent", bound)
 
     # ------------------------------------------------------------------ mpmath
@@ -318,5 +337,5 @@ class _Orthonormal:
         return float(self._residual(basis, candidate)[0])
 
 
-__all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "DIGITS", "MAX_BOUND", "Escalation", "Settler",
+__all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND", "Escalation", "Settler",
            "is_weak", "median_decades"]

@@ -69,6 +69,22 @@ class ModularEvaluator:
             Singular: a denominator vanishes at one of the points.
             ValueError: a node is not a rational operation.
         """
+        self.evaluate(roots)
+        values = np.stack([self.V[r] for r in roots], axis=1)
+        grads = np.stack([self.G[r].T for r in roots], axis=1)
+        return values, grads
+
+    def row(self, root, point: int):
+        """The gradient ``(n,)`` of an evaluated node (:meth:`evaluate`) at one point."""
+        return self.G[root][:, point]
+
+    def evaluate(self, roots) -> None:
+        """Evaluate the nodes behind ``roots`` not evaluated yet (kept in :attr:`V`, :attr:`G`).
+
+        Raises:
+            Singular: a denominator vanishes at one of the points.
+            ValueError: a node is not a rational operation.
+        """
         graph, p = self.graph, self.p
         V, G = self.V, self.G
         P, n = self.points.shape
@@ -110,9 +126,6 @@ class ModularEvaluator:
             else:
                 raise ValueError(f"{op} is not a rational operation")
             V[k], G[k] = v, g
-        values = np.stack([V[r] for r in roots], axis=1)
-        grads = np.stack([G[r].T for r in roots], axis=1)
-        return values, grads
 
     def _inv(self, a):
         if any(int(x) % self.p == 0 for x in a):
@@ -151,8 +164,13 @@ def rank_mod_p(mat, p: int = PRIME) -> int:
 
 
 class Echelon:
-    """Rows of ``F_p^n`` in echelon form, grown one row at a time: the rank of a growing
-    list of rows, and whether a row lies in their span, in ``O(r n)`` per row.
+    """Rows of ``F_p^n`` in reduced echelon form, grown one row at a time: the rank of a
+    growing list of rows, and whether a row lies in their span.
+
+    Each kept row has a pivot column where it is 1 and every other kept row is 0, so a row
+    is reduced by one elimination per pivot column where it is nonzero, without fill-in at
+    the other pivots: ``O(n)`` per such column (a unit covector ``e_j``: at most one), and
+    keeping a row costs ``O(r n)``.
 
     Args:
         p: the prime.
@@ -185,8 +203,14 @@ class Echelon:
         c = next((i for i, x in enumerate(v) if x), None)
         if c is None:
             return False
-        inv = pow(v[c], -1, self.p)
-        self.rows.append([x * inv % self.p for x in v])
+        p = self.p
+        inv = pow(v[c], -1, p)
+        v = [x * inv % p for x in v]
+        for i, r in enumerate(self.rows):  # the new pivot column cleared in the other rows
+            f = r[c]
+            if f:
+                self.rows[i] = [(a - f * b) % p for a, b in zip(r, v)]
+        self.rows.append(v)
         self.pivots.append(c)
         return True
 
