@@ -1,10 +1,10 @@
 """Every zoo report equals the stored snapshot (``tests/data/zoo_reports.json``).
 
 The snapshot was written by ``scripts/snapshot_reports.py`` (256 samples, seed 0); it was
-last refreshed when the analyses moved to the expression graph (numpy samples, numpy
-evaluation, exact settlement of weak decisions: every float of the certificates moved, the
-visual-inertial EORCs close a few orders later with the same verdicts, the multi-UI zero-test
-counts were one short). A change that should move no number (a refactor) must leave every
+last refreshed when the recursions moved to 128 decision samples and a step keeping nothing
+got its rejections settled exactly (every certificate's counts and margins moved; four
+visual-inertial EORCs no longer stop on a false "Omega-bar closed" but run to k_max, with
+the same verdicts on the states and more input derivatives observable). A change that should move no number (a refactor) must leave every
 report equal. Integers, booleans, strings and labels compare exactly;
 floats (singular-value margins of the certificate) to a relative 1e-9, so that a new
 XLA build's last-bit differences do not fail the test while any real change does.
