@@ -11,6 +11,7 @@ from helpers import zoo_path, zoo_report
 
 import uio_jax as uj
 from uio_jax import cli
+from uio_jax._analysis import memory
 from uio_jax._analysis import series as _series
 from uio_jax._analysis.context import Context
 from uio_jax._analysis.driver import StopReason
@@ -140,6 +141,7 @@ def test_streamed_programs_pad_the_last_batch(monkeypatch):
     """203 samples, not a multiple of the batch: the padded last batch is dropped again and
     the rows equal a direct jacfwd. (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
     monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
+    monkeypatch.setattr(memory, "DECISION_SAMPLES", 10**6)  # every sample decides
     assert 203 % _generators.STREAM_BATCH
     ctx = Context(_late_chain(), 203, 0, 1e-8)
     series = _series._Series(ctx, 0, 4)  # cap n, as analyze: the programs of the test above
