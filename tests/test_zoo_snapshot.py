@@ -4,10 +4,11 @@ The snapshot was written by ``scripts/snapshot_reports.py`` (256 samples, seed 0
 last refreshed when the recursions moved to 128 decision samples and a step keeping nothing
 got its rejections settled exactly (every certificate's counts and margins moved; four
 visual-inertial EORCs no longer stop on a false "Omega-bar closed" but run to k_max, with
-the same verdicts on the states and more input derivatives observable). A change that should move no number (a refactor) must leave every
-report equal. Integers, booleans, strings and labels compare exactly;
-floats (singular-value margins of the certificate) to a relative 1e-9, so that a new
-XLA build's last-bit differences do not fail the test while any real change does.
+the same verdicts on the states and more input derivatives observable). A change that
+should move no number (a refactor) must leave every report equal. Integers, booleans,
+strings and labels compare exactly; floats (singular-value margins of the certificate) to a
+relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any
+real change does.
 
 To refresh after a change that is meant to move numbers: rerun the script, read the diff
 (``--compare`` prints it), and commit the new file with the reason.

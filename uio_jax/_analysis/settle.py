@@ -340,5 +340,5 @@ class _Orthonormal:
         return float(self._residual(basis, candidate)[0])
 
 
-__all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND", "Escalation", "Settler",
-           "is_weak", "median_decades"]
+__all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND",
+           "Escalation", "Settler", "is_weak", "median_decades"]
