@@ -1,212 +1,43 @@
-"""Generic rank of a codistribution, certified by sampling.
+"""Generic rank of a codistribution, certified by sampling: the growing span.
 
 A codistribution here is the span of the gradients of a few scalar functions. Its rank is
 the same at almost every state (the *generic* rank) and lower on a thin singular set. We
-evaluate the gradients at S random states of the domain and decide on the host.
+evaluate the gradients at S random states of the domain and decide on the host, with the
+per-sample kernels and the votes of :mod:`uio_jax._analysis.sampled_rank` (scaling,
+distances, the majority across samples, the evidence of each decision).
 
-* **Scaling.** Columns are scaled by the width of the sampling box (a diagonal change of
-  coordinates: ranks and memberships are unchanged, states of different units become
-  comparable) and rows to unit norm; a row below ``ZERO_ROW_RTOL`` of the largest row of
-  its sample is an exact zero (the round-off gradient of a function that vanishes
-  identically must not be blown up into a direction).
 * **Growing a span** (:class:`Codistribution`, the hot path): per sample, an orthonormal
   basis of the kept rows (Gram-Schmidt, twice); a candidate raises the rank at a sample
-  when its distance ``rho`` to the span exceeds ``rtol`` (for unit rows this is the last
-  singular value of ``[basis; candidate]`` up to a factor in [1/sqrt(2), 1]). Membership of
-  a covector is the same test. O(S r n) per candidate, kept rows never re-factorized.
-* **A whole matrix** (:func:`decide_rank`, used on the final set): per-sample SVD of the
-  scaled rows, numerical rank = number of ``s_i / s_1`` above ``rtol``.
-* **Across samples**: the generic answer is the majority (the mode of the per-sample
-  ranks). Rank is lower semicontinuous, so a sample can only *drop* rank (near the singular
-  set), while round-off in high-order derivatives can *fake* a little rank at a badly
-  conditioned sample; both are minorities and the majority resists both. Every decision
-  carries its evidence (:class:`RankDecision`): the agreeing fraction and the margins on
-  both sides of ``rtol``.
+  when its distance ``rho`` to the span exceeds ``rtol``. Membership of a covector is the
+  same test. O(S r n) per candidate, kept rows never re-factorized.
 * **Beyond float64**: a weak vote (near ``rtol``, or split) is settled again in exact or
-  extended arithmetic, and a generator kept on a clear vote of a rational model is verified
-  exactly (:attr:`Codistribution.settle`, :mod:`uio_jax._analysis.settle`).
-
-Everything here is numpy: the kernels are a few batched products per call, and compiling
-them would cost more than they run on a first call.
+  extended arithmetic, a generator kept on a clear vote of a rational model is verified
+  exactly, and so is every rejection of a step that keeps nothing
+  (:attr:`Codistribution.settle`, :mod:`uio_jax._analysis.settle`).
 """
 
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .sampled_rank import (
+    QR_FROM,
+    ZERO_ROW_RTOL,
+    RankDecision,
+    decide_increase,
+    decide_rank,
+    default_rtol,
+    ratios,
+    residuals,
+    sequential_qr,
+)
 from .settle import is_weak, median_decades
-
-
-def default_rtol() -> float:
-    """Default relative tolerance on ``s_i / s_1`` (after row and column scaling).
-
-    Why 1e-8: forward-mode derivatives are exact up to floating-point round-off, which
-    for the nested Lie derivatives of our models (order <= 10, row- and column-scaled)
-    stays below ~1e-12 relative to the row norm; directions that are genuinely
-    independent at random states of a reasonable box have ``s_r / s_1`` well above 1e-6
-    except on a thin neighbourhood of the singular set. 1e-8 sits in the middle of that
-    gap, at least three decades from both sides; every report prints the measured gap
-    so a user can see the margin.
-    """
-    return 1e-8
-
-
-#: A row whose norm is below this fraction of the largest row norm of its matrix (same
-#: sample) is treated as exactly zero before rows are scaled to unit norm. Without it, the
-#: gradient of a function that vanishes identically (e.g. ``L_{V_y} h_u`` of the vehicle,
-#: computed as ~5e-16 of round-off) would be blown up to a unit row and fake a rank. Genuine
-#: gradients of our models differ in norm by far fewer than ten decades within one sample.
-ZERO_ROW_RTOL = 1e-10
-
-
-def _ratios(mats):
-    """Singular-value ratios ``s_i / s_1`` of row-normalized matrices.
-
-    Rows below ``ZERO_ROW_RTOL`` times the largest row norm are zeroed; the others are
-    scaled to unit norm.
-
-    Args:
-        mats: ``(..., k, n)``.
-
-    Returns:
-        ``(..., min(k, n))``, sorted descending; all zero for a zero matrix.
-    """
-    mats = np.asarray(mats, dtype=np.float64)
-    norms = np.linalg.norm(mats, axis=-1, keepdims=True)
-    ref = np.max(norms, axis=-2, keepdims=True)
-    keep = norms > ZERO_ROW_RTOL * ref
-    unit = np.where(keep, mats / np.where(keep, norms, 1.0), 0.0)
-    s = np.linalg.svd(unit, compute_uv=False)
-    top = s[..., :1]
-    return s / np.where(top > 0, top, 1.0)
-
-
-@dataclass(frozen=True)
-class RankDecision:
-    """The generic rank of one sampled matrix family, with its evidence.
-
-    Attributes:
-        rank: generic rank r (mode of the per-sample numerical ranks).
-        fraction: fraction of the valid samples whose numerical rank is r.
-        sigma_r_min: smallest ``s_r / s_1`` among the samples at rank r (1.0 when r = 0).
-        sigma_next_max: largest ``s_{r+1} / s_1`` among the samples at rank r (0.0 when
-            the matrix has only r singular values).
-        samples: number of valid samples the decision used.
-        settled: how a weak vote was settled again (:mod:`uio_jax._analysis.settle`):
-            ``""`` (a clear float64 vote, not escalated), ``"exact mod p"``, ``"mpmath"``
-            or ``"undecided"`` (the float64 majority kept, not certified).
-    """
-
-    rank: int
-    fraction: float
-    sigma_r_min: float
-    sigma_next_max: float
-    samples: int
-    settled: str = ""
-
-
-def decide_rank(ratios, valid, rtol) -> RankDecision:
-    """Decide the generic rank from per-sample singular-value ratios (host, numpy).
-
-    Args:
-        ratios: ``(S, m)`` ratios ``s_i / s_1``, descending per row.
-        valid: ``(S,)`` boolean, samples to use.
-        rtol: relative tolerance; ratios above it count.
-
-    Returns:
-        :class:`RankDecision`.
-    """
-    ratios = np.asarray(ratios)[np.asarray(valid)]
-    S, m = ratios.shape
-    if S == 0:
-        raise ValueError("no valid sample to decide a rank")
-    ranks = (ratios > rtol).sum(axis=1)
-    counts = np.bincount(ranks, minlength=m + 1)
-    rank = int(np.flatnonzero(counts == counts.max())[-1])  # ties: the larger rank
-    at = ranks == rank
-    sig_r = float(ratios[at, rank - 1].min()) if rank > 0 else 1.0
-    sig_next = float(ratios[at, rank].max()) if rank < m else 0.0
-    return RankDecision(rank, float(at.mean()), sig_r, sig_next, int(S))
-
 
 _BLOCK_BYTES = 64 * 2**20
 
 #: Distance above which a direction settled independent beyond float64 enters the
 #: per-sample basis (round-off of unit-scaled rows stays below 1e-13).
 SETTLED_FLOOR = 1e-13
-
-
-def _residuals(basis, ref, cands):
-    """Distance of unit-normalized candidates to the span of an orthonormal basis.
-
-    Args:
-        basis: ``(r, S, n)`` per-sample orthonormal rows (zero rows are ignored).
-        ref: ``(S,)`` largest norm of the kept rows at each sample (zero-row guard).
-        cands: ``(C, S, n)`` candidate covectors (column-scaled).
-
-    Returns:
-        ``rho (C, S)`` in [0, 1] and the unit residual directions ``(C, S, n)``.
-        Candidates below ``ZERO_ROW_RTOL`` times the reference norm count as zero.
-    """
-    norms = np.linalg.norm(cands, axis=-1)
-    zero = norms <= ZERO_ROW_RTOL * np.maximum(ref, norms)
-    unit = np.where(zero[..., None], 0.0, cands / np.where(zero, 1.0, norms)[..., None])
-
-    def project_out(v):
-        coef = np.einsum("rsi,csi->csr", basis, v, optimize=True)
-        return v - np.einsum("csr,rsi->csi", coef, basis, optimize=True)
-
-    res = project_out(project_out(unit))  # Gram-Schmidt, twice is enough
-    rho = np.linalg.norm(res, axis=-1)
-    direction = res / np.where(rho > 0, rho, 1.0)[..., None]
-    return rho, direction
-
-
-#: From this many rising candidates on, their sequential Gram-Schmidt is a batched QR.
-QR_FROM = 8
-
-
-def _sequential_qr(res):
-    """``(Q (k, S, n), d (S, k))``: per sample, the QR of the residual columns ``res``
-    ``(C, S, n)`` (``k = min(n, C)``): ``Q[j]`` is the direction of candidate ``j`` after the
-    ones before it, ``d[:, j] = R_jj`` its signed distance. ``Q`` is returned candidate-major
-    (one transposing copy, cache-friendly per sample): taking ``Q[..., j]`` out of LAPACK's
-    ``(S, n, k)`` one candidate at a time reads every cache line ``k`` times."""
-    q, r = np.linalg.qr(np.transpose(res, (1, 2, 0)))
-    return np.ascontiguousarray(np.moveaxis(q, 2, 0)), np.diagonal(r, axis1=1, axis2=2)
-
-
-def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
-    """Does a candidate raise the generic rank? (host, numpy)
-
-    The candidate raises the rank at a sample when its distance ``rho`` to the span (after
-    scaling it to unit norm) exceeds ``rtol``; the generic answer is the majority of the
-    valid samples.
-
-    Args:
-        rho: ``(S,)`` distances in [0, 1].
-        valid: ``(S,)`` boolean mask of usable samples.
-        rtol: tolerance.
-        base_rank: generic rank of the span before the candidate.
-
-    Returns:
-        :class:`RankDecision` with the resulting rank; ``sigma_r_min`` is the smallest
-        distance among the agreeing samples when the rank rises, ``sigma_next_max`` the
-        largest distance among the agreeing samples when it does not.
-    """
-    rho = np.asarray(rho)[np.asarray(valid)]
-    if rho.size == 0:
-        raise ValueError("no valid sample to decide a rank")
-    up = rho > rtol
-    rises = up.mean() > 0.5
-    agree = up if rises else ~up
-    return RankDecision(
-        rank=base_rank + int(rises),
-        fraction=float(agree.mean()),
-        sigma_r_min=float(rho[agree].min()) if rises else 1.0,
-        sigma_next_max=0.0 if rises else float(rho[agree].max()),
-        samples=int(rho.size),
-    )
 
 
 @dataclass(frozen=True)
@@ -334,7 +165,7 @@ class Codistribution:
         basis = self.basis[: self.rank]
         rhos, dirs = [], []
         for start in range(0, C, chunk):
-            rho, d = _residuals(basis, self.ref, cands[start:start + chunk])
+            rho, d = residuals(basis, self.ref, cands[start:start + chunk])
             rhos.append(rho)
             dirs.append(d)
         return np.concatenate(rhos), np.concatenate(dirs)
@@ -443,7 +274,7 @@ class Codistribution:
         # many rising candidates (the final span re-decided on all samples): their
         # sequential Gram-Schmidt is one batched QR per sample (LAPACK), valid as long as
         # every candidate rises; the first that does not ends it (the loop goes on)
-        qr = _sequential_qr(res) if len(rising) >= QR_FROM else None
+        qr = sequential_qr(res) if len(rising) >= QR_FROM else None
         for j, i in enumerate(rising):
             if self.rank >= self.n:
                 break
@@ -470,7 +301,7 @@ class Codistribution:
                     qr = None
                     rest = [rising[t] for t in range(j + 1, len(rising))]
                     if rest:
-                        r_rest, d_rest = _residuals(self.basis[: self.rank], self.ref, cands[rest])
+                        r_rest, d_rest = residuals(self.basis[: self.rank], self.ref, cands[rest])
                         res[j + 1:] = r_rest[..., None] * d_rest
         if confirm_empty and not added and grads is not None:
             return self._confirm_empty(nodes, grads, first, cands, rho, dirs)
@@ -569,7 +400,7 @@ class Codistribution:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept set at the valid samples."""
         if self.rank == 0:
             return np.zeros((int(self.valid.sum()), 0))
-        return _ratios(self.grads)[self.valid]
+        return ratios(self.grads)[self.valid]
 
     def decision(self) -> RankDecision:
         """SVD rank decision of the kept set alone: its fraction and smallest ``s_r/s_1``."""
@@ -577,6 +408,10 @@ class Codistribution:
             return RankDecision(0, 1.0, 1.0, 0.0, int(self.valid.sum()))
         key = (self.rank, int(self.valid.sum()))  # rows only grow, valid samples only shrink
         if self._decided[0] != key:
-            ratios = _ratios(self.grads)
-            self._decided = (key, decide_rank(ratios, self.valid, self.rtol))
+            self._decided = (key, decide_rank(ratios(self.grads), self.valid, self.rtol))
         return self._decided[1]
+
+
+#: The kernels' public names are re-exported: the analyses import them from here.
+__all__ = ["Codistribution", "Tested", "SETTLED_FLOOR", "default_rtol", "ZERO_ROW_RTOL", "RankDecision",
+           "decide_rank", "decide_increase"]
