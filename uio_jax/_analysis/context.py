@@ -9,11 +9,8 @@ samples (:meth:`Context.certify`).
 """
 
 import dataclasses
-from collections.abc import Mapping
-from typing import Protocol
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._calculus.generators import Node, builder_for
@@ -24,6 +21,7 @@ from .memory import CERTIFY_BYTES, certify_samples, decision_count
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
 from .settle import Escalation, Settler
+from .space import SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
@@ -409,184 +407,3 @@ class Context:
             semantics=SEMANTICS_SMOOTH if known_inputs == "smooth" else SEMANTICS,
             _space=SampledSpace(self) if space is None else space,
         )
-
-
-@dataclasses.dataclass(frozen=True)
-class ReportView:
-    """What a Report reads of a System (names only): the first ``n`` states of a System
-    whose other coordinates are known or extension coordinates (:func:`report_view`)."""
-
-    states: tuple
-    name: str
-    notes: tuple
-    joint_param_names: tuple
-    known: tuple
-
-
-def report_view(system, n) -> ReportView:
-    """The :class:`ReportView` of the first ``n`` coordinates of ``system``."""
-    return ReportView(tuple(system.states[:n]), system.name, tuple(system.notes),
-                      tuple(system.joint_param_names), tuple(system.known))
-
-
-def system_known(system) -> bool:
-    """Whether the (original) System behind a report has known inputs."""
-    return bool(getattr(system, "known", ()))
-
-
-class Space(Protocol):
-    """What a Report asks of the final codistribution (``Report._space``), about the
-    original state ``x (n,)``: :class:`SampledSpace` is the one implementation."""
-
-    def unobservable_directions(self, x) -> np.ndarray:
-        """``(n, n - dim)`` orthonormal columns: the annihilator of the span on ``dx``."""
-
-    def is_observable(self, fn) -> bool:
-        """Whether ``d fn`` (``fn: x (n,) -> ()``) lies in the span at the samples."""
-
-    def sample_singular_values(self) -> np.ndarray:
-        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators."""
-
-    @property
-    def domain(self) -> Mapping:
-        """The sampling box ``name -> (lo, hi)`` of the analysed coordinates."""
-
-    def rank_ratio_at(self, z) -> float | None:
-        """``s_r / s_1`` of the kept generators at the original state ``z (n,)``."""
-
-
-class SampledSpace(Space):
-    """The final codistribution of a Context, queried by a Report about the original state.
-
-    The one implementation of a Report's queries (``unobservable_directions``,
-    ``is_observable``, ``sample_singular_values``). The codistribution lives on the
-    ``N`` coordinates of ``ctx.system``; the Report's state is its first ``n`` (``n = N``
-    for the ORC and the single-input analysis; for the EORC the extended state
-    ``[x; xi]``, whose extra coordinates are set to ``fill`` where a state is given).
-    ``fill`` is one generic point of the extra coordinates' boxes, drawn once (seeded): a
-    point such as the centre of every box can be singular (every input derivative equal).
-
-    Args:
-        ctx: the finished analysis.
-        n: coordinates of the original state (default: all of ``ctx.system``'s).
-        dim: dimension of the span intersected with ``span{dx_1..dx_n}`` (default: the
-            rank, the whole span when ``n = N``).
-    """
-
-    def __init__(self, ctx: Context, n=None, dim=None):
-        self._ctx = ctx
-        self._nodes = tuple(ctx.codist.nodes)
-        self._N = ctx.system.n
-        self._n = self._N if n is None else int(n)
-        self._dim = len(self._nodes) if dim is None else int(dim)
-        lo, hi = ctx.system.box()
-        rng = np.random.default_rng(0x5FACE)
-        self._fill = lo[self._n:] + rng.random(self._N - self._n) * (hi[self._n:] - lo[self._n:])
-
-    def unobservable_directions(self, x) -> np.ndarray:
-        """Annihilator in R^n of the span intersected with ``span{dx_1..dx_n}`` at ``x``.
-
-        With ``G (r, N)`` the row-normalized gradients of the kept generators at
-        ``[x; fill]``: for ``n = N`` the null space of ``G`` (its right singular vectors past
-        ``r``). Otherwise, with ``Q`` an orthonormal basis of the row space of ``G`` and
-        ``P = I - Q^T Q``, a covector ``[a; 0]`` lies in the span iff ``P[:, :n] a = 0``; the
-        right singular vectors of ``P[:, :n]`` for its ``n - dim`` largest singular values
-        span the annihilator of the intersection.
-
-        Args:
-            x: original state, ``(n,)``.
-
-        Returns:
-            ``(n, n - dim)``, orthonormal columns.
-        """
-        n, N = self._n, self._N
-        x = np.asarray(x, dtype=np.float64)
-        if x.shape != (n,):
-            raise ModelError(f"state must have shape ({n},), got {x.shape}")
-        if not np.isfinite(x).all():
-            raise ModelError("state contains NaN/inf")
-        r = len(self._nodes)
-        if N > n and self._dim == n:
-            return np.zeros((n, 0))
-        if r == 0:
-            return np.eye(n)
-        X = np.concatenate([x, self._fill])
-        with jax.enable_x64(True):
-            g = self._ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
-        if not np.isfinite(g).all():
-            raise ModelError("the codistribution is not defined at this state (NaN/inf)")
-        g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
-        _, sv, vt = np.linalg.svd(g)
-        if sv[min(r, N) - 1] < self._ctx.codist.rtol * sv[0]:
-            raise ModelError(
-                f"the {r} kept generators are not independent in float64 at this state "
-                f"(s_r/s_1 = {sv[min(r, N) - 1] / sv[0]:.1e} < rtol): a singular state, or a span "
-                "whose smallest directions are under float64's reach here; the directions would "
-                "not be reliable: ask at another state")
-        if N == n:
-            return vt[r:].T.copy()
-        q = vt[:r]
-        P = np.eye(N) - q.T @ q
-        _, _, wt = np.linalg.svd(P[:, :n])
-        return wt[: n - self._dim].T.copy()
-
-    def sample_singular_values(self) -> np.ndarray:
-        """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators at the valid samples."""
-        return self._ctx.codist.sample_ratios()
-
-    @property
-    def domain(self) -> Mapping:
-        """The sampling box ``name -> (lo, hi)`` of the analysed System."""
-        return self._ctx.system.domain
-
-    def rank_ratio_at(self, z) -> float | None:
-        """``s_r / s_1`` of the kept generators' gradients at the original state ``z (n,)``.
-
-        As in the analysis, the columns are scaled by the box widths and the rows normalized;
-        the extra coordinates of a larger analysed state (the EORC's ``[x; xi]``) take the
-        value ``fill``. NaN/inf gradients give 0.0 (the point is singular); None when no
-        generator was kept.
-        """
-        if not self._nodes:
-            return None
-        system = self._ctx.system
-        full = np.concatenate([np.asarray(z, dtype=np.float64), self._fill])
-        domain = system.domain
-        width = np.array([float(domain[v][1]) - float(domain[v][0]) if v in domain else 1.0
-                          for v in system.states])
-        with jax.enable_x64(True):
-            g = np.asarray(self._ctx.builder.gradients(self._nodes, jnp.asarray(full)[None])[0])
-        if not np.isfinite(g).all():
-            return 0.0
-        g = g * width
-        g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
-        s = np.linalg.svd(g, compute_uv=False)
-        return float(s[-1] / s[0]) if s[0] > 0 else 0.0
-
-    def is_observable(self, fn) -> bool:
-        """Whether ``d fn`` (padded with zeros to ``N``) lies in the span at the samples.
-
-        Args:
-            fn: callable ``x (n,) -> ()`` of the original state.
-        """
-        if not callable(fn):
-            raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
-        n = self._n
-        with jax.enable_x64(True):
-            try:
-                out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
-            except Exception as exc:
-                raise ModelError(f"function fails on a state of length {n}: "
-                                 f"{type(exc).__name__}") from None
-        if getattr(out, "shape", None) != ():
-            raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
-        of_state = fn if n == self._N else (lambda X: fn(X[:n]))
-        # in the expression graph when fn translates (numpy, a weak vote settled exactly)
-        node = self._ctx.builder.function(getattr(fn, "__name__", "fn"), of_state)
-        grads = self._ctx.gradients([node])  # (S, 1, N), zero past n
-        member, decision = self._ctx.codist.contains(np.moveaxis(grads, 1, 0), nodes=[node])[0]
-        if decision.settled == "undecided":
-            esc = self._ctx.codist.escalations[-1]
-            raise ModelError(f"is_observable: undecided (float64: {esc.float64}; {esc.how}): "
-                             "the answer would not be certified")
-        return bool(member)

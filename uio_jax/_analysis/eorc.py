@@ -75,10 +75,11 @@ from .._errors import ModelError
 from .._model.naming import derivative_names
 from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
-from .context import Context, SampledSpace, report_view
+from .context import Context
 from .driver import Recursion, StopReason, iterate
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report, Step
+from .space import SampledSpace, report_view
 
 #: Name of the extended drift field in generator labels.
 DRIFT_LABEL = "F0"

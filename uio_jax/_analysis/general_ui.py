@@ -56,7 +56,7 @@ from .._errors import OptionError
 from .._model.smooth_inputs import jet_names, known_coordinates, with_input_jets
 from .._model.system import System
 from .._progress import announce_step
-from .context import Context, SampledSpace, report_view
+from .context import Context
 from .driver import StopReason
 from .eorc import extended_system
 from .general_ui_steps import (
@@ -72,6 +72,7 @@ from .general_ui_steps import (
     start_working,
 )
 from .report import Report, Step
+from .space import SampledSpace, report_view
 
 #: At most this many iterations of the main loop (TUIO6's bound).
 ITERATION_CAP = 30
