@@ -110,9 +110,9 @@ class Context:
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
-        decided, decision_count = self._grads, len(self.xs)
+        decided, decided_on = self._grads, len(self.xs)  # gradients at the decision samples
         self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
-        self._grads.update(self._extended(kept, decided, decision_count))
+        self._grads.update(self._extended(kept, decided, decided_on))
         if kept:
             full.expect_rise = True  # a generator the decision samples kept: settled again if not
             added = self.absorb_into(full, kept)
