@@ -224,38 +224,36 @@ class Settler:
     def _settle_modular(self, what, float64, exprs):
         """Independent at a point where the kept rows have full rank: certain. Dependent at
         every point so far: certified when ``(D / p)^points <= MAX_BOUND``, so points are
-        added (up to :data:`MAX_POINTS`) while the degree bound ``D`` needs them."""
+        added (up to :data:`MAX_POINTS`) while the degree bound ``D`` needs them. Kept rows
+        of lower rank at a point (they are independent generically, so this is a root of
+        one of their minors, or they are not): undecided."""
         p = graph_exact.PRIME
         r = len(exprs) - 1
         kept = tuple(exprs[:r])
-        needed, full, point, degree = POINTS, 0, 0, None
-        while full < needed and point < MAX_POINTS + 4:
+        needed, degree, point = POINTS, None, 0
+        while True:
             evaluator = self._modular_evaluator(point, exprs)
-            point += 1
             if evaluator is None:
-                continue
-            ech = self._echelon(point - 1, kept, evaluator)
+                return Escalation(what, float64, "exact mod p: every point drawn was singular", "undecided")
+            ech = self._echelon(point, kept, evaluator)
+            point += 1
+            how = f"exact mod p = 2^127 - 1 at {point} point{'s' if point > 1 else ''}"
             if ech.rank < r:
-                continue  # the kept rows are dependent at this point: it says nothing
-            full += 1
-            how = f"exact mod p = 2^127 - 1 at {full} point{'s' if full > 1 else ''}"
+                return Escalation(what, float64, how + f": the span has rank {ech.rank} < {r} there",
+                                  "undecided")
             if any(ech.reduce(evaluator.row(exprs[r], 0))):
                 return Escalation(what, float64, how, "independent", 0.0)
-            if full == needed:
-                if degree is None:
-                    degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
-                if degree >= p:
-                    break
-                needed = max(POINTS, math.ceil(math.log(MAX_BOUND) / math.log(degree / p)))
-                if needed > MAX_POINTS:
-                    break
-        if full == 0:
-            return Escalation(what, float64, "exact mod p: every point singular or the span degenerate there",
-                              "undecided")
-        bound = min(1.0, degree / p) ** full if degree is not None else 1.0
-        if full < needed or degree is None:
-            return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided", bound)
-        return Escalation(what, float64, how, "dependent", bound)
+            if point < needed:
+                continue
+            if degree is None:
+                degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
+            bound = min(1.0, degree / p) ** point
+            if bound <= MAX_BOUND:
+                return Escalation(what, float64, how, "dependent", bound)
+            needed = math.ceil(math.log(MAX_BOUND) / math.log(degree / p)) if degree < p else math.inf
+            if needed > MAX_POINTS:
+                return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",
+                                  bound)
 
     # ------------------------------------------------------------------ mpmath
     def _settle_extended(self, what, float64, exprs):
