@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import zoo_system
 
 import uio_jax as uj
 from uio_jax._analysis.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
@@ -200,6 +201,17 @@ def test_a_step_that_keeps_nothing_is_settled_exactly(monkeypatch):
     assert len(found) == 1 and found[0].result == "independent" and found[0].float64.startswith("dependent")
     monkeypatch.setattr(_rank.Codistribution, "_confirm_empty", lambda self, *args: [])
     assert uj.analyze(model(1e-14), samples=256).dims == (1, 1)
+
+
+def test_the_stop_of_a_rational_orc_is_confirmed_exactly():
+    """The vehicle without wind (quaternions: rational) stops on ``Omega_2 = Omega_1``; the
+    rejections of step 2 are confirmed dependent modulo p and counted apart from the rank
+    increases."""
+    rep = uj.analyze(zoo_system("vehicle_wind", "no_wind"), samples=256)
+    cert = rep.certificate
+    assert rep.stop_reason.startswith("Omega_2 = Omega_1") and cert.closure_verified > 0
+    assert f"{cert.closure_verified} rejections at the stopping step" in str(cert)
+    assert cert.to_dict()["closure_verified"] == cert.closure_verified
 
 
 def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkeypatch):

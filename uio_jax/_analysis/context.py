@@ -110,6 +110,7 @@ class Context:
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
+        full.closure_verified = phase.closure_verified
         decided, decided_on = self._grads, len(self.xs)  # gradients at the decision samples
         self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
         self._grads.update(self._extended(kept, decided, decided_on))
@@ -336,6 +337,7 @@ class Context:
             decisions=len(everything),
             escalations=tuple(cd.escalations),
             verified=cd.verified,
+            closure_verified=cd.closure_verified,
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,

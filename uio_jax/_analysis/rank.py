@@ -99,6 +99,7 @@ class Codistribution:
         #: more samples): a vote that it does not is settled again, weak or not
         self.expect_rise = False
         self.verified = 0  # clear float64 rises confirmed exactly (kept generators, non-members)
+        self.closure_verified = 0  # rejections of a step that kept nothing, confirmed exactly
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
         #: unit covectors ``e_i`` decided members of the span (``i -> RankDecision``): the
         #: span only grows, so they are not tested again
@@ -144,6 +145,7 @@ class Codistribution:
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
         c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
+        c.closure_verified = 0
         c._decided = self._decided
         c.unit_members = dict(self.unit_members)
         return c
@@ -310,7 +312,7 @@ class Codistribution:
     def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
         """No candidate was kept: each float64 rejection is settled exactly (modulo ``p``,
         where the graph is rational; elsewhere the vote stands). A confirmed dependence is
-        counted (:attr:`verified`); the first candidate found independent is kept (its
+        counted (:attr:`closure_verified`); the first candidate found independent is kept (its
         escalation recorded, its rejection withdrawn) and the others are absorbed against
         the grown span. Returns the kept nodes."""
         if self.settle is None or self.rank >= self.n:
@@ -322,7 +324,7 @@ class Codistribution:
             if esc is None:
                 continue
             if esc.result == "dependent":
-                self.verified += 1
+                self.closure_verified += 1
                 continue
             if not any(e is esc for e in self.escalations):
                 self.escalations.append(esc)

@@ -95,6 +95,9 @@ class Certificate:
         verified: clear float64 rank increases confirmed by exact modular arithmetic: every
             generator kept and every covector found outside the span (a "not observable"
             verdict) of a rational model is checked so.
+        closure_verified: float64 rejections of a step that kept nothing (the step a
+            recursion stops at: "converged", "Omega-bar closed") confirmed dependent by
+            exact modular arithmetic (a rational model): the stop is then exact.
     """
 
     samples: int
@@ -110,6 +113,7 @@ class Certificate:
     escalations: tuple = ()
     verified: int = 0
     capped: int = 0
+    closure_verified: int = 0
 
     @property
     def escalated(self) -> int:
@@ -156,14 +160,20 @@ class Certificate:
 
     def _escalation_text(self) -> str:
         if not self.escalations:
-            return f"; {self.verified} rank increases verified exactly" if self.verified else ""
+            return self._verified_text()
         settled = self.escalated - self.undecided
         text = f"; {self.escalated} weak decision{'s' if self.escalated > 1 else ''} escalated"
         if settled:
             text += f" ({settled} settled beyond float64)"
         if self.undecided:
             text += f"; UNDECIDED: {self.undecided} decision{'s' if self.undecided > 1 else ''}"
-        return text
+        return text + self._verified_text()
+
+    def _verified_text(self) -> str:
+        parts = [f"{self.verified} rank increases"] if self.verified else []
+        if self.closure_verified:
+            parts.append(f"{self.closure_verified} rejections at the stopping step")
+        return f"; {' and '.join(parts)} verified exactly" if parts else ""
 
 
 @dataclass(frozen=True, eq=False)
