@@ -4,7 +4,7 @@ function of integer sequences."""
 import pytest
 
 from uio_jax._analysis.driver import Recursion, Stop, StopReason, iterate
-from uio_jax._analysis.report import Step
+from uio_jax._analysis.evidence import Step
 from uio_jax._analysis.single_ui import stopping_rule
 from uio_jax._progress import step_listener
 

@@ -23,8 +23,8 @@ from ._model.experiment import TimeScaleWarning as TimeScaleWarning
 # the analyses and their report
 from ._analysis.analyze import analyze as analyze
 from ._analysis.report import Report as Report
-from ._analysis.report import Step as Step
-from ._analysis.report import Certificate as Certificate
+from ._analysis.evidence import Step as Step
+from ._analysis.evidence import Certificate as Certificate
 from ._analysis.plots import plot_analysis as plot_analysis
 
 # Monte Carlo filtering

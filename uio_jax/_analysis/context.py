@@ -17,9 +17,10 @@ from .._calculus.generators import Node, builder_for
 from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
+from .evidence import Certificate, Step
 from .memory import CERTIFY_BYTES, certify_samples, decision_count
 from .rank import Codistribution
-from .report import SEMANTICS, SEMANTICS_SMOOTH, Certificate, Report, Step
+from .report import SEMANTICS, SEMANTICS_SMOOTH, Report
 from .settle import Escalation, Settler
 from .space import SampledSpace, report_view, system_known
 

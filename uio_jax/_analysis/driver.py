@@ -47,7 +47,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .._progress import announce_step
-from .report import Step
+from .evidence import Step
 
 
 class StopReason(enum.Enum):

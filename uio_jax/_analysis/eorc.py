@@ -77,8 +77,9 @@ from .._model.smooth_inputs import known_coordinates, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context
 from .driver import Recursion, StopReason, iterate
+from .evidence import Step
 from .memory import analysis_bytes, check_memory, memory_limit
-from .report import Report, Step
+from .report import Report
 from .space import SampledSpace, report_view
 
 #: Name of the extended drift field in generator labels.

@@ -59,6 +59,7 @@ from .._progress import announce_step
 from .context import Context
 from .driver import StopReason
 from .eorc import extended_system
+from .evidence import Step
 from .general_ui_steps import (
     Working,
     ZeroTest,
@@ -71,7 +72,7 @@ from .general_ui_steps import (
     reconstructability,
     start_working,
 )
-from .report import Report, Step
+from .report import Report
 from .space import SampledSpace, report_view
 
 #: At most this many iterations of the main loop (TUIO6's bound).

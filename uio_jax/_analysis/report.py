@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
+from .evidence import Certificate, Step, jsonable
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
 SEMANTICS = (
@@ -31,149 +32,6 @@ SEMANTICS_SMOOTH = (
     "STRIKE-GOLDD/StrikePy by default model an unknown input as a polynomial in time of "
     "fixed degree, which answers a different question."
 )
-
-
-@dataclass(frozen=True)
-class Step:
-    """One step m of a recursion.
-
-    Attributes:
-        m: step index (the order k for the EORC).
-        dim: dimension of the codistribution after the step.
-        added: labels of the generators kept at this step.
-        fraction: the smallest fraction of samples agreeing with a rank decision of the
-            step (kept and rejected candidates; for the EORC: the decisions that kept the
-            order's generators); 1.0 for a step that decided nothing.
-        extra: method-specific facts of the step (e.g. ``tau_in_omega``).
-    """
-
-    m: int
-    dim: int
-    added: tuple[str, ...]
-    fraction: float
-    extra: Mapping = field(default_factory=dict)
-
-    def to_dict(self):
-        return {"m": self.m, "dim": self.dim, "added": list(self.added),
-                "fraction": self.fraction, **_jsonable(dict(self.extra))}
-
-
-@dataclass(frozen=True)
-class Certificate:
-    """How sure the rank decisions of an analysis are.
-
-    Attributes:
-        samples: states requested.
-        used: states used (finite everywhere).
-        dropped: states dropped because a generator was NaN/inf there.
-        capped: states not evaluated on the final span because its gradients there would
-            exceed :data:`uio_jax._analysis.memory.CERTIFY_BYTES` (a deep EORC): the span
-            is certified on the first ``samples - capped`` states (``used + dropped``).
-        fraction: fraction of the used samples where the final codistribution has its
-            generic rank in float64 (SVD of the row-scaled generator gradients; below 1
-            where a direction settled beyond float64 is under ``rtol`` at many samples).
-        min_fraction: the smallest agreeing fraction over the rank decisions that rest on
-            their float64 vote (those settled beyond float64 are in ``escalations``).
-        sigma_r_min: smallest margin among the agreeing samples over every direction that
-            was counted on its float64 vote (kept generators, non-member covectors): the
-            distance of the unit-scaled covector to the span it was added to (for an
-            orthonormal span plus one unit row this is, up to a factor in [1/sqrt(2), 1],
-            the last singular value ``s_{r+1} / s_1``). How close a counted direction came
-            to vanishing.
-        sigma_next_max: the same margin, largest value over every direction that was
-            *not* counted (pruned candidates, member covectors): how close round-off
-            came to faking a rank.
-        rtol: the relative tolerance between them.
-        conditioning: smallest ``s_r / s_1`` of the final generator matrix among the
-            samples at the generic rank (how close the kept set comes to a singular
-            state; small values flag samples near the singular set).
-        decisions: number of rank decisions taken.
-        escalations: the weak decisions settled again beyond float64
-            (:class:`uio_jax._analysis.settle.Escalation`: what, the float64 vote, how,
-            the result, the probability bound of a modular answer), and the clear float64
-            rises that exact arithmetic contradicted.
-        verified: clear float64 rank increases confirmed by exact modular arithmetic: every
-            generator kept and every covector found outside the span (a "not observable"
-            verdict) of a rational model is checked so.
-        closure_verified: float64 rejections of a step that kept nothing (the step a
-            recursion stops at: "converged", "Omega-bar closed") confirmed dependent by
-            exact modular arithmetic (a rational model): the stop is then exact.
-    """
-
-    samples: int
-    used: int
-    dropped: int
-    fraction: float
-    min_fraction: float
-    sigma_r_min: float
-    sigma_next_max: float
-    rtol: float
-    decisions: int
-    conditioning: float = 1.0
-    escalations: tuple = ()
-    verified: int = 0
-    capped: int = 0
-    closure_verified: int = 0
-
-    @property
-    def escalated(self) -> int:
-        """Number of weak decisions settled again beyond float64."""
-        return len(self.escalations)
-
-    @property
-    def undecided(self) -> int:
-        """Number of decisions that neither float64 nor the escalation could settle: the
-        verdicts of the report are then not certified (:attr:`status`)."""
-        return sum(e.result == "undecided" for e in self.escalations)
-
-    @property
-    def status(self) -> str:
-        """``"ok"`` (every decision clear in float64), ``"escalated"`` (some settled
-        beyond float64, all settled) or ``"undecided"`` (some could not be settled)."""
-        return "undecided" if self.undecided else "escalated" if self.escalations else "ok"
-
-    @property
-    def gap_decades(self) -> float:
-        """``log10(sigma_r_min / sigma_next_max)``: the margin of the weakest decision."""
-        if self.sigma_next_max <= 0:
-            return math.inf
-        return math.log10(self.sigma_r_min / self.sigma_next_max)
-
-    def to_dict(self):
-        d = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "escalations"}
-        d["gap_decades"] = self.gap_decades
-        d["status"] = self.status
-        d["escalations"] = [e.to_dict() for e in self.escalations]
-        return _jsonable(d)
-
-    def __str__(self):
-        gap = "inf" if math.isinf(self.gap_decades) else f"{self.gap_decades:.1f}"
-        capped = (f", {self.capped} not evaluated on the final span (its size)" if self.capped else "")
-        return (
-            f"{self.used}/{self.samples} samples used ({self.dropped} dropped{capped}), "
-            f"{100 * self.fraction:.1f}% at the generic rank (worst decision "
-            f"{100 * self.min_fraction:.1f}%); margins: smallest kept "
-            f"{self.sigma_r_min:.2e}, largest rejected {self.sigma_next_max:.2e} "
-            f"(gap {gap} decades around rtol {self.rtol:.0e}); final s_r/s_1 >= "
-            f"{self.conditioning:.1e}"
-        ) + self._escalation_text()
-
-    def _escalation_text(self) -> str:
-        if not self.escalations:
-            return self._verified_text()
-        settled = self.escalated - self.undecided
-        text = f"; {self.escalated} weak decision{'s' if self.escalated > 1 else ''} escalated"
-        if settled:
-            text += f" ({settled} settled beyond float64)"
-        if self.undecided:
-            text += f"; UNDECIDED: {self.undecided} decision{'s' if self.undecided > 1 else ''}"
-        return text + self._verified_text()
-
-    def _verified_text(self) -> str:
-        parts = [f"{self.verified} rank increases"] if self.verified else []
-        if self.closure_verified:
-            parts.append(f"{self.closure_verified} rejections at the stopping step")
-        return f"; {' and '.join(parts)} verified exactly" if parts else ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -533,7 +391,7 @@ class Report:
         failed): the point is the centre of the sampling box of every state and parameter.
         Reports without parameters have no such keys.
         """
-        return _jsonable({
+        return jsonable({
             "system": self.system_name,
             "method": self.method,
             "states": list(self.states),
@@ -700,20 +558,3 @@ def _linear_text(coefs) -> str:
         else:
             out += (" - " if c < 0 else " + ") + term
     return out
-
-
-def _jsonable(obj):
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else str(v)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    return obj
