@@ -175,8 +175,10 @@ def columns(graph, order):
 
     A node's gradient is zero outside its coordinates: with sparse gradients each node
     carries ``(len(cols), S)`` instead of ``(n, S)`` (on the EORC's extended states the
-    average node depends on a quarter of them). Both are kept in ``graph.facts`` (a node
-    never changes), so each node is worked out once over every evaluation.
+    average node depends on a quarter of them). An operand's rows are a ``slice`` where
+    they are a run of the node's rows (most are: the extended coordinates enter in order),
+    else an index array. Both are kept in ``graph.facts`` (a node never changes), so each
+    node is worked out once over every evaluation.
     """
     ops, args, params = graph.op, graph.args, graph.param
     cols = graph.facts.setdefault("columns", {})
@@ -207,21 +209,22 @@ def columns(graph, order):
             own = arrays.get(a)
             if own is None:
                 own = arrays[a] = np.array(ca, dtype=np.intp)
-            where[k, a] = at.searchsorted(own)  # the operand's rows inside the node's
+            rows = at.searchsorted(own)  # the operand's rows inside the node's
+            lo, hi = int(rows[0]), int(rows[-1]) + 1
+            # a run of rows as a slice (a view, no copy: most operands hold one)
+            where[k, a] = slice(lo, hi) if hi - lo == len(rows) else rows
     return cols, where
 
 
-#: Sparse gradients (:func:`columns`) from this many gradient entries per node (``n S``):
-#: below it, dense ``(n, S)`` arrays cost less than the bookkeeping.
+#: Sparse gradients (:func:`columns`) from this many gradient entries per node (``n S``),
+#: or from :data:`SPARSE_COORDS` coordinates whatever ``S``: below both, dense ``(n, S)``
+#: arrays cost less than the bookkeeping (``docs/benchmarks/engine.md``).
 SPARSE_FROM = 32768
+SPARSE_COORDS = 64
 
 
-def _add(a, b):
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return a + b
+def _sparse(n: int, S: int) -> bool:
+    return n * S >= SPARSE_FROM or n >= SPARSE_COORDS
 
 
 def evaluate(graph, roots, xs, gradients: bool = True, memo: WalkMemo | None = None):
@@ -246,7 +249,7 @@ def evaluate(graph, roots, xs, gradients: bool = True, memo: WalkMemo | None = N
     per_node = 8 * (1 + (n if gradients else 0))
     given = None
     if memo is not None and gradients and S:
-        sparse = n * S >= SPARSE_FROM
+        sparse = _sparse(n, S)
         held = memo.usable(xs, sparse)
         order = graph.reachable(roots, held)
         keep = WalkMemo.to_keep(graph, order) | set(roots)
@@ -259,7 +262,7 @@ def evaluate(graph, roots, xs, gradients: bool = True, memo: WalkMemo | None = N
     if given is None:
         order, frees, peak = schedule(graph, roots)
     chunk = max(64, min(S, CHUNK_BYTES // (per_node * max(peak, 1)))) if S else 1
-    sparse = gradients and n * min(S, chunk) >= SPARSE_FROM
+    sparse = gradients and _sparse(n, min(S, chunk))
     cols, where = columns(graph, order) if sparse else (None, None)
     values = np.empty((S, len(roots)))
     grads = np.zeros((S, len(roots), n)) if gradients else None
@@ -305,6 +308,36 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
         out[idx] = g
         return out
 
+    def combine(k, a0, f0, a1, f1):
+        """``f0 d a0 + f1 d a1`` in the node's rows (a factor None is 1), accumulated in
+        one new array: the operand covering every row of the node (if one does) is its
+        start, the other is added into its rows in place."""
+        if G[a0] is None:
+            return term(k, a1, f1)
+        if G[a1] is None:
+            return term(k, a0, f0)
+        i0, i1 = (where.get((k, a0)), where.get((k, a1))) if sparse else (None, None)
+        if i0 is not None and i1 is None:
+            a0, f0, i0, a1, f1, i1 = a1, f1, i1, a0, f0, i0
+        g0, g1 = G[a0], G[a1]
+        if i0 is None and i1 is None and f0 is None and f1 is None:
+            return g0 + g1
+        if i0 is None and f0 is None and f1 is None and isinstance(i1, slice):
+            out = np.empty_like(g0)  # each row written once: the sum where a1 has rows
+            np.add(g0[i1], g1, out=out[i1])
+            out[:i1.start], out[i1.stop:] = g0[:i1.start], g0[i1.stop:]
+            return out
+        if i0 is None:
+            out = g0 * f0 if f0 is not None else g0.copy()
+        else:
+            out = np.zeros((len(cols[k]), S))
+            out[i0] = g0 if f0 is None else g0 * f0
+        if i1 is None:
+            out += g1 if f1 is None else g1 * f1
+        else:
+            out[i1] += g1 if f1 is None else g1 * f1
+        return out
+
     with np.errstate(all="ignore"):
         for p, k in enumerate(order):
             op, a = ops[k], args[k]
@@ -323,12 +356,12 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
             elif op == "add":
                 v = V[a[0]] + V[a[1]]
                 if gradients:
-                    g = _add(term(k, a[0]), term(k, a[1]))
+                    g = combine(k, a[0], None, a[1], None)
             elif op == "mul":
                 va, vb = V[a[0]], V[a[1]]
                 v = va * vb
                 if gradients:
-                    g = _add(term(k, a[0], vb), term(k, a[1], va))
+                    g = combine(k, a[0], vb, a[1], va)
             elif op == "neg":
                 v = -V[a[0]]
                 if gradients and G[a[0]] is not None:
@@ -338,7 +371,7 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
                 v = va / vb
                 if gradients:
                     inv = 1.0 / vb
-                    g = _add(term(k, a[0], inv), term(k, a[1], -v * inv))
+                    g = combine(k, a[0], inv, a[1], -v * inv)
             elif op == "ipow":
                 kk = params[k]
                 va = V[a[0]]
@@ -358,13 +391,13 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
                 va, vb = V[a[0]], V[a[1]]
                 v = va ** vb
                 if gradients:
-                    g = _add(term(k, a[0], v * vb / va), term(k, a[1], v * np.log(va)))
+                    g = combine(k, a[0], v * vb / va, a[1], v * np.log(va))
             elif op == "atan2":
                 va, vb = V[a[0]], V[a[1]]
                 v = np.arctan2(va, vb)
                 if gradients:
                     den = va * va + vb * vb
-                    g = _add(term(k, a[0], vb / den), term(k, a[1], -va / den))
+                    g = combine(k, a[0], vb / den, a[1], -va / den)
             else:  # unary elementary function
                 va = V[a[0]]
                 v = _UNARY_VALUE[op](va)
@@ -380,4 +413,5 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
     return V, G
 
 
-__all__ = ["evaluate", "schedule", "columns", "WalkMemo", "CHUNK_BYTES", "MEMO_BYTES", "SPARSE_FROM"]
+__all__ = ["evaluate", "schedule", "columns", "WalkMemo", "CHUNK_BYTES", "MEMO_BYTES", "SPARSE_FROM",
+           "SPARSE_COORDS"]
