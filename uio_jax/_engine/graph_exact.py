@@ -25,6 +25,8 @@ from fractions import Fraction
 
 import numpy as np
 
+from .graph_numpy import columns
+
 #: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
 #: a minor of degree ``D`` vanishes at a random point with probability at most
 #: ``D / 1.7e38``).
@@ -49,7 +51,16 @@ class ModularEvaluator:
 
     Every node evaluated is kept, so that successive requests (the escalations of one
     analysis, at the same points) evaluate each node once. Arithmetic on numpy object
-    arrays of Python integers: values ``(P,)``, gradients ``(n, P)``.
+    arrays of Python integers: values ``(P,)``; gradients sparse as in the float64 walk
+    (:func:`uio_jax._engine.graph_numpy.columns`): ``(c, P)`` over the ``c`` coordinates a
+    node depends on (on the EORC's extended states a node depends on a few of them), None
+    for a node that depends on none.
+
+    Sums and negations are not reduced modulo ``p`` (a residue plus a residue is a
+    representative of their sum): only products, quotients and powers are, and a node
+    after :data:`_UNREDUCED_DEPTH` unreduced sums in a row, so the integers stay within a
+    few bits of ``p``. What leaves the evaluator (:meth:`row`, :meth:`gradients`) is
+    reduced.
 
     Args:
         graph: the graph.
@@ -61,6 +72,7 @@ class ModularEvaluator:
         self.graph, self.p = graph, int(p)
         self.points = np.array([[int(v) % self.p for v in row] for row in points], dtype=object)
         self.V, self.G = {}, {}
+        self._depth = {}  # node -> unreduced sums on its way since the last reduction
 
     def gradients(self, roots):
         """``values (P, R)`` and ``grads (P, R, n)`` (object arrays of residues).
@@ -70,13 +82,25 @@ class ModularEvaluator:
             ValueError: a node is not a rational operation.
         """
         self.evaluate(roots)
-        values = np.stack([self.V[r] for r in roots], axis=1)
-        grads = np.stack([self.G[r].T for r in roots], axis=1)
+        P, n = self.points.shape
+        values = np.stack([self.V[r] % self.p for r in roots], axis=1)
+        grads = np.zeros((P, len(roots), n), dtype=object)
+        for i, r in enumerate(roots):
+            grads[:, i] = self._dense(r).T
         return values, grads
 
     def row(self, root, point: int):
         """The gradient ``(n,)`` of an evaluated node (:meth:`evaluate`) at one point."""
-        return self.G[root][:, point]
+        return self._dense(root)[:, point]
+
+    def _dense(self, root):
+        """The reduced gradient ``(n, P)`` of an evaluated node."""
+        P, n = self.points.shape
+        out = np.zeros((n, P), dtype=object)
+        g = self.G[root]
+        if g is not None:
+            out[list(columns(self.graph, [root])[0][root])] = g % self.p
+        return out
 
     def evaluate(self, roots) -> None:
         """Evaluate the nodes behind ``roots`` not evaluated yet (kept in :attr:`V`, :attr:`G`).
@@ -86,51 +110,81 @@ class ModularEvaluator:
             ValueError: a node is not a rational operation.
         """
         graph, p = self.graph, self.p
-        V, G = self.V, self.G
-        P, n = self.points.shape
+        V, G, depth = self.V, self.G, self._depth
+        P = len(self.points)
         ops, args, params = graph.op, graph.args, graph.param
         todo = graph.reachable(roots, known=V)
+        cols, where = columns(graph, todo)
+
+        def lift(k, a, factor=None):
+            """The operand's gradient (times ``factor``) in the node's rows; None if zero."""
+            g = G[a]
+            if g is None:
+                return None
+            if factor is not None:
+                g = g * factor
+            idx = where.get((k, a))
+            if idx is None:
+                return g
+            out = np.zeros((len(cols[k]), P), dtype=object)
+            out[idx] = g
+            return out
+
+        def total(ga, gb):
+            return ga if gb is None else gb if ga is None else ga + gb
+
         for k in todo:
             op, a = ops[k], args[k]
+            d = 0
             if op == "x":
                 v = self.points[:, params[k]].copy()
-                g = np.zeros((n, P), dtype=object)
-                g[params[k]] = 1
+                g = np.ones((1, P), dtype=object)
             elif op == "c":
                 value = graph.value_of(k)
                 if not math.isfinite(value):
                     raise ValueError("a non-finite constant has no value modulo p")
-                v = np.full(P, const_mod(value, p), dtype=object)
-                g = np.zeros((n, P), dtype=object)
+                v, g = np.full(P, const_mod(value, p), dtype=object), None
             elif op == "add":
-                v = (V[a[0]] + V[a[1]]) % p
-                g = (G[a[0]] + G[a[1]]) % p
+                v = V[a[0]] + V[a[1]]
+                g = total(lift(k, a[0]), lift(k, a[1]))
+                d = max(depth[a[0]], depth[a[1]]) + 1
             elif op == "neg":
-                v, g = (-V[a[0]]) % p, (-G[a[0]]) % p
+                v, g = -V[a[0]], None if G[a[0]] is None else -G[a[0]]
+                d = depth[a[0]] + 1
             elif op == "mul":
                 va, vb = V[a[0]], V[a[1]]
                 v = (va * vb) % p
-                g = (G[a[0]] * vb + G[a[1]] * va) % p
+                g = total(lift(k, a[0], vb), lift(k, a[1], va))
             elif op == "div":
                 inv = self._inv(V[a[1]])
                 v = (V[a[0]] * inv) % p
-                g = ((G[a[0]] - G[a[1]] * v) * inv) % p
+                g = total(lift(k, a[0], inv), lift(k, a[1], (-v * inv) % p))
             elif op == "ipow":
-                kk, va = params[k], V[a[0]]
+                kk, va = params[k], V[a[0]] % p
                 inv = self._inv(va) if kk < 0 else None
                 v = np.array([pow(int(x), kk, p) for x in va], dtype=object) if kk >= 0 else \
                     np.array([pow(int(x), -kk, p) for x in inv], dtype=object)
                 base = va if kk - 1 >= 0 else (inv if inv is not None else self._inv(va))
                 slope = np.array([kk % p * pow(int(x), abs(kk - 1), p) % p for x in base], dtype=object)
-                g = (G[a[0]] * slope) % p
+                g = None if G[a[0]] is None else G[a[0]] * slope
             else:
                 raise ValueError(f"{op} is not a rational operation")
-            V[k], G[k] = v, g
+            if d > _UNREDUCED_DEPTH or op not in ("add", "neg"):
+                v, d = v % p, 0
+                if g is not None:
+                    g = g % p
+            V[k], G[k], depth[k] = v, g, d
 
     def _inv(self, a):
-        if any(int(x) % self.p == 0 for x in a):
+        a = a % self.p
+        if any(int(x) == 0 for x in a):
             raise Singular("division by zero modulo p")
         return _inverse(a, self.p)
+
+
+#: Sums and negations in a row a :class:`ModularEvaluator` leaves unreduced (each at most
+#: doubles the integers).
+_UNREDUCED_DEPTH = 16
 
 
 def gradients_mod_p(graph, roots, points, p: int = PRIME):
