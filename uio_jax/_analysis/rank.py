@@ -219,9 +219,9 @@ class Codistribution:
         once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
         :meth:`test` where a column is shorter than :data:`_REPROJECT_BELOW` at some sample,
         ``R2 = R1 - B^T (B R1)``: at most three small matrix products per sample instead of
-        four per covector. Unlike :meth:`test`, a unit covector is never taken
-        for a round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm
-        is exact, however large the kept gradients are.
+        four per covector. Unlike :meth:`test`, a unit covector is never taken for a
+        round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm is
+        exact, however large the kept gradients are.
         """
         S, n = len(self.valid), self.n
         at = np.arange(count) if only is None else np.asarray(only, dtype=np.intp)
