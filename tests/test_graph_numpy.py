@@ -65,3 +65,46 @@ def test_a_memo_for_other_states_starts_over(rows):
     np.testing.assert_array_equal(got[0], want[0])
     np.testing.assert_array_equal(got[1], want[1])
     np.testing.assert_array_equal(memo.states, other)
+
+
+def _interleaved():
+    """Operands whose coordinates interleave inside the node's: runs (slices) and gaps
+    (index arrays), through every two-operand rule."""
+    g = Graph(6)
+    x = g.coords
+    a = g.mul(x[0], x[2])  # coordinates (0, 2)
+    b = g.add(x[1], x[3])  # (1, 3)
+    c = g.mul(a, b)  # (0, 1, 2, 3): a's rows [0, 2], b's [1, 3]
+    d = g.add(x[0], x[1])  # (0, 1): a run of c's rows
+    e = g.add(c, d)
+    roots = [e, c,
+             g.div(e, g.add(x[4], g.one)),
+             g.binary("pow", x[4], d),
+             g.binary("atan2", e, x[5]),
+             g.select(g.binary("lt", x[0], x[1]), a, b),
+             g.sub(d, g.mul(x[5], a))]
+    return g, roots
+
+
+def test_sparse_rows_give_the_dense_gradients(monkeypatch):
+    """Oracle: the dense walk (every node's gradient over all coordinates) at the same
+    states; the sparse one places operand rows by slices and index arrays and sums them in
+    place, the same operations on the same numbers."""
+    g, roots = _interleaved()
+    xs = np.random.default_rng(2).uniform(0.5, 1.5, size=(50, 6))
+    monkeypatch.setattr(graph_numpy, "SPARSE_FROM", 10**12)
+    monkeypatch.setattr(graph_numpy, "SPARSE_COORDS", 10**6)
+    dense = graph_numpy.evaluate(g, roots, xs)
+    monkeypatch.setattr(graph_numpy, "SPARSE_COORDS", 1)
+    sparse = graph_numpy.evaluate(g, roots, xs)
+    np.testing.assert_array_equal(sparse[0], dense[0])
+    np.testing.assert_array_equal(sparse[1], dense[1])
+    placed = [w for w in g.facts["operand_rows"].values() if w is not None]
+    assert any(isinstance(w, slice) for w in placed) and any(isinstance(w, np.ndarray) for w in placed)
+    assert np.abs(dense[1]).max() > 0 and np.isfinite(dense[1]).all()
+
+
+def test_sparse_rows_from_many_coordinates_whatever_the_samples():
+    assert graph_numpy._sparse(graph_numpy.SPARSE_COORDS, 1)
+    assert not graph_numpy._sparse(graph_numpy.SPARSE_COORDS - 1, 128)
+    assert graph_numpy._sparse(8, graph_numpy.SPARSE_FROM // 8)

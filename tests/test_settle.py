@@ -231,3 +231,31 @@ def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkey
     assert two.result == "dependent" and two.how.endswith("at 2 points") and two.bound == one.bound ** 2
     monkeypatch.setattr(_settle, "MAX_POINTS", 1)
     assert Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent").result == "undecided"
+
+
+def test_modular_gradients_with_long_sums_and_interleaved_coordinates():
+    """Sums left unreduced (more than ``_UNREDUCED_DEPTH`` in a row) and sparse rows
+    (operands on interleaved coordinates): values and gradients equal the exact rational
+    ones, computed by sympy, reduced modulo p."""
+    sympy = pytest.importorskip("sympy")
+    p = graph_exact.PRIME
+    n, terms = 6, 3 * graph_exact._UNREDUCED_DEPTH
+    g = Graph(n)
+    s = sympy.symbols(f"x0:{n}")
+    node, expr = g.zero, sympy.Integer(0)
+    for i in range(terms):
+        a, b, c = i % n, (i + 2) % n, (i + 3) % n
+        term = g.div(g.mul(g.x(a), g.x(b)), g.add(g.x(c), g.one))
+        node = g.sub(node, term) if i % 3 == 0 else g.add(node, term)
+        t = s[a] * s[b] / (s[c] + 1)
+        expr = expr - t if i % 3 == 0 else expr + t
+    point = [3, 5, 7, 11, 13, 17]
+    values, grads = graph_exact.gradients_mod_p(g, [node], [point])
+
+    def mod(q):
+        q = sympy.Rational(q)
+        return int(q.p) % p * pow(int(q.q), -1, p) % p
+
+    at = dict(zip(s, point))
+    assert values[0, 0] == mod(expr.subs(at))
+    assert list(grads[0, 0]) == [mod(sympy.diff(expr, v).subs(at)) for v in s]
