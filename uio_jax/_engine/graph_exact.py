@@ -25,7 +25,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from .graph_numpy import columns
+from .graph_numpy import columns, place_rows
 
 #: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
 #: a minor of degree ``D`` vanishes at a random point with probability at most
@@ -118,17 +118,7 @@ class ModularEvaluator:
 
         def lift(k, a, factor=None):
             """The operand's gradient (times ``factor``) in the node's rows; None if zero."""
-            g = G[a]
-            if g is None:
-                return None
-            if factor is not None:
-                g = g * factor
-            idx = where.get((k, a))
-            if idx is None:
-                return g
-            out = np.zeros((len(cols[k]), P), dtype=object)
-            out[idx] = g
-            return out
+            return place_rows(G[a], factor, where.get((k, a)), len(cols[k]), object)
 
         def total(ga, gb):
             return ga if gb is None else gb if ga is None else ga + gb

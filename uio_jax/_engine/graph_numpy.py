@@ -223,6 +223,21 @@ SPARSE_FROM = 32768
 SPARSE_COORDS = 64
 
 
+def place_rows(g, factor, idx, rows: int, dtype=np.float64):
+    """An operand's gradient ``(r, W)`` times ``factor`` (None: 1) in a node's ``rows``
+    rows: at ``idx`` (a slice or index array from :func:`columns`; None: the same rows);
+    None (a zero gradient) stays None. Shared by the float64 walk and the modular one."""
+    if g is None:
+        return None
+    if factor is not None:
+        g = g * factor
+    if idx is None:
+        return g
+    out = np.zeros((rows, g.shape[1]), dtype=dtype)
+    out[idx] = g
+    return out
+
+
 def _sparse(n: int, S: int) -> bool:
     return n * S >= SPARSE_FROM or n >= SPARSE_COORDS
 
@@ -294,19 +309,9 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
 
     def term(k, a, factor=None):
         """The operand's gradient (times ``factor``) in the node's rows."""
-        g = G[a]
-        if g is None:
-            return None
-        if factor is not None:
-            g = g * factor
         if not sparse:
-            return g
-        idx = where.get((k, a))
-        if idx is None:
-            return g
-        out = np.zeros((len(cols[k]), S))
-        out[idx] = g
-        return out
+            return place_rows(G[a], factor, None, n)
+        return place_rows(G[a], factor, where.get((k, a)), len(cols[k]))
 
     def combine(k, a0, f0, a1, f1):
         """``f0 d a0 + f1 d a1`` in the node's rows (a factor None is 1), accumulated in
@@ -413,5 +418,5 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
     return V, G
 
 
-__all__ = ["evaluate", "schedule", "columns", "WalkMemo", "CHUNK_BYTES", "MEMO_BYTES", "SPARSE_FROM",
+__all__ = ["evaluate", "schedule", "columns", "place_rows", "WalkMemo", "CHUNK_BYTES", "MEMO_BYTES", "SPARSE_FROM",
            "SPARSE_COORDS"]
