@@ -112,6 +112,8 @@ class Context:
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
         full.closure_verified = phase.closure_verified
+        full.rejections_verified = phase.rejections_verified
+        full.verify_rejections, full.contradicted = phase.verify_rejections, phase.contradicted
         decided, decided_on = self._grads, len(self.xs)  # gradients at the decision samples
         self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
         self._grads.update(self._extended(kept, decided, decided_on))
@@ -189,6 +191,10 @@ class Context:
         added = fork.absorb([units[todo[p]] for p in at], None, tested.take(at))
         seen = {id(e) for e in codist.escalations}  # a question asked again is recorded once
         codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
+        codist.rejections_verified += fork.rejections_verified
+        if fork.contradicted:  # float64 contradicted in the trial: distrust it in the span too
+            codist.contradicted = True
+            codist.verify_rejections = codist.verify_rejections or "exact"
         self.memberships += [(False, d) for d in fork.acceptances]
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)
@@ -339,6 +345,7 @@ class Context:
             escalations=tuple(cd.escalations),
             verified=cd.verified,
             closure_verified=cd.closure_verified,
+            rejections_verified=cd.rejections_verified,
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,

@@ -75,6 +75,11 @@ class Certificate:
         closure_verified: float64 rejections of a step that kept nothing (the step a
             recursion stops at: "converged", "Omega-bar closed") confirmed dependent by
             exact modular arithmetic (a rational model): the stop is then exact.
+        rejections_verified: clear float64 rejections (and memberships) of the other steps
+            confirmed dependent beyond float64: every one after a settled decision has
+            contradicted a float64 vote (round-off has reached ``rtol``; exact modulo p,
+            rational models), and every one of a span that must be proved (the known-input
+            bound of the EORC, exact or mpmath).
     """
 
     samples: int
@@ -91,6 +96,7 @@ class Certificate:
     verified: int = 0
     capped: int = 0
     closure_verified: int = 0
+    rejections_verified: int = 0
 
     @property
     def escalated(self) -> int:
@@ -150,6 +156,8 @@ class Certificate:
         parts = [f"{self.verified} rank increases"] if self.verified else []
         if self.closure_verified:
             parts.append(f"{self.closure_verified} rejections at the stopping step")
+        if self.rejections_verified:
+            parts.append(f"{self.rejections_verified} other rejections")
         return f"; {' and '.join(parts)} verified exactly" if parts else ""
 
 

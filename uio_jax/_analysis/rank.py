@@ -104,6 +104,17 @@ class Codistribution:
         self.expect_rise = False
         self.verified = 0  # clear float64 rises confirmed exactly (kept generators, non-members)
         self.closure_verified = 0  # rejections of a step that kept nothing, confirmed exactly
+        #: clear float64 rejections settled again too: None (no), ``"exact"`` (modulo p where
+        #: the graph is rational, else the vote stands) or ``"all"`` (mpmath elsewhere,
+        #: undecided if that fails). Set to ``"exact"`` by the first contradiction
+        #: (:attr:`contradicted`), by the analyses that need every rejection proved
+        self.verify_rejections = None
+        #: whether a settled decision has contradicted a float64 vote: round-off has then
+        #: reached ``rtol`` in this span's derivatives, and a clear float64 rejection can be a
+        #: genuine direction under it (the deep orders of a visual-inertial EORC: medians down
+        #: to 1e-14.5); from then on every rejection is verified where exact arithmetic applies
+        self.contradicted = False
+        self.rejections_verified = 0  # clear float64 rejections confirmed exactly
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
         #: unit covectors ``e_i`` decided members of the span (``i -> RankDecision``): the
         #: span only grows, so they are not tested again
@@ -149,7 +160,8 @@ class Codistribution:
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
         c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
-        c.closure_verified = 0
+        c.closure_verified = c.rejections_verified = 0
+        c.verify_rejections, c.contradicted = self.verify_rejections, self.contradicted
         c._decided = self._decided
         c.unit_members = dict(self.unit_members)
         return c
@@ -364,7 +376,16 @@ class Codistribution:
         disagrees = self.expect_rise and not rises
         weak = disagrees or is_weak(rho, valid, self.rtol, d.fraction)
         evidence = self._evidence(d, rho, valid)
-        if not weak:
+        if not weak and not rises and self.verify_rejections:
+            # a clear rejection, verified: under a contradicted float64 (or where every
+            # rejection must be proved) a genuine direction can sit under the round-off
+            esc = self.settle(self.nodes, node, evidence, exact_only=self.verify_rejections == "exact")
+            if esc is None:
+                return d
+            if esc.result == "dependent":
+                self.rejections_verified += 1
+                return replace(d, settled="exact mod p" if esc.how.startswith("exact") else "mpmath")
+        elif not weak:
             if not rises:
                 return d
             # a clear rise: round-off of a deep derivative can fake one, and one wrong
@@ -381,6 +402,9 @@ class Codistribution:
             self.escalations.append(esc)
         if esc.result == "undecided":
             return replace(d, settled="undecided")
+        if (esc.result == "independent") != rises:  # float64 was wrong: distrust its rejections
+            self.contradicted = True
+            self.verify_rejections = self.verify_rejections or "exact"
         how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
         return replace(d, rank=self.rank + (esc.result == "independent"), settled=how)
 
