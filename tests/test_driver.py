@@ -23,6 +23,9 @@ TEXTS = [  # the texts reports carry (compared bit for bit with older reports)
     (R.KNOWN_FIELDS_ORC.stop(), "ORC of the known fields converged"),
     (R.ALL_STATES.stop(k=1), "every state component observable at k=1"),
     (R.K_MAX.stop(k_max=4), "k_max=4 reached"),
+    (R.KNOWN_BOUND.stop(bound=12, k=2),
+     "every unknown input observable and the states at the known-input bound 12 at k=2: no higher "
+     "order changes a verdict"),
     (R.EXTENSION_CLOSED.stop(k=10, prev=9),
      "Omega-bar_10 = Omega-bar_9: no higher order (in any extension) adds a generator"),
     (R.CLOSURE_CONVERGED.stop(m=0), "closure along the drift converged at iteration 0"),

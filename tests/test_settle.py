@@ -259,3 +259,43 @@ def test_modular_gradients_with_long_sums_and_interleaved_coordinates():
     at = dict(zip(s, point))
     assert values[0, 0] == mod(expr.subs(at))
     assert list(grads[0, 0]) == [mod(sympy.diff(expr, v).subs(at)) for v in s]
+
+
+def test_after_a_contradiction_clear_rejections_are_verified_exactly(monkeypatch):
+    """ORC of ``y = (x1, x1 + 1e-10 x2, x3)``, ``x1' = x5``, ``x3' = x1 + 1e-15 x4``.
+
+    Step 0: ``dy2`` lies 1e-10 (scaled) from ``span{dy1}``: a weak vote "dependent", settled
+    exactly as independent: float64 has been contradicted. Step 1 keeps ``d L_f y1 = dx5``
+    and meets ``d L_f y3 = dx1 + 1e-15 dx4``, a genuine direction 7 decades under ``rtol``:
+    a clear float64 rejection, in a step that keeps something (no closure check). After
+    the contradiction it is verified exactly: independent, kept, every state observable
+    (``x4 = (y3' - y1) / 1e-15``). Without the rule the answer is dim 4, x4 unobservable."""
+    from uio_jax._analysis import rank as _rank
+
+    def drift(x):
+        return jnp.array([x[4], 0.0, x[0] + 1e-15 * x[3], 0.0, 0.0])
+
+    model = uj.System(("x1", "x2", "x3", "x4", "x5"),
+                      {"y1": lambda x: x[0], "y2": lambda x: x[0] + 1e-10 * x[1], "y3": lambda x: x[2]},
+                      drift=drift)
+    rep = uj.analyze(model, samples=256, method="orc")
+    assert rep.dims == (3, 5) and rep.fully_observable
+    cert = rep.certificate
+    weak = [e for e in cert.escalations if e.what == "y2 against rank 1"]
+    assert len(weak) == 1 and weak[0].float64.startswith("dependent") and weak[0].result == "independent"
+    # (asked against rank 3, then against rank 4 once d L_f y1 is kept)
+    deep = [e for e in cert.escalations if e.what.startswith("L_f0 y3 against")]
+    assert deep and all(e.result == "independent" for e in deep)
+    assert all("median rho -7." in e.float64 for e in deep)  # clear votes, not weak ones
+    assert cert.rejections_verified >= 1  # d L_f y2 = dx5: dependent, confirmed exactly
+    assert f"{cert.rejections_verified} other rejections" in str(cert)
+
+    # the same model without the rule: the clear rejection stands
+    real = _rank.Codistribution._decide
+
+    def no_rule(self, rho, node, valid):
+        self.verify_rejections = None
+        return real(self, rho, node, valid)
+
+    monkeypatch.setattr(_rank.Codistribution, "_decide", no_rule)
+    assert uj.analyze(model, samples=256, method="orc").dims == (3, 4, 4)

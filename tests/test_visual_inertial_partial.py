@@ -269,3 +269,26 @@ def test_case_3_every_state_observable_at_k7(mod, cases):
     rep = uj.analyze(system, method="eorc", samples=256)
     assert rep.dim == system.n and all(rep.observable.values()) and rep.details["k"] == 7
     assert list(rep.dims) == [5, 9, 14, 16, 18, 20, 22, 24]
+
+
+@pytest.mark.slow
+def test_case_2_every_derivative_of_an_observable_input_is_observable_one_order_later(cases):
+    """Case 2 to ``k_max = n + 2 = 25``: if ``w^(d)`` is observable at order k, so is
+    ``w^(d+1)`` at k + 1 (``L_F0 dw^(d) = dw^(d+1)``; :mod:`uio_jax._analysis.known_bound`).
+    A lemma the run must satisfy at every order, whatever its float64 evidence: from order
+    15 on the genuine directions of the deep derivatives come out 5-6.5 decades under
+    ``rtol``, below the weak band, and a run that took those clear float64 rejections at
+    their word lost them (augmented rank 97 at k = 25, exact 140; the gyro derivatives
+    stopped at ``W^(10)``). After a settled decision contradicts float64, rejections are
+    verified exactly (rational model)."""
+    system = cases["uncalibrated_one_acc"]
+    rep = uj.analyze(system, method="eorc", samples=256)
+    names = rep.details["extended_state"][system.n:]
+    mw = len(system.unknown)
+    for before, after in zip(rep.history, rep.history[1:]):
+        seen = set(after.extra["observable_inputs"])
+        for nm in before.extra["observable_inputs"]:
+            i = names.index(nm)
+            assert names[i + mw] in seen, (nm, after.m)
+    assert rep.history[-1].extra["augmented_rank"] == 140 and rep.dim == 22
+    assert rep.certificate.undecided == 0 and rep.certificate.rejections_verified > 0

@@ -3,7 +3,6 @@
 
 import jax
 
-from .._engine.interpreter import NoTaylorRule
 from .._errors import OptionError
 from .._model.system import System
 from .context import Context
@@ -13,15 +12,9 @@ from .general_ui import general_ui_report
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
-from .series import SeriesNotApplicable, series_report
+from .series import SERIES_FAILURES, series_report
 from .series import check_applicable as series_applicable
 from .single_ui import check_applicable, single_ui_report
-
-#: What the series test raises when the Taylor engines cannot expand a model: ``fast``
-#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError
-#: (:class:`~uio_jax._analysis.series.SeriesNotApplicable` is one; a bare
-#: :class:`~uio_jax._engine.interpreter.NoTaylorRule` is converted).
-SERIES_FAILURES = (SeriesNotApplicable, NoTaylorRule)
 
 
 def analyze(
@@ -67,7 +60,10 @@ def analyze(
         rtol: relative tolerance on ``s_i / s_1`` after scaling (default
             :func:`uio_jax.default_rtol`, 1e-8).
         max_order: optional cap on the number of steps m of the ORC / single_ui recursion.
-        k_max: highest order k of the EORC (default n + 2); ignored by the other methods.
+        k_max: highest order k of the EORC (default n + 2, and the EORC stops earlier once
+            every unknown input is observable and the states reach the rank they have with
+            every input known: no later order changes a verdict); given, every order up to
+            it is run. Ignored by the other methods.
         known_inputs: what a known input is: ``"switchable"`` (default; it may be chosen
             freely and may jump, the meaning of Martinelli's single-input papers and of the
             classical ORC/EORC) or ``"smooth"`` (a generic smooth function of time, known

@@ -79,6 +79,10 @@ class StopReason(enum.Enum):
     ALL_STATES = "every state component observable at k={k}"
     #: EORC: the highest order ``k_max`` was reached.
     K_MAX = "k_max={k_max} reached"
+    #: EORC: ``dim_k`` equals the known-input bound and every unknown input is observable
+    #: (:mod:`uio_jax._analysis.known_bound`): no later order changes a verdict.
+    KNOWN_BOUND = ("every unknown input observable and the states at the known-input bound {bound} "
+                   "at k={k}: no higher order changes a verdict")
     #: EORC: ``Omega-bar_k = Omega-bar_{k-1}``.
     EXTENSION_CLOSED = ("Omega-bar_{k} = Omega-bar_{prev}: no higher order (in any extension) "
                         "adds a generator")

@@ -78,6 +78,7 @@ from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context
 from .driver import Recursion, StopReason, iterate
 from .evidence import Step
+from .known_bound import known_input_bound
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report
 from .space import SampledSpace, report_view
@@ -180,7 +181,7 @@ class _Eorc(Recursion):
     order's rank work runs.
     """
 
-    def __init__(self, system, K, samples, seed, rtol):
+    def __init__(self, system, K, samples, seed, rtol, early_stop=True):
         self.system = system
         self.K = K
         self.N = system.n  # coordinates before the unknown-input ones
@@ -202,6 +203,9 @@ class _Eorc(Recursion):
         self.frontier = []  # the generators kept at the last order
         self.started = []  # the next order's block, dispatched during this order's rank work
         self._escalations_seen = 0
+        self.samples, self.seed, self.rtol = samples, seed, rtol
+        self.bound = None  # the known-input bound (known_bound.KnownBound), once computed
+        self._bound_tried = not early_stop  # k_max given: every order up to it is reported
 
     # ------------------------------------------------------------------ the recursion
     def init(self) -> Step:
@@ -218,15 +222,33 @@ class _Eorc(Recursion):
 
     def terminate(self, k, history):
         """Omega-bar closed (nothing kept at order ``k >= 1``, some state not observable),
-        every state observable, or ``k = K``; None to go on."""
+        every state observable, the states at the known-input bound with every unknown
+        input observable (:meth:`at_known_bound`), or ``k = K``; None to go on."""
         full = len(history[-1].extra["observable_states"]) == self.n
         if k > 0 and not self.frontier and not full:
             return StopReason.EXTENSION_CLOSED.stop(k=k, prev=k - 1)
         if full:
             return StopReason.ALL_STATES.stop(k=k)
+        if self.at_known_bound(history[-1]):
+            return StopReason.KNOWN_BOUND.stop(k=k, bound=self.bound.dim)
         if k >= self.K:
             return StopReason.K_MAX.stop(k_max=self.K)
         return None
+
+    def at_known_bound(self, last) -> bool:
+        """Whether order ``last.m`` is final (:mod:`uio_jax._analysis.known_bound`): every
+        unknown input ``w_j`` is observable, no decision so far is undecided, and ``dim_k``
+        equals the known-input bound (computed once, the first time the other two hold)."""
+        observed = set(last.extra["observable_inputs"])
+        if not all(nm in observed for nm in self.names[: self.mw]):
+            return False
+        if any(e.result == "undecided" for e in self.ctx.codist.escalations):
+            return False
+        if not self._bound_tried:
+            self._bound_tried = True
+            self.bound = known_input_bound(self.system, samples=self.samples, seed=self.seed,
+                                           rtol=self.rtol)
+        return self.bound is not None and last.dim == self.bound.dim
 
     def record(self, k) -> Step:
         """The Step of order ``k`` (``Step.m = k``, ``Step.dim = dim_k``; ``extra``:
@@ -343,8 +365,11 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     return check_memory(samples, N, N, what=what, advice=advice)
 
 
-def run_eorc(system, *, samples, seed, rtol, k_max=None):
+def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None):
     """Run the EORC recursion up to ``k_max`` (default ``n + 2``) by the shared driver.
+
+    ``early_stop``: stop at the known-input bound (:mod:`uio_jax._analysis.known_bound`);
+    default: only when ``k_max`` is not given (a given ``k_max`` asks for every order up to it).
 
     Returns:
         ``(run, history, stop_reason, k_reached)``: the :class:`_Eorc`, one Step per order
@@ -352,7 +377,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None):
     """
     K = default_k_max(system) if k_max is None else int(k_max)
     check_eorc_memory(system, samples, K)
-    run = _Eorc(system, K, samples, seed, rtol)
+    run = _Eorc(system, K, samples, seed, rtol, early_stop=k_max is None if early_stop is None else early_stop)
     out = iterate(run)
     return run, out.history, out.stop.message, out.m
 
@@ -364,7 +389,9 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     Args:
         system: the original System.
         samples, seed, rtol: sampling certificate options (see :func:`uio_jax.analyze`).
-        k_max: highest order (default ``n + 2``).
+        k_max: highest order (default ``n + 2``). Not given, the run may stop earlier, at
+            the known-input bound (:mod:`uio_jax._analysis.known_bound`); given, every
+            order up to it is run (unless the span closes or every state is observable).
         notes: notes to carry (e.g. why ``auto`` chose the EORC).
         known_inputs: ``"switchable"`` (close under every raw known field, the papers'
             EORC) or ``"smooth"`` (the known inputs are generic smooth functions of time:
@@ -388,7 +415,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     working = with_input_jets(system, K - 1) if smooth else system
     with jax.enable_x64(True):
         run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
-                                           k_max=K)
+                                           k_max=K, early_stop=k_max is None)
         ctx = run.ctx
         last = history[-1]
         # the EORC is monotone in k: the answer is the one of the last order whose
@@ -426,8 +453,22 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
             f"their derivatives up to order {K - 1} are known coordinates of the drift")
-    if not all(observable.values()):
-        hidden = [s for s, v in observable.items() if not v]
+    at_bound = (StopReason.KNOWN_BOUND.matches(reason) and k_used == k
+                and dim_all == run.bound.dim)
+    hidden = [s for s, v in observable.items() if not v]
+    if at_bound:
+        notes.append(
+            f"k={k}: every unknown input is observable and the states reach the known-input bound "
+            f"{run.bound.dim} (the rank of the observation space with every input known, series "
+            f"order {run.bound.order}), which bounds Omega-bar_k on the states at every order: no "
+            "higher order changes a verdict, and each derivative w^(d) of an unknown input is "
+            "observable at order k + d"
+            + (f"; {', '.join(hidden)}: not observable even with every input known (exact, "
+               "analytic model)" if hidden else ""))
+    elif StopReason.KNOWN_BOUND.matches(reason):
+        notes.append(f"the early stop at k={k} (dim {last.dim} = the known-input bound) did not hold "
+                     f"on every certifying sample (dim {dim_all}): the verdicts are sufficient only")
+    if hidden and not at_bound:
         notes.append(
             f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
             f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
@@ -444,6 +485,11 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         "augmented_ranks": [st.extra["augmented_rank"] for st in history],
         "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
         "inputs_observable_at": first_seen,
+        # the rank with every input known (None: not needed, or no sound bound), and the
+        # order at which the states reached it with every unknown input observable
+        "known_input_bound": None if run.bound is None else {
+            "dim": run.bound.dim, "series_order": run.bound.order,
+            "reached_at": k if at_bound else None},
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box

@@ -437,7 +437,9 @@ class Report:
         final codistribution) and Martinelli's single-unknown-input codistribution are
         exact at generic states once the recursion converged; the EORC, or a recursion
         stopped by a cap (``max_order``, the step cap), shows observability sufficiently
-        only: "observable" is proven, "not observable" means not shown.
+        only: "observable" is proven, "not observable" means not shown. An EORC stopped at
+        the known-input bound (:mod:`uio_jax._analysis.known_bound`) is exact: a state it
+        does not show is not observable even with every input known.
         """
         capped = any(t in self.stop_reason for t in ("reached before convergence",
                                                      "no convergence certified",
@@ -445,7 +447,8 @@ class Report:
         if self.method == "general_ui" and self.details.get("exact") is False and not capped:
             return ("not certified exact (general_ui: the jets of the known inputs may have "
                     "been truncated, see the notes): 'observable' is proven")
-        if self.method == "eorc":
+        bound = self.details.get("known_input_bound") if self.method == "eorc" else None
+        if self.method == "eorc" and not (bound and bound.get("reached_at") is not None):
             return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
                     "not shown observable up to the last order k")
         if capped:
@@ -454,7 +457,9 @@ class Report:
         what = {"orc": "observability rank condition, no unknown input",
                 "series": "rank of the output series, the ORC's final codistribution",
                 "single_ui": "Martinelli's observable codistribution, one unknown input",
-                "general_ui": "Martinelli's general solution, any number of unknown inputs"}
+                "general_ui": "Martinelli's general solution, any number of unknown inputs",
+                "eorc": "EORC at the known-input bound: its span on the states is that of the "
+                        "ORC with every input known"}
         meaning = {"smooth": "; known inputs generic smooth functions of time",
                    "switchable": "; known inputs switchable (may jump)"}.get(self.known_inputs, "")
         return (f"exact ({what.get(self.method, self.method)}{meaning}): the observable "

@@ -57,6 +57,13 @@ class SeriesNotApplicable(OptionError):
         self.primitive = primitive
 
 
+#: What the series test raises when the Taylor engines cannot expand a model: ``fast``
+#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError
+#: (:class:`SeriesNotApplicable` is one; a bare
+#: :class:`~uio_jax._engine.interpreter.NoTaylorRule` is converted).
+SERIES_FAILURES = (SeriesNotApplicable, NoTaylorRule)
+
+
 def check_applicable(system) -> None:
     """The series test needs every input known (unknown inputs: single_ui or EORC)."""
     if system.unknown:
@@ -329,5 +336,5 @@ def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
     return ctx.report("series", history, reason, notes=notes, details={"order": k})
 
 
-__all__ = ["series_report", "run_series", "output_series", "input_coefficients", "check_applicable",
+__all__ = ["series_report", "run_series", "SERIES_FAILURES", "output_series", "input_coefficients", "check_applicable",
            "SeriesNotApplicable"]
