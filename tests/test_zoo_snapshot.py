@@ -4,7 +4,12 @@ The snapshot was written by ``scripts/snapshot_reports.py`` (256 samples, seed 0
 last refreshed when the recursions moved to 128 decision samples and a step keeping nothing
 got its rejections settled exactly (every certificate's counts and margins moved; four
 visual-inertial EORCs no longer stop on a false "Omega-bar closed" but run to k_max, with
-the same verdicts on the states and more input derivatives observable). A change that
+the same verdicts on the states and more input derivatives observable). Refreshed again
+when the EORC learned to stop at the known-input bound (four visual-inertial EORCs stop at
+k = 2 or 7 instead of k_max, with the same verdicts, now exact) and clear rejections after a
+contradicted float64 vote were verified exactly (every certificate gained
+``rejections_verified``; the uncalibrated Vi-SfM EORC's counts moved, its verdicts did
+not). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
 strings and labels compare exactly; floats (singular-value margins of the certificate) to a
 relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any
