@@ -299,3 +299,52 @@ def test_after_a_contradiction_clear_rejections_are_verified_exactly(monkeypatch
 
     monkeypatch.setattr(_rank.Codistribution, "_decide", no_rule)
     assert uj.analyze(model, samples=256, method="orc").dims == (3, 4, 4)
+
+
+def test_degree_bounds_hold_and_share_common_denominators():
+    """``graph_exact.degrees`` bounds the numerator and denominator degrees of random
+    rational graphs (checked against sympy's reduced forms), and a recurrence dividing
+    every term by the same node (a Taylor quotient) keeps its denominator: ``c_k = (x1 -
+    sum_{j<k} c_j x0) / q`` has denominator ``q^(k+1)`` (degree k + 1); bounding each sum by
+    the product of its terms' denominators gave ``2^k``."""
+    import random
+
+    import sympy as sp
+
+    from uio_jax._engine import graph_exact
+
+    xs = sp.symbols("x0:3")
+    rng = random.Random(3)
+    for _ in range(30):
+        g = Graph(3)
+        pool = [(g.x(i), xs[i]) for i in range(3)] + [(g.const(2.0), sp.Integer(2))]
+        for _ in range(8):
+            (a, ea), (b, eb) = rng.choice(pool), rng.choice(pool)
+            op = rng.choice(["add", "mul", "div", "neg", "ipow"])
+            if op == "add":
+                pool.append((g.add(a, b), ea + eb))
+            elif op == "mul":
+                pool.append((g.mul(a, b), ea * eb))
+            elif op == "div" and eb != 0:
+                pool.append((g.div(a, b), ea / eb))
+            elif op == "neg":
+                pool.append((g.neg(a), -ea))
+            elif op == "ipow":
+                k = rng.choice([-2, -1, 2, 3])
+                if k > 0 or ea != 0:
+                    pool.append((g.ipow(a, k), ea ** k))
+        nodes = [nd for nd, _ in pool]
+        for (num, den), (_, e) in zip(graph_exact.degrees(g, nodes), pool):
+            p, q = sp.fraction(sp.cancel(sp.together(e)))
+            assert sp.Poly(p, *xs).total_degree() <= num and sp.Poly(q, *xs).total_degree() <= den
+
+    g = Graph(2)
+    q = g.add(g.x(0), g.x(1))
+    cs = [g.div(g.x(0), q)]
+    for _ in range(30):
+        total = g.x(1)
+        for c in cs:
+            total = g.add(total, g.neg(g.mul(c, g.x(0))))
+        cs.append(g.div(total, q))
+    (num, den), = graph_exact.degrees(g, [cs[-1]])
+    assert den == 31 and num <= 2 * 31

@@ -266,37 +266,72 @@ class Echelon:
 
 def degrees(graph, roots, memo=None) -> list[tuple[int, int]]:
     """Upper bounds ``(deg numerator, deg denominator)`` of rational graph nodes written as
-    quotients of polynomials in the coordinates (no cancellation assumed).
+    quotients of polynomials in the coordinates.
+
+    A denominator is kept as a product of *atoms*, the numerators of the nodes divided by
+    (``{atom node: multiplicity}``), so that a sum of terms over the same denominators
+    takes their least common multiple instead of their product: ``a/q + b/q`` has
+    denominator ``q``, not ``q^2``. The Taylor recurrences of a quotient divide every
+    coefficient by the same leading term, so without this the bound doubled at each
+    addition of a deep derivative and exceeded the prime (more random points for every
+    dependence) where the true degree grows linearly. Bounds only (no cancellation is
+    assumed).
 
     ``memo``: a dict kept by the caller between calls on the same graph (node -> bounds),
     so that each node is visited once over many calls.
     """
     ops, args, params = graph.op, graph.args, graph.param
-    D = {} if memo is None else memo
+    D = {} if memo is None else memo  # node -> (num degree, {atom: multiplicity}, den degree)
+    empty = {}
+
+    def atoms_deg(atoms):
+        return sum(m * D[a][0] for a, m in atoms.items())
+
     for k in graph.reachable(roots, known=D):
         op, a = ops[k], args[k]
         if op == "x":
-            D[k] = (1, 0)
+            D[k] = (1, empty, 0)
         elif op == "c":
-            D[k] = (0, 0)
+            D[k] = (0, empty, 0)
         elif op == "neg":
             D[k] = D[a[0]]
         elif op == "add":
-            (na, da), (nb, db) = D[a[0]], D[a[1]]
-            D[k] = (max(na + db, nb + da), da + db)
+            (na, qa, da), (nb, qb, db) = D[a[0]], D[a[1]]
+            if qa is qb or qa == qb:
+                D[k] = (max(na, nb), qa, da)
+            else:
+                lcm = dict(qa)
+                for atom, m in qb.items():
+                    if m > lcm.get(atom, 0):
+                        lcm[atom] = m
+                d = atoms_deg(lcm)
+                D[k] = (max(na + d - da, nb + d - db), lcm, d)
         elif op == "mul":
-            (na, da), (nb, db) = D[a[0]], D[a[1]]
-            D[k] = (na + nb, da + db)
-        elif op == "div":
-            (na, da), (nb, db) = D[a[0]], D[a[1]]
-            D[k] = (na + db, da + nb)
+            (na, qa, da), (nb, qb, db) = D[a[0]], D[a[1]]
+            if not qb:
+                q = qa
+            elif not qa:
+                q = qb
+            else:
+                q = dict(qa)
+                for atom, m in qb.items():
+                    q[atom] = q.get(atom, 0) + m
+            D[k] = (na + nb, q, da + db)
+        elif op == "div":  # (na / qa) / (nb / qb) = na qb / (qa * atom b)
+            (na, qa, da), (nb, qb, db) = D[a[0]], D[a[1]]
+            q = dict(qa)
+            q[a[1]] = q.get(a[1], 0) + 1
+            D[k] = (na + db, q, da + nb)
         elif op == "ipow":
-            na, da = D[a[0]]
+            na, qa, da = D[a[0]]
             kk = params[k]
-            D[k] = (kk * na, kk * da) if kk >= 0 else (-kk * da, -kk * na)
+            if kk >= 0:
+                D[k] = (kk * na, {atom: kk * m for atom, m in qa.items()} if qa else empty, kk * da)
+            else:  # (na / qa)^-m = qa^m / (atom a)^m
+                D[k] = (-kk * da, {a[0]: -kk}, -kk * na)
         else:
             raise ValueError(f"{op} is not a rational operation")
-    return [D[r] for r in roots]
+    return [(D[r][0], D[r][2]) for r in roots]
 
 
 class ExtendedEvaluator:
