@@ -377,7 +377,9 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None):
     """
     K = default_k_max(system) if k_max is None else int(k_max)
     check_eorc_memory(system, samples, K)
-    run = _Eorc(system, K, samples, seed, rtol, early_stop=k_max is None if early_stop is None else early_stop)
+    if early_stop is None:
+        early_stop = k_max is None
+    run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop)
     out = iterate(run)
     return run, out.history, out.stop.message, out.m
 
@@ -489,7 +491,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         # order at which the states reached it with every unknown input observable
         "known_input_bound": None if run.bound is None else {
             "dim": run.bound.dim, "series_order": run.bound.order,
-            "reached_at": k if at_bound else None},
+            "settled_beyond_float64": run.bound.settled, "reached_at": k if at_bound else None},
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box

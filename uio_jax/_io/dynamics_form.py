@@ -5,7 +5,7 @@ A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i
 sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
 ``f(x, p, u, w)`` with parameters, with a trailing time argument ``f(x, u, w, t)`` /
 ``f(x, p, u, w, t)`` for a time-varying model), split by the same code as model files
-(:func:`uio_jax._io.affine.split_callable`: the Hessian in the inputs at the same samples
+(:func:`uio_jax._io.affine_callable.split_callable`: the Hessian in the inputs at the same samples
 and threshold, the same promotions of inputs that enter non-affinely or appear in an
 output, the same notes).
 """
@@ -68,7 +68,8 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
             fails or returns the wrong shape or a complex value, dynamics not finite at
             any sampled point).
     """
-    from .affine import split_callable, system_callables
+    from .affine import system_callables
+    from .affine_callable import split_callable
 
     states = _names(states, "states")
     known = _names(known, "known")
