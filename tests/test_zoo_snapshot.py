@@ -10,7 +10,9 @@ k = 2 or 7 instead of k_max, with the same verdicts, now exact) and clear reject
 contradicted float64 vote were verified exactly (every certificate gained
 ``rejections_verified``; the uncalibrated Vi-SfM EORC's counts moved, its verdicts did
 not), then for the degree bounds of modular dependences (common denominators shared: three
-probability bounds of the partial Vi-SfM EORCs went down by about 1000x). A change that
+probability bounds of the partial Vi-SfM EORCs went down by about 1000x), and when the
+exact checks of the trial span that computes a dimension were counted in
+``Certificate.verified`` (14 counts grew). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
 strings and labels compare exactly; floats (singular-value margins of the certificate) to a
 relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any

@@ -191,6 +191,7 @@ class Context:
         added = fork.absorb([units[todo[p]] for p in at], None, tested.take(at))
         seen = {id(e) for e in codist.escalations}  # a question asked again is recorded once
         codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
+        codist.verified += fork.verified  # the trial's exact checks count in the certificate
         codist.rejections_verified += fork.rejections_verified
         if fork.contradicted:  # float64 contradicted in the trial: distrust it in the span too
             codist.contradicted = True
