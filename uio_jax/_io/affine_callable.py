@@ -27,12 +27,12 @@ def split_callable(states, dynamics, outputs, known_inputs, unknown_inputs, para
     ``outputs[name](x, p, u, w) -> ()`` (``x (n,)``, ``p (P,)``, ``u (len(known),)``,
     ``w (len(unknown),)``).
 
-    The same split and the same rules: drift ``f(x, p, 0, 0)``, fields ``d f / d v`` at
-    ``v = 0`` (``jax.jvp``); the Hessian in ``v`` is ``jax.hessian`` at the same
-    :data:`~uio_jax._io.affine.AFFINE_SAMPLES` points (:func:`~uio_jax._io.affine.affine_points`) and goes through the same
-    threshold (:func:`~uio_jax._io.affine.pattern_from_derivatives`); promotions, their order and their notes
-    are those of :func:`~uio_jax._io.affine.promotion_reasons` and :func:`~uio_jax._io.affine.promotions`. Where the expression
-    route reads the model's text, this one measures at the samples:
+    The same split and the same rules (:mod:`uio_jax._io.affine`): drift ``f(x, p, 0, 0)``,
+    fields ``d f / d v`` at ``v = 0`` (``jax.jvp``); the Hessian in ``v`` is ``jax.hessian``
+    at the same ``AFFINE_SAMPLES`` points (``affine_points``) and goes through the same
+    threshold (``pattern_from_derivatives``); promotions, their order and their notes are
+    those of ``promotion_reasons`` and ``promotions``. Where the expression route reads the
+    model's text, this one measures at the samples:
 
     * an input is used by the dynamics (or an output) when a derivative in it is non-zero
       at some finite sample; unused inputs are dropped with the same note;
