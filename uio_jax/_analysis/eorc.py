@@ -78,7 +78,7 @@ from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context
 from .driver import Recursion, StopReason, iterate
 from .evidence import Step
-from .known_bound import known_input_bound
+from .known_bound import known_input_bound, stop_note
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report
 from .space import SampledSpace, report_view
@@ -455,21 +455,11 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
             f"their derivatives up to order {K - 1} are known coordinates of the drift")
-    at_bound = (StopReason.KNOWN_BOUND.matches(reason) and k_used == k
-                and dim_all == run.bound.dim)
+    stopped = StopReason.KNOWN_BOUND.matches(reason)
+    at_bound = stopped and k_used == k and dim_all == run.bound.dim
     hidden = [s for s, v in observable.items() if not v]
-    if at_bound:
-        notes.append(
-            f"k={k}: every unknown input is observable and the states reach the known-input bound "
-            f"{run.bound.dim} (the rank of the observation space with every input known, series "
-            f"order {run.bound.order}), which bounds Omega-bar_k on the states at every order: no "
-            "higher order changes a verdict, and each derivative w^(d) of an unknown input is "
-            "observable at order k + d"
-            + (f"; {', '.join(hidden)}: not observable even with every input known (exact, "
-               "analytic model)" if hidden else ""))
-    elif StopReason.KNOWN_BOUND.matches(reason):
-        notes.append(f"the early stop at k={k} (dim {last.dim} = the known-input bound) did not hold "
-                     f"on every certifying sample (dim {dim_all}): the verdicts are sufficient only")
+    if stopped:
+        notes.append(stop_note(run.bound, k, last.dim, dim_all, hidden, at_bound))
     if hidden and not at_bound:
         notes.append(
             f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "

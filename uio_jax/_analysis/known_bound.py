@@ -103,4 +103,22 @@ def known_input_bound(system: System, *, samples: int, seed: int, rtol: float) -
     return KnownBound(ctx.dim, k, len(codist.escalations) + codist.rejections_verified + codist.verified)
 
 
-__all__ = ["KnownBound", "known_input_bound", "known_input_system"]
+def stop_note(bound: KnownBound, k: int, dim_k: int, dim_all: int, hidden, held: bool) -> str:
+    """The Report's note on an EORC stopped at the bound at order ``k``: why no later order
+    changes a verdict (and which states are then not observable even with every input
+    known), or, when the stop's premise did not hold on the certifying samples (``held``
+    False: they gave ``dim_all``), that the verdicts are the EORC's usual sufficient ones."""
+    if not held:
+        return (f"the early stop at k={k} (dim {dim_k} = the known-input bound) did not hold "
+                f"on every certifying sample (dim {dim_all}): the verdicts are sufficient only")
+    text = (f"k={k}: every unknown input is observable and the states reach the known-input bound "
+            f"{bound.dim} (the rank of the observation space with every input known, series order "
+            f"{bound.order}), which bounds Omega-bar_k on the states at every order: no higher order "
+            "changes a verdict, and each derivative w^(d) of an unknown input is observable at "
+            "order k + d")
+    if hidden:
+        text += f"; {', '.join(hidden)}: not observable even with every input known (exact, analytic model)"
+    return text
+
+
+__all__ = ["KnownBound", "known_input_bound", "known_input_system", "stop_note"]
