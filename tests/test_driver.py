@@ -26,6 +26,9 @@ TEXTS = [  # the texts reports carry (compared bit for bit with older reports)
     (R.KNOWN_BOUND.stop(bound=12, k=2),
      "every unknown input observable and the states at the known-input bound 12 at k=2: no higher "
      "order changes a verdict"),
+    (R.SYMMETRY_BOUND.stop(bound=22, k=10),
+     "the states at the bound 22 of the verified symmetries at k=10, every unknown input observable "
+     "or proved unobservable: no higher order changes a verdict"),
     (R.EXTENSION_CLOSED.stop(k=10, prev=9),
      "Omega-bar_10 = Omega-bar_9: no higher order (in any extension) adds a generator"),
     (R.CLOSURE_CONVERGED.stop(m=0), "closure along the drift converged at iteration 0"),

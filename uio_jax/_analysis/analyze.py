@@ -1,9 +1,12 @@
 """``analyze``: choice of the analysis and the float64 context (the options are checked by
 :mod:`uio_jax._analysis.options`)."""
 
+import dataclasses
+
 import jax
 
 from .._errors import OptionError
+from .._model.symmetries import symmetry_fields
 from .._model.system import System
 from .context import Context
 from .eorc import eorc_report
@@ -15,6 +18,7 @@ from .orc import run_orc
 from .series import SERIES_FAILURES, series_report
 from .series import check_applicable as series_applicable
 from .single_ui import check_applicable, single_ui_report
+from .symmetry import symmetry_notes, verify_symmetries
 
 
 def analyze(
@@ -99,6 +103,25 @@ def analyze(
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
+    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs)
+    if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
+        report = _with_symmetries(report, system, seed)
+    return report
+
+
+def _with_symmetries(report, system, seed):
+    """``report`` with the notes and ``details["symmetries"]`` of the System's verified
+    symmetries (:mod:`uio_jax._analysis.symmetry`): the coordinates they move are proved
+    unobservable, and a verdict that contradicts one is flagged."""
+    bound = verify_symmetries(system, seed=seed)
+    verdicts = {**report.observable, **report.identifiable}
+    notes, _ = symmetry_notes(bound, verdicts, "the final span", report.dim)
+    details = {**report.details, "symmetries": bound.to_dict()}
+    return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details)
+
+
+def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs):
+    """The report of the analysis ``method`` chooses on the autonomous ``system``."""
     chosen, why = _choose(system, method, known_inputs)
     notes = [why] if why else []
     if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself

@@ -83,6 +83,10 @@ class StopReason(enum.Enum):
     #: (:mod:`uio_jax._analysis.known_bound`): no later order changes a verdict.
     KNOWN_BOUND = ("every unknown input observable and the states at the known-input bound {bound} "
                    "at k={k}: no higher order changes a verdict")
+    #: EORC: ``dim_k`` equals the bound of the verified symmetries and every unknown input is
+    #: observable or moved by one of them (:mod:`uio_jax._analysis.symmetry`).
+    SYMMETRY_BOUND = ("the states at the bound {bound} of the verified symmetries at k={k}, every unknown "
+                      "input observable or proved unobservable: no higher order changes a verdict")
     #: EORC: ``Omega-bar_k = Omega-bar_{k-1}``.
     EXTENSION_CLOSED = ("Omega-bar_{k} = Omega-bar_{prev}: no higher order (in any extension) "
                         "adds a generator")

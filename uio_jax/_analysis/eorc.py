@@ -82,6 +82,7 @@ from .known_bound import known_input_bound, stop_note
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report
 from .space import SampledSpace, report_view
+from .symmetry import symmetry_notes, verify_symmetries
 
 #: Name of the extended drift field in generator labels.
 DRIFT_LABEL = "F0"
@@ -181,8 +182,10 @@ class _Eorc(Recursion):
     order's rank work runs.
     """
 
-    def __init__(self, system, K, samples, seed, rtol, early_stop=True):
+    def __init__(self, system, K, samples, seed, rtol, early_stop=True, analysed=None):
         self.system = system
+        #: the System before the jets of smooth known inputs were added (its symmetries)
+        self.analysed = system if analysed is None else analysed
         self.K = K
         self.N = system.n  # coordinates before the unknown-input ones
         self.n = system.n - known_coordinates(system)  # those reported on (not known ones)
@@ -205,7 +208,9 @@ class _Eorc(Recursion):
         self._escalations_seen = 0
         self.samples, self.seed, self.rtol = samples, seed, rtol
         self.bound = None  # the known-input bound (known_bound.KnownBound), once computed
-        self._bound_tried = not early_stop  # k_max given: every order up to it is reported
+        self.early_stop = early_stop  # False: k_max given, every order up to it is reported
+        self._bound_tried = not early_stop
+        self._symmetry = None  # (symmetry.SymmetryBound or None,) once verified
 
     # ------------------------------------------------------------------ the recursion
     def init(self) -> Step:
@@ -229,26 +234,53 @@ class _Eorc(Recursion):
             return StopReason.EXTENSION_CLOSED.stop(k=k, prev=k - 1)
         if full:
             return StopReason.ALL_STATES.stop(k=k)
-        if self.at_known_bound(history[-1]):
-            return StopReason.KNOWN_BOUND.stop(k=k, bound=self.bound.dim)
+        if self.early_stop:
+            stop = self.at_bound(history[-1])
+            if stop is not None:
+                return stop
         if k >= self.K:
             return StopReason.K_MAX.stop(k_max=self.K)
         return None
 
-    def at_known_bound(self, last) -> bool:
-        """Whether order ``last.m`` is final (:mod:`uio_jax._analysis.known_bound`): every
-        unknown input ``w_j`` is observable, no decision so far is undecided, and ``dim_k``
-        equals the known-input bound (computed once, the first time the other two hold)."""
-        observed = set(last.extra["observable_inputs"])
-        if not all(nm in observed for nm in self.names[: self.mw]):
-            return False
+    def symmetry_bound(self):
+        """The verified symmetries of the analysed System
+        (:func:`uio_jax._analysis.symmetry.verify_symmetries`, once), or None."""
+        if self._symmetry is None:
+            self._symmetry = (verify_symmetries(self.analysed, seed=self.seed),)
+        return self._symmetry[0]
+
+    def at_bound(self, last):
+        """The Stop when order ``last.m`` is final, else None. No decision so far may be
+        undecided, and then either
+
+        * ``dim_k`` equals the bound of the verified symmetries (:mod:`.symmetry`) and every
+          unknown input is observable or proved unobservable by one of them; or
+        * every unknown input is observable and ``dim_k`` equals the known-input bound
+          (:mod:`.known_bound`, computed once, the first time the rest holds).
+        """
         if any(e.result == "undecided" for e in self.ctx.codist.escalations):
+            return None
+        observed = set(last.extra["observable_inputs"])
+        inputs = self.names[: self.mw]
+        sym = self.symmetry_bound()
+        if sym is not None and sym.rank and last.dim == sym.dim and all(
+                nm in observed or nm in sym.unobservable_inputs for nm in inputs):
+            return StopReason.SYMMETRY_BOUND.stop(k=last.m, bound=sym.dim)
+        if self.at_known_bound(observed, last.dim):
+            return StopReason.KNOWN_BOUND.stop(k=last.m, bound=self.bound.dim)
+        return None
+
+    def at_known_bound(self, observed, dim) -> bool:
+        """Whether every unknown input ``w_j`` is observable (``observed``: the observable
+        input coordinates) and ``dim`` (``dim_k``) equals the known-input bound
+        (:mod:`uio_jax._analysis.known_bound`, computed once, the first time they all are)."""
+        if not all(nm in observed for nm in self.names[: self.mw]):
             return False
         if not self._bound_tried:
             self._bound_tried = True
             self.bound = known_input_bound(self.system, samples=self.samples, seed=self.seed,
                                            rtol=self.rtol)
-        return self.bound is not None and last.dim == self.bound.dim
+        return self.bound is not None and dim == self.bound.dim
 
     def record(self, k) -> Step:
         """The Step of order ``k`` (``Step.m = k``, ``Step.dim = dim_k``; ``extra``:
@@ -365,11 +397,14 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     return check_memory(samples, N, N, what=what, advice=advice)
 
 
-def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None):
+def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analysed=None):
     """Run the EORC recursion up to ``k_max`` (default ``n + 2``) by the shared driver.
 
-    ``early_stop``: stop at the known-input bound (:mod:`uio_jax._analysis.known_bound`);
-    default: only when ``k_max`` is not given (a given ``k_max`` asks for every order up to it).
+    ``early_stop``: stop at the bound of the verified symmetries or at the known-input bound
+    (:mod:`uio_jax._analysis.symmetry`, :mod:`uio_jax._analysis.known_bound`); default: only
+    when ``k_max`` is not given (a given ``k_max`` asks for every order up to it).
+    ``analysed``: the System whose symmetries are verified (``system`` before the jets of
+    smooth known inputs were added; default ``system``).
 
     Returns:
         ``(run, history, stop_reason, k_reached)``: the :class:`_Eorc`, one Step per order
@@ -379,7 +414,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None):
     check_eorc_memory(system, samples, K)
     if early_stop is None:
         early_stop = k_max is None
-    run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop)
+    run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop, analysed=analysed)
     out = iterate(run)
     return run, out.history, out.stop.message, out.m
 
@@ -417,7 +452,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     working = with_input_jets(system, K - 1) if smooth else system
     with jax.enable_x64(True):
         run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
-                                           k_max=K, early_stop=k_max is None)
+                                           k_max=K, early_stop=k_max is None, analysed=system)
         ctx = run.ctx
         last = history[-1]
         # the EORC is monotone in k: the answer is the one of the last order whose
@@ -460,7 +495,12 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     hidden = [s for s, v in observable.items() if not v]
     if stopped:
         notes.append(stop_note(run.bound, k, last.dim, dim_all, hidden, at_bound))
-    if hidden and not at_bound:
+    sym = run.symmetry_bound()
+    at_symmetry = False
+    if sym is not None:
+        sym_notes, at_symmetry = symmetry_notes(sym, observable, f"k={k_used}", dim_all)
+        notes.extend(sym_notes)
+    if hidden and not (at_bound or at_symmetry):
         notes.append(
             f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
             f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
@@ -482,6 +522,9 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         "known_input_bound": None if run.bound is None else {
             "dim": run.bound.dim, "series_order": run.bound.order,
             "settled_beyond_float64": run.bound.settled, "reached_at": k if at_bound else None},
+        # the verified symmetries (None: none declared) and the order at which the states
+        # reached their bound
+        "symmetries": None if sym is None else {**sym.to_dict(), "reached_at": k_used if at_symmetry else None},
     }
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box

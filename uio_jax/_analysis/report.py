@@ -439,7 +439,9 @@ class Report:
         stopped by a cap (``max_order``, the step cap), shows observability sufficiently
         only: "observable" is proven, "not observable" means not shown. An EORC stopped at
         the known-input bound (:mod:`uio_jax._analysis.known_bound`) is exact: a state it
-        does not show is not observable even with every input known.
+        does not show is not observable even with every input known; so is one whose states
+        reach the bound of its verified symmetries (:mod:`uio_jax._analysis.symmetry`): a
+        state it does not show is moved by a symmetry.
         """
         capped = any(t in self.stop_reason for t in ("reached before convergence",
                                                      "no convergence certified",
@@ -448,7 +450,9 @@ class Report:
             return ("not certified exact (general_ui: the jets of the known inputs may have "
                     "been truncated, see the notes): 'observable' is proven")
         bound = self.details.get("known_input_bound") if self.method == "eorc" else None
-        if self.method == "eorc" and not (bound and bound.get("reached_at") is not None):
+        symmetric = self.details.get("symmetries") if self.method == "eorc" else None
+        by_symmetry = bool(symmetric and symmetric.get("reached_at") is not None)
+        if self.method == "eorc" and not (by_symmetry or bound and bound.get("reached_at") is not None):
             return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
                     "not shown observable up to the last order k")
         if capped:
@@ -458,7 +462,9 @@ class Report:
                 "series": "rank of the output series, the ORC's final codistribution",
                 "single_ui": "Martinelli's observable codistribution, one unknown input",
                 "general_ui": "Martinelli's general solution, any number of unknown inputs",
-                "eorc": "EORC at the known-input bound: its span on the states is that of the "
+                "eorc": "EORC at the bound of its verified symmetries: every state it does not "
+                        "show is moved by one" if by_symmetry else
+                        "EORC at the known-input bound: its span on the states is that of the "
                         "ORC with every input known"}
         meaning = {"smooth": "; known inputs generic smooth functions of time",
                    "switchable": "; known inputs switchable (may jump)"}.get(self.known_inputs, "")

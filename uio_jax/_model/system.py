@@ -44,6 +44,7 @@ from .arguments import (
     as_time,
     check_input_names,
 )
+from .symmetries import as_symmetries, attach, check_symmetry_shapes
 
 Field = Callable[[jax.Array], jax.Array]
 Scalar = Callable[[jax.Array], jax.Array]
@@ -113,6 +114,15 @@ class System:
             seconds). ``domain`` may list the time name: the box ``(lo, hi)`` where ``t`` is
             sampled to certify ranks (default ``DEFAULT_TIME_BOX`` = (0.0, 1.0)). The analyses
             run on :meth:`autonomous`: ``t`` becomes a state with ``t' = 1`` that is measured.
+        symmetries: name -> ``xi``, a vector field along which the model is claimed
+            invariant (a rotation about an axis nobody measures, a scaling of a state
+            against a parameter). ``xi`` takes the arguments of the other callables and
+            returns shape ``(n + len(params),)`` (states, then parameters; time never
+            moves). The analyses verify each claim exactly before using it
+            (:mod:`uio_jax._analysis.symmetry`: ``L_xi h = 0``, ``[xi, f0] = [xi, f_i] = 0``,
+            ``[xi, g_j]`` a constant combination of the unknown-input fields); a verified
+            one proves the coordinates it moves unobservable and lets the EORC stop once its
+            bound is reached. A claim that fails is reported, never used.
 
     Raises:
         ModelError: a one-line message naming the problem (wrong length, non-scalar
@@ -139,6 +149,7 @@ class System:
     source: object = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
     time: str | None = None
+    symmetries: Mapping[str, Field] = field(default_factory=dict)
 
     def __post_init__(self):
         states = as_names(self.states, "states")
@@ -172,8 +183,10 @@ class System:
         if not all(isinstance(t, str) for t in notes):
             raise ModelError("notes must be strings")
         object.__setattr__(self, "notes", notes)
+        object.__setattr__(self, "symmetries", as_symmetries(self.symmetries))
         if not _DERIVED.get():
             self._check_shapes()
+            check_symmetry_shapes(self)
         if params:
             object.__setattr__(self, "_joint", self._build_joint())  # validated there
         elif time is not None:
@@ -182,6 +195,7 @@ class System:
             object.__setattr__(self, "_autonomous", build_autonomous(self))  # validated there
         elif not _DERIVED.get():
             self._check_finite()
+        attach(self)
 
     # ------------------------------------------------------------------ accessors
     @property
@@ -283,7 +297,7 @@ class System:
         with derived_system():  # the same (validated) functions
             return System(self.states, dict(self.outputs), known, unknown, self.drift,
                           dict(self.domain), self.angles, self.name, params=dict(self.params),
-                          notes=self.notes, time=self.time)
+                          notes=self.notes, time=self.time, symmetries=dict(self.symmetries))
 
     def __repr__(self) -> str:
         parts = [f"states={self.states}", f"outputs={tuple(self.outputs)}"]

@@ -1,0 +1,88 @@
+"""Declared symmetries of a System: the user's claim, carried to the analysed coordinates.
+
+A symmetry is a vector field ``xi`` on the states and parameters, ``z = [x; p]``, along which
+the user believes the model invariant: rotating a frame about an axis nobody measures,
+scaling a state against a parameter. The analyses verify the claim before they use it
+(:mod:`uio_jax._analysis.symmetry`: the conditions, exactly modulo a prime); a verified one
+proves that the coordinates it moves are not observable, and bounds the dimension of the
+observable space from above, so that the EORC can stop once it is reached.
+
+A symmetry callable takes the arguments of every other callable of the System (``x``;
+``(x, p)`` with parameters; a trailing time ``t`` for a time-varying System) and returns
+shape ``(n + len(params),)``: its components along the states, then along the parameters.
+It never moves time.
+"""
+
+from types import MappingProxyType
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import ModelError
+from .arguments import as_callables
+
+
+def as_symmetries(mapping):
+    """The ``symmetries=`` argument as a read-only mapping name -> callable."""
+    return as_callables({} if mapping is None else mapping, "symmetries")
+
+
+def check_symmetry_shapes(system) -> None:
+    """Trace each declared symmetry once on the System's arguments: it must return a real
+    array of shape ``(n + len(params),)``.
+
+    Raises:
+        ModelError: it fails to trace, returns another shape, or a complex value.
+    """
+    n, P = system.n, len(system.params)
+    args = [jax.ShapeDtypeStruct((n,), jnp.float64)]
+    if P:
+        args.append(jax.ShapeDtypeStruct((P,), jnp.float64))
+    if system.time is not None:
+        args.append(jax.ShapeDtypeStruct((), jnp.float64))
+    want = n + P
+    with jax.enable_x64(True):
+        for name, fn in system.symmetries.items():
+            try:
+                out = jax.eval_shape(fn, *args)
+            except Exception as exc:  # the user's function fails to trace
+                msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                raise ModelError(f"symmetry {name!r} fails on the System's arguments: "
+                                 f"{type(exc).__name__}: {msg}") from None
+            shape = tuple(getattr(out, "shape", ()) or ())
+            if shape != (want,):
+                of = f"{n} states + {P} parameters" if P else f"{n} states"
+                raise ModelError(f"symmetry {name!r} returns shape {shape}, expected ({want},) ({of})")
+            if np.issubdtype(np.dtype(getattr(out, "dtype", np.float64)), np.complexfloating):
+                raise ModelError(f"symmetry {name!r} returns a complex value; a symmetry must be real")
+
+
+def attach(system) -> None:
+    """Give the System the analyses run on (:meth:`~uio_jax.System.autonomous`) the declared
+    symmetries as fields of its own coordinates (``z = [x; p; t]``: zero along time)."""
+    if not system.symmetries:
+        return
+    target = system.autonomous()
+    n, P, timed = system.n, len(system.params), system.time is not None
+    if target is system:
+        lifted = dict(system.symmetries)
+    else:
+        lifted = {k: _lift(fn, n, P, timed) for k, fn in system.symmetries.items()}
+    object.__setattr__(target, "_symmetry_fields", MappingProxyType(lifted))
+
+
+def _lift(fn, n, P, timed):
+    def xi(z):
+        args = [z[:n]] + ([z[n:n + P]] if P else []) + ([z[n + P]] if timed else [])
+        v = fn(*args)
+        return jnp.concatenate([v, jnp.zeros(1, dtype=z.dtype)]) if timed else v
+
+    xi.__doc__ = getattr(fn, "__doc__", None)
+    return xi
+
+
+def symmetry_fields(analysed) -> "MappingProxyType":
+    """The declared symmetries of an analysed System (:meth:`~uio_jax.System.autonomous`) as
+    fields of its coordinates, name -> ``z (N,) -> (N,)``; empty when none was declared."""
+    return getattr(analysed, "_symmetry_fields", MappingProxyType({}))
