@@ -348,9 +348,11 @@ def _uncalibrated(n_acc, n_f, name):
     outputs["qc_norm"] = lambda x: jnp.sum(x[12:16] ** 2)
     states = _uncalibrated_states(n_acc, n_f)
     assert len(states) == n
+    # one accelerometer: the frame may turn about its axis unseen (verified by the analyses)
+    symmetries = {"internal_rotation": internal_rotation} if n_acc == 1 else {}
     return uj.System(states, outputs, known=known, unknown=unknown, drift=drift,
                      domain=_uncalibrated_domain(n_acc, n_f),
-                     name=f"visual_inertial_partial:{name}")
+                     name=f"visual_inertial_partial:{name}", symmetries=symmetries)
 
 
 def uncalibrated_one_acc(n_f=2):

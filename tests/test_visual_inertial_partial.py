@@ -14,6 +14,7 @@ import pytest
 from helpers import zoo_module
 
 import uio_jax as uj
+from uio_jax._analysis.driver import StopReason
 
 
 @pytest.fixture(scope="module")
@@ -259,6 +260,13 @@ def test_case_2_one_unobservable_direction_the_internal_rotation(mod, cases):
     assert rep.certificate.undecided == 0
     with pytest.raises(uj.ModelError, match="not independent in float64"):
         rep.unobservable_directions(np.asarray(_point(system, 100)))
+    # the declared internal rotation, verified exactly, bounds every order: the run stops
+    # at k = 10 with an exact verdict, and A_2, A_3 are proved unobservable (B = [[0, 1], [-1, 0]])
+    assert rep.details["k"] == 10 and rep.exact and StopReason.SYMMETRY_BOUND.matches(rep.stop_reason)
+    sym = rep.details["symmetries"]
+    assert sym["dim"] == 22 and sym["reached_at"] == 10 and sym["unobservable_inputs"] == ["A_2", "A_3"]
+    assert sorted(sym["moved"]) == sorted(s for s in system.states if s.startswith("qc"))
+    assert sym["checks"][0]["mixing"] == {"A_2": {"A_3": "1"}, "A_3": {"A_2": "-1"}}
 
 
 @pytest.mark.slow
@@ -273,7 +281,8 @@ def test_case_3_every_state_observable_at_k7(mod, cases):
 
 @pytest.mark.slow
 def test_case_2_every_derivative_of_an_observable_input_is_observable_one_order_later(cases):
-    """Case 2 to ``k_max = n + 2 = 25``: if ``w^(d)`` is observable at order k, so is
+    """Case 2 to ``k_max = n + 2 = 25`` (given: the run does not stop at its symmetry
+    bound, k = 10): if ``w^(d)`` is observable at order k, so is
     ``w^(d+1)`` at k + 1 (``L_F0 dw^(d) = dw^(d+1)``; :mod:`uio_jax._analysis.known_bound`).
     A lemma the run must satisfy at every order, whatever its float64 evidence: from order
     15 on the genuine directions of the deep derivatives come out 5-6.5 decades under
@@ -282,7 +291,7 @@ def test_case_2_every_derivative_of_an_observable_input_is_observable_one_order_
     stopped at ``W^(10)``). After a settled decision contradicts float64, rejections are
     verified exactly (rational model)."""
     system = cases["uncalibrated_one_acc"]
-    rep = uj.analyze(system, method="eorc", samples=256)
+    rep = uj.analyze(system, method="eorc", samples=256, k_max=system.n + 2)  # no early stop
     names = rep.details["extended_state"][system.n:]
     mw = len(system.unknown)
     for before, after in zip(rep.history, rep.history[1:]):

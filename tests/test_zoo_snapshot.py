@@ -12,7 +12,10 @@ contradicted float64 vote were verified exactly (every certificate gained
 not), then for the degree bounds of modular dependences (common denominators shared: three
 probability bounds of the partial Vi-SfM EORCs went down by about 1000x), and when the
 exact checks of the trial span that computes a dimension were counted in
-``Certificate.verified`` (14 counts grew). A change that
+``Certificate.verified`` (14 counts grew), and when Systems could declare symmetries (every
+EORC report gained ``details["symmetries"]``, None without any; the uncalibrated Vi-SfM
+with one accelerometer declares its internal rotation and stops at its bound, k = 10
+instead of 25, same verdicts, now exact). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
 strings and labels compare exactly; floats (singular-value margins of the certificate) to a
 relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any
