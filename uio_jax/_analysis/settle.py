@@ -196,7 +196,10 @@ class Settler:
         denominator vanishes, at most four times); None if every draw is singular."""
         for _ in range(4):
             if self._modular.get(point) is None:
-                draw = [int(v) for v in self.rng.integers(1, 2**62, size=self.graph.n)]
+                # uniform modulo p (three 63-bit words, 189 bits, reduced: the bias is
+                # below 2^-60), so that the Schwartz-Zippel bound D / p of a point holds
+                words = self.rng.integers(0, 2**63, size=(self.graph.n, 3))
+                draw = [((int(a) << 126) | (int(b) << 63) | int(c)) % graph_exact.PRIME for a, b, c in words]
                 self._modular[point] = graph_exact.ModularEvaluator(self.graph, [draw])
             try:
                 self._modular[point].evaluate(exprs)
