@@ -30,7 +30,9 @@ def plane(symmetries, known=True, output=None):
 def test_rotation_is_verified_exactly_and_stops_the_eorc_at_its_bound():
     """dim <= n - 1 = 1 at every order; dh reaches it at k = 0 and both inputs are proved
     unobservable (B = [[0, -1], [1, 0]] has no zero column): the EORC stops at k = 0, exact."""
-    rep = uj.analyze(plane({"rot": rotation}), method="eorc", samples=64)
+    system = plane({"rot": rotation})
+    assert "symmetries=('rot',)" in repr(system)
+    rep = uj.analyze(system, method="eorc", samples=64)
     sym = rep.details["symmetries"]
     assert rep.dim == 1 and not any(rep.observable.values()) and rep.details["k"] == 0
     assert StopReason.SYMMETRY_BOUND.matches(rep.stop_reason) and rep.exact

@@ -309,6 +309,8 @@ class System:
             parts.append("drift")
         if self.params:
             parts.append(f"params={tuple(self.params)}")
+        if self.symmetries:
+            parts.append(f"symmetries={tuple(self.symmetries)}")
         if self.time is not None:
             parts.append(f"time={self.time!r}")
         elif self.known_coordinates:
