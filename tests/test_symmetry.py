@@ -113,3 +113,13 @@ def test_bad_symmetries_are_one_line_errors(symmetries, message):
     with pytest.raises(uj.ModelError, match=message) as info:
         plane(symmetries)
     assert "\n" not in str(info.value)
+
+
+def test_the_rank_of_several_symmetries_is_taken_at_one_point():
+    """Two multiples of the same rotation: rank 1 (not 2, which rows evaluated at two
+    different points would give, and with it a bound of 0 below the true 1)."""
+    twice = {"rot": rotation, "rot2": lambda x: 2.0 * rotation(x)}
+    rep = uj.analyze(plane(twice), method="eorc", samples=64)
+    sym = rep.details["symmetries"]
+    assert [c["verified"] for c in sym["checks"]] == [True, True]
+    assert sym["rank"] == 1 and sym["dim"] == 1 and rep.dim == 1 and rep.exact

@@ -187,14 +187,14 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
             continue
         checks.append(SymmetryCheck(name, True, test.how, "", _mixing_text(B, names, test)))
         row = test.row(xi.expr)
-        verified_rows.append(row)
+        verified_rows.append(xi.expr)
         moved.update(i for i in range(n_rep) if test.nonzero(row[i]))
         if B is not None:
             unobservable.update(names[c] for c in range(len(names)) if any(test.nonzero(B[j][c])
                                                                            for j in range(len(names))))
         if probability is not None:
             probability = None if not rational else max(probability, test.probability(roots))
-    rank = _rank(verified_rows, n_rep)
+    rank = _rank(system, graph, verified_rows, n_rep, rng)
     return SymmetryBound(n_rep - rank, rank, tuple(system.states[i] for i in sorted(moved)),
                          tuple(nm for nm in names if nm in unobservable), tuple(checks),
                          probability if verified_rows else None)
@@ -234,16 +234,23 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
-def _rank(rows, n_rep) -> int:
-    """Rank of the verified fields at the first point, on the reported coordinates
-    (modulo p for rational rows, else by SVD of the mpmath values at 1e-30)."""
-    if not rows:
+def _rank(system, graph, fields, n_rep, rng) -> int:
+    """Rank of the verified fields (their expressions) at ONE new random point, on the
+    reported coordinates: modulo p where they are rational (never above the generic rank),
+    else by the SVD of their mpmath values (relative threshold 1e-12, far above the round-off
+    of 50 digits)."""
+    if not fields:
         return 0
-    if all(isinstance(v, int) for row in rows for v in row):
-        return graph_exact.rank_mod_p([row[:n_rep] for row in rows])
-    mat = np.array([[float(v) for v in row[:n_rep]] for row in rows])
-    s = np.linalg.svd(mat, compute_uv=False)
-    return int((s > 1e-12 * max(s.max(), 1e-300)).sum())
+    roots = [e for f in fields for e in f]
+    if all(graph.op[k] in RATIONAL_OPS for k in graph.reachable(roots)):
+        test = _Modular(graph, roots, rng)
+        if test.values is None:
+            return 0  # no point where they are defined: no bound from them
+        return graph_exact.rank_mod_p([test.row(f)[:n_rep] for f in fields])
+    test = _Extended(system, graph, roots, rng)
+    mat = np.array([[float(v) for v in test.row(f)[:n_rep]] for f in fields])
+    sv = np.linalg.svd(mat, compute_uv=False)
+    return int((sv > 1e-12 * max(sv.max(), 1e-300)).sum())
 
 
 def _mixing_text(B, names, test) -> dict:
