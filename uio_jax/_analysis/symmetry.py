@@ -296,7 +296,7 @@ class _Modular:
         at = [[[self.values[e][pt] for e in g] for g in G] for pt in range(POINTS)]  # (P, m, N)
         B = []
         for j, br in enumerate(brackets):
-            b = _solve_mod_p([list(col) for col in zip(*at[0])], [self.values[e][0] for e in br], p)
+            b = graph_exact.solve_mod_p([list(col) for col in zip(*at[0])], [self.values[e][0] for e in br], p)
             if b is None:
                 return None, (f"[{name}, {names[j]}] is not a combination of the unknown-input fields"
                               if _rank_full(at[0], p, m) else "the unknown-input fields are dependent at a point")
@@ -322,29 +322,6 @@ def _rank_full(G0, p, m) -> bool:
     return graph_exact.rank_mod_p(G0, p) == m
 
 
-def _solve_mod_p(A, y, p):
-    """The unique ``b`` with ``A b = y`` over ``F_p`` (``A`` of shape ``(N, m)``, full column
-    rank), or None when ``A`` is rank deficient or the system is inconsistent."""
-    N, m = len(A), len(A[0]) if A else 0
-    rows = [[int(v) % p for v in A[i]] + [int(y[i]) % p] for i in range(N)]
-    r = 0
-    for c in range(m):
-        piv = next((i for i in range(r, N) if rows[i][c]), None)
-        if piv is None:
-            return None
-        rows[r], rows[piv] = rows[piv], rows[r]
-        inv = pow(rows[r][c], -1, p)
-        rows[r] = [v * inv % p for v in rows[r]]
-        for i in range(N):
-            if i != r and rows[i][c]:
-                f = rows[i][c]
-                rows[i] = [(a - f * b) % p for a, b in zip(rows[i], rows[r])]
-        r += 1
-    if any(rows[i][m] for i in range(m, N)):
-        return None
-    return [rows[i][m] for i in range(m)]
-
-
 def _rational(a: int, p: int):
     """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
     reconstruction), else the residue."""
@@ -366,14 +343,14 @@ class _Extended:
     def __init__(self, system, graph, roots, rng):
         lo, hi = system.box()
         self.how = f"mpmath at {DIGITS} digits at {POINTS} points (not exact: the model is not rational)"
-        self.values, self.tol = {}, 10.0 ** (-DIGITS / 2)
+        self.tol = 10.0 ** (-DIGITS / 2)
         evs = []
         for _ in range(POINTS):
             pt = lo + np.array([rng.random() for _ in range(graph.n)]) * (hi - lo)
             ev = graph_exact.ExtendedEvaluator(graph, pt, DIGITS)
             evs.append(ev.gradients(roots)[0])
         self.values = {r: [vals[i] for vals in evs] for i, r in enumerate(roots)}
-        self.ctx = graph_exact.ExtendedEvaluator(graph, lo, DIGITS).ctx
+        self.ctx = ev.ctx  # the arithmetic of the solve (same precision)
         self.scale = 1.0 + max(abs(float(v)) for vs in self.values.values() for v in vs)
 
     def zero(self, exprs) -> bool:
@@ -399,7 +376,7 @@ class _Extended:
             for pt in range(POINTS):
                 for c, e in enumerate(br):
                     if abs(self.values[e][pt] - sum(b[i] * at[pt][i][c] for i in range(m))) > self.tol * self.scale:
-                        return None, f"[{name}, {names[j]}] is not a constant combination of the unknown-input fields"
+                        return None, f"[{name}, {names[j]}] is not a CONSTANT combination of the unknown-input fields"
             B.append(b)
         return B, ""
 
