@@ -50,7 +50,6 @@ import math
 import numpy as np
 
 from .._engine import graph_exact
-from .._engine.graph import RATIONAL_OPS
 
 #: A decision is weak when the median ``log10 rho`` lies between ``log10 rtol`` minus
 #: :data:`WEAK_BELOW` and plus :data:`WEAK_ABOVE` decades: from 1e-13 (round-off of our
@@ -183,8 +182,7 @@ class Settler:
         known = self._rational_nodes
         new = self.graph.reachable(exprs, known=known)
         if new:
-            op = self.graph.op
-            if not all(op[k] in RATIONAL_OPS for k in new):
+            if not all(self.graph.is_rational_node(k) for k in new):
                 return False
             known.update(new)
         return True

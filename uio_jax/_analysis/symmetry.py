@@ -56,7 +56,6 @@ import numpy as np
 
 from .._calculus.generators import builder_for
 from .._engine import graph_exact
-from .._engine.graph import RATIONAL_OPS
 from .._model.smooth_inputs import known_coordinates
 from .._model.symmetries import symmetry_fields
 
@@ -172,7 +171,7 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
         mixing = [builder.bracket(xi, g).expr for g in unknown]
         roots = [e for _, es in conditions for e in es] + [e for es in mixing for e in es] \
             + [e for g in unknown for e in g.expr] + list(xi.expr)
-        rational = all(graph.op[k] in RATIONAL_OPS for k in graph.reachable(roots))
+        rational = graph.is_rational(roots)
         test = _Modular(graph, roots, rng) if rational else _Extended(system, graph, roots, rng)
         if test.values is None:
             checks.append(SymmetryCheck(name, False, test.how, "every point drawn was singular"))
@@ -242,7 +241,7 @@ def _rank(system, graph, fields, n_rep, rng) -> int:
     if not fields:
         return 0
     roots = [e for f in fields for e in f]
-    if all(graph.op[k] in RATIONAL_OPS for k in graph.reachable(roots)):
+    if graph.is_rational(roots):
         test = _Modular(graph, roots, rng)
         if test.values is None:
             return 0  # no point where they are defined: no bound from them

@@ -29,6 +29,7 @@ JAX functions into the graph is :mod:`.graph_trace`.
 """
 
 import math
+from fractions import Fraction
 
 import numpy as np
 
@@ -65,6 +66,29 @@ _FOLD = {
 }
 
 
+#: the folds that stay exact on exact constants (:class:`~fractions.Fraction` arithmetic)
+_EXACT_FOLD = {"neg": lambda a: -a, "add": lambda a, b: a + b, "mul": lambda a, b: a * b,
+               "div": lambda a, b: a / b, "abs": abs}
+
+
+def exact_literal(value):
+    """The exact rational a constant stands for, or None when it has none.
+
+    An int or a :class:`~fractions.Fraction` is itself. A finite float is read as the
+    shortest decimal that rounds to it (``repr``): a model's literal ``1.3`` means ``13/10``,
+    not the binary float nearest to it, and ``1/7`` written in Python is the decimal
+    ``0.14285714285714285``. NaN and infinities have none.
+    """
+    if isinstance(value, Fraction):
+        return value
+    if isinstance(value, (int, np.integer, bool, np.bool_)):
+        return Fraction(int(value))
+    v = float(value)
+    if not math.isfinite(v):
+        return None
+    return Fraction(repr(v)) if v != 0.0 else Fraction(0)
+
+
 class Graph:
     """A hash-consed graph of scalar expressions in ``n`` state coordinates.
 
@@ -98,8 +122,8 @@ class Graph:
         return len(self.op)
 
     # ------------------------------------------------------------------ construction
-    def _node(self, op, args, param=None) -> int:
-        key = (op, args, param)
+    def _node(self, op, args, param=None, key=None) -> int:
+        key = (op, args, param) if key is None else key
         found = self._intern.get(key)
         if found is not None:
             return found
@@ -115,24 +139,51 @@ class Graph:
         return self.coords[i]
 
     def const(self, value) -> int:
-        """The node of a float64 constant (``-0.0`` is ``0.0``)."""
+        """The node of a constant: exact when ``value`` is an int, a :class:`~fractions.Fraction`
+        or a finite float (a float literal means its shortest decimal: ``1.3`` is ``13/10``,
+        :func:`exact_literal`); ``-0.0`` is ``0``. Non-finite values are constants known in
+        float64 only."""
+        exact = exact_literal(value)
+        if exact is None:
+            return self.inexact_const(value)
+        return self._node("c", (), exact)
+
+    def inexact_const(self, value) -> int:
+        """The node of a constant known in float64 only (a non-rational function of exact
+        constants, ``sin(0.3)``, or a non-finite value): the graphs it enters are not rational
+        (:meth:`is_rational`), so no exact decision uses it."""
         v = float(value)
-        if v == 0.0:
-            v = 0.0
         if v != v:  # NaN: one node (NaN != NaN would defeat the table)
-            return self._node("c", (), "nan")
-        return self._node("c", (), v)
+            v = "nan"
+        return self._node("c", (), v, key=("c~", (), v))
 
     def value_of(self, i: int) -> float:
-        """The value of constant node ``i``."""
+        """The float64 value of constant node ``i``."""
         p = self.param[i]
-        return math.nan if p == "nan" else p
+        if p == "nan":
+            return math.nan
+        return float(p)
+
+    def exact_value(self, i: int):
+        """The exact value of constant node ``i`` (a :class:`~fractions.Fraction`), None for a
+        constant known in float64 only."""
+        p = self.param[i]
+        return p if isinstance(p, Fraction) else None
 
     def _fold(self, op, *args):
-        if all(self.op[a] == "c" for a in args):
-            with np.errstate(all="ignore"):
-                return self.const(_FOLD[op](*(np.float64(self.value_of(a)) for a in args)))
-        return None
+        if not all(self.op[a] == "c" for a in args):
+            return None
+        exact = [self.exact_value(a) for a in args]
+        if op in _EXACT_FOLD and all(e is not None for e in exact):
+            try:
+                return self.const(_EXACT_FOLD[op](*exact))
+            except ZeroDivisionError:
+                pass
+        with np.errstate(all="ignore"):
+            v = _FOLD[op](*(np.float64(self.value_of(a)) for a in args))
+        if op in PIECEWISE_CONSTANT and all(e is not None for e in exact) and math.isfinite(v):
+            return self.const(Fraction(float(v)))  # a comparison or a rounding: exact
+        return self.inexact_const(v)
 
     def add(self, a: int, b: int) -> int:
         """``a + b``."""
@@ -190,8 +241,11 @@ class Graph:
         if k == 1:
             return a
         if self.op[a] == "c":
+            exact = self.exact_value(a)
+            if exact is not None and (exact != 0 or k > 0):
+                return self.const(exact ** k)
             with np.errstate(all="ignore"):
-                return self.const(np.float64(self.value_of(a)) ** k)
+                return self.inexact_const(np.float64(self.value_of(a)) ** k)
         return self._node("ipow", (a,), k)
 
     def unary(self, op: str, a: int) -> int:
@@ -210,9 +264,10 @@ class Graph:
         if op == "div":
             return self.div(a, b)
         if op == "pow":
-            if self.op[b] == "c" and float(self.value_of(b)).is_integer() and abs(self.value_of(b)) < 2**31:
-                return self.ipow(a, int(self.value_of(b)))
-            if b == self.const(0.5):
+            e = self.exact_value(b) if self.op[b] == "c" else None
+            if e is not None and e.denominator == 1 and abs(e) < 2**31:
+                return self.ipow(a, int(e))
+            if e == Fraction(1, 2):
                 return self.unary("sqrt", a)
         folded = self._fold(op, a, b)
         return folded if folded is not None else self._node(op, (a, b))
@@ -292,7 +347,8 @@ class Graph:
             if op == "x":
                 memo[k] = coord_map[sparam[k]]
             elif op == "c":
-                memo[k] = self.const(source.value_of(k))
+                exact = source.exact_value(k)
+                memo[k] = self.const(exact) if exact is not None else self.inexact_const(source.value_of(k))
             elif op == "ipow":
                 memo[k] = self.ipow(memo[a[0]], sparam[k])
             elif op == "select":
@@ -323,9 +379,15 @@ class Graph:
         return sorted(seen)
 
     def is_rational(self, roots) -> bool:
-        """Whether every node behind ``roots`` is a rational operation (:data:`RATIONAL_OPS`)."""
-        op = self.op
-        return all(op[i] in RATIONAL_OPS for i in self.reachable(roots))
+        """Whether every node behind ``roots`` is a rational operation (:data:`RATIONAL_OPS`)
+        on exact constants."""
+        return all(self.is_rational_node(i) for i in self.reachable(roots))
+
+    def is_rational_node(self, i: int) -> bool:
+        """Whether node ``i`` is a rational operation (:data:`RATIONAL_OPS`; a constant: an
+        exact one)."""
+        op = self.op[i]
+        return op in RATIONAL_OPS and (op != "c" or isinstance(self.param[i], Fraction))
 
     # ------------------------------------------------------------------ derivatives
     def jvp(self, roots, tangent) -> list[int]:
@@ -425,10 +487,10 @@ class Graph:
         if op == "logistic":
             return self.mul(i, self.sub(one, i))
         if op == "erf":
-            return self.mul(self.const(2.0 / math.sqrt(math.pi)),
+            return self.mul(self.inexact_const(2.0 / math.sqrt(math.pi)),
                             self.unary("exp", self.neg(self.ipow(a, 2))))
         if op == "cbrt":
-            return self.div(self.const(1.0 / 3.0), self.ipow(i, 2))
+            return self.div(self.const(Fraction(1, 3)), self.ipow(i, 2))
         raise NotImplementedError(f"no derivative for {op}")
 
     def _binary_derivative(self, op, i, a, b, ta, tb):

@@ -7,24 +7,24 @@ look like a direction. The certificate settles such decisions again here, at a f
 points:
 
 * **Modulo a prime** (:class:`ModularEvaluator`), for graphs made of rational operations
-  (:data:`uio_jax._engine.graph.RATIONAL_OPS`: the model's float64 constants are dyadic
-  rationals, exact modulo an odd prime). Values and forward-mode gradients are computed in
-  the field ``F_p``, ``p = 2^127 - 1``, with Python integers (numpy object arrays over the
-  points), every node once per set of points. The rank of the gradients at a point of
-  ``F_p^n`` is never above the generic rank over the rationals (an identically vanishing
-  minor vanishes modulo ``p`` too), and equals it unless the point is a root of a nonzero
-  minor: by the Schwartz-Zippel lemma, with probability at most ``D / p`` for a minor of
-  degree ``D`` (:func:`degrees` bounds it).
+  (:meth:`uio_jax._engine.graph.Graph.is_rational`: its constants are exact rationals, a
+  literal read as its decimal value, :func:`uio_jax._engine.graph.exact_literal`). Values
+  and forward-mode gradients are computed in the field ``F_p``, ``p = 2^127 - 1``, with
+  Python integers (numpy object arrays over the points), every node once per set of
+  points. The rank of the gradients at a point of ``F_p^n`` is never above the generic
+  rank over the rationals (an identically vanishing minor vanishes modulo ``p`` too), and
+  equals it unless the point is a root of a nonzero minor: by the Schwartz-Zippel lemma,
+  with probability at most ``D / p`` for a minor of degree ``D`` (:func:`degrees` bounds it).
 * **mpmath** (:class:`ExtendedEvaluator`), for any graph: values and gradients in ``dps``
   decimal digits. Repeated at two precisions, a genuine small number keeps its value
   while round-off shrinks with the precision.
 """
 
-import math
 from fractions import Fraction
 
 import numpy as np
 
+from .graph import exact_literal
 from .graph_numpy import columns, place_rows
 
 #: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
@@ -37,9 +37,12 @@ class Singular(ArithmeticError):
     """A denominator vanished at the point (modulo the prime): draw another point."""
 
 
-def const_mod(value: float, p: int = PRIME) -> int:
-    """A float64 constant (a dyadic rational) modulo ``p``."""
-    f = Fraction(float(value))
+def const_mod(value, p: int = PRIME) -> int:
+    """An exact constant (a :class:`~fractions.Fraction`, an int, or a float read as its
+    decimal literal, :func:`uio_jax._engine.graph.exact_literal`) modulo ``p``."""
+    f = value if isinstance(value, Fraction) else exact_literal(value)
+    if f is None:
+        raise ValueError("a non-finite constant has no value modulo p")
     return (f.numerator % p) * pow(f.denominator % p, -1, p) % p
 
 
@@ -130,9 +133,9 @@ class ModularEvaluator:
                 v = self.points[:, params[k]].copy()
                 g = np.ones((1, P), dtype=object)
             elif op == "c":
-                value = graph.value_of(k)
-                if not math.isfinite(value):
-                    raise ValueError("a non-finite constant has no value modulo p")
+                value = graph.exact_value(k)
+                if value is None:
+                    raise ValueError("a constant known in float64 only has no value modulo p")
                 v, g = np.full(P, const_mod(value, p), dtype=object), None
             elif op == "add":
                 v = V[a[0]] + V[a[1]]
@@ -408,7 +411,10 @@ class ExtendedEvaluator:
                 v, g = ctx.mpf(self.point[i]), [zero] * n
                 g[i] = ctx.mpf(1)
             elif op == "c":
-                v, g = ctx.mpf(graph.value_of(k)), zeros
+                exact = graph.exact_value(k)
+                v = ctx.mpf(graph.value_of(k)) if exact is None else \
+                    ctx.mpf(exact.numerator) / exact.denominator
+                g = zeros
             elif op == "add":
                 v = V[a[0]] + V[a[1]]
                 g = [p + q for p, q in zip(G[a[0]], G[a[1]])]
