@@ -77,9 +77,18 @@ def test_a_tiny_rational_direction_is_settled_exactly():
     assert "escalated" in str(cert) and "UNDECIDED" not in str(rep)
 
 
-def test_a_tiny_transcendental_direction_is_settled_in_extended_precision():
-    """Not rational (cos): the escalation runs mpmath at two precisions."""
+def test_a_tiny_trigonometric_direction_is_settled_exactly():
+    """``cos`` is made rational (a point of the circle per argument,
+    ``uio_jax._engine.graph_elementary``): the escalation is exact modulo p."""
     rep = uj.analyze(_two_outputs(lambda x: x[0] + EPS * jnp.cos(x[1])), samples=256)
+    assert rep.dim == 2 and all(rep.observable.values())
+    esc = [e for e in rep.certificate.escalations if e.what.startswith("y2")]
+    assert len(esc) == 1 and esc[0].result == "independent" and esc[0].how.startswith("exact mod p")
+
+
+def test_a_tiny_direction_of_a_model_not_made_rational_is_settled_in_extended_precision():
+    """``erf`` is not made rational: the escalation runs mpmath at two precisions."""
+    rep = uj.analyze(_two_outputs(lambda x: x[0] + EPS * jax.scipy.special.erf(x[1])), samples=256)
     assert rep.dim == 2 and all(rep.observable.values())
     esc = [e for e in rep.certificate.escalations if e.what.startswith("y2")]
     assert len(esc) == 1 and esc[0].result == "independent" and esc[0].how.startswith("mpmath")

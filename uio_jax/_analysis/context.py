@@ -72,6 +72,7 @@ class Context:
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
         if self.builder.graph is not None:  # weak votes settled in the expression graph
             self.codist.settle = Settler(self.builder.graph, lo, hi, self.seed).settle
+            self.codist.verify_rejections = "exact"
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples

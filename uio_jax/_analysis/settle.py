@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from .._engine import graph_exact
+from .._engine import graph_elementary, graph_exact, graph_independence
 
 #: A decision is weak when the median ``log10 rho`` lies between ``log10 rtol`` minus
 #: :data:`WEAK_BELOW` and plus :data:`WEAK_ABOVE` decades: from 1e-13 (round-off of our
@@ -142,7 +142,11 @@ class Settler:
         self.rng = np.random.default_rng([int(seed), 0x5E771E])
         self._modular = {}  # point number -> ModularEvaluator at that point
         self._echelons = {}  # point -> {kept expressions: Echelon}
-        self._rational_nodes = set()  # nodes known to be rational operations
+        self._rational_nodes = set()  # nodes known to be rational (or made rational)
+        self._generators = {}  # the elementary generators met so far, checked independent
+        #: why the graph is not made rational, where a relation between its elementary
+        #: functions was found ("" otherwise)
+        self.not_rational = ""
         self._degrees = {}  # node -> degree bounds (graph_exact.degrees)
         self._extended = None  # per point, one ExtendedEvaluator per precision
         self._answers = {}  # (kept expressions, candidate expression) -> settled Escalation
@@ -177,14 +181,25 @@ class Settler:
         return answer
 
     def _rational(self, exprs) -> bool:
-        """Whether every node behind ``exprs`` is rational (memoized per node: the graphs
-        of successive decisions share most of their nodes)."""
+        """Whether the nodes behind ``exprs`` are rational, or elementary functions made
+        rational by independent generators (:mod:`uio_jax._engine.graph_elementary`; the
+        independence is checked once per new set of generators). Memoized per node: the
+        graphs of successive decisions share most of their nodes."""
+        if self.not_rational:
+            return False
         known = self._rational_nodes
         new = self.graph.reachable(exprs, known=known)
-        if new:
-            if not all(self.graph.is_rational_node(k) for k in new):
+        if not new:
+            return True
+        if not all(graph_elementary.rationalizable(self.graph, k) for k in new):
+            return False
+        keys = graph_independence.generator_keys(self.graph, exprs)
+        if keys.keys() - self._generators.keys():
+            self._generators.update(keys)
+            ok, self.not_rational = graph_independence.independent(self.graph, self._generators, self.rng)
+            if not ok:
                 return False
-            known.update(new)
+        known.update(new)
         return True
 
     # ------------------------------------------------------------------ modulo p

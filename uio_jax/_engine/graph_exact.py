@@ -24,17 +24,15 @@ from fractions import Fraction
 
 import numpy as np
 
+from . import graph_elementary
 from .graph import exact_literal
+from .graph_elementary import Singular
 from .graph_numpy import columns, place_rows
 
 #: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
 #: a minor of degree ``D`` vanishes at a random point with probability at most
 #: ``D / 1.7e38``).
 PRIME = 2**127 - 1
-
-
-class Singular(ArithmeticError):
-    """A denominator vanished at the point (modulo the prime): draw another point."""
 
 
 def const_mod(value, p: int = PRIME) -> int:
@@ -76,6 +74,10 @@ class ModularEvaluator:
         self.points = np.array([[int(v) % self.p for v in row] for row in points], dtype=object)
         self.V, self.G = {}, {}
         self._depth = {}  # node -> unreduced sums on its way since the last reduction
+        #: the values of the elementary functions' generators at the points
+        #: (:mod:`.graph_elementary`), drawn from the points themselves
+        seed = [int(v) % 2**32 for v in self.points.reshape(-1)[:64]]
+        self.draws = graph_elementary.Draws(self.p, len(self.points), seed)
 
     def gradients(self, roots):
         """``values (P, R)`` and ``grads (P, R, n)`` (object arrays of residues).
@@ -89,14 +91,14 @@ class ModularEvaluator:
         values = np.stack([self.V[r] % self.p for r in roots], axis=1)
         grads = np.zeros((P, len(roots), n), dtype=object)
         for i, r in enumerate(roots):
-            grads[:, i] = self._dense(r).T
+            grads[:, i] = self.dense(r).T
         return values, grads
 
     def row(self, root, point: int):
         """The gradient ``(n,)`` of an evaluated node (:meth:`evaluate`) at one point."""
-        return self._dense(root)[:, point]
+        return self.dense(root)[:, point]
 
-    def _dense(self, root):
+    def dense(self, root):
         """The reduced gradient ``(n, P)`` of an evaluated node."""
         P, n = self.points.shape
         out = np.zeros((n, P), dtype=object)
@@ -160,6 +162,11 @@ class ModularEvaluator:
                 base = va if kk - 1 >= 0 else (inv if inv is not None else self._inv(va))
                 slope = np.array([kk % p * pow(int(x), abs(kk - 1), p) % p for x in base], dtype=object)
                 g = None if G[a[0]] is None else G[a[0]] * slope
+            elif graph_elementary.rationalizable(graph, k):
+                v, g = graph_elementary.evaluate(graph, k, V, self.draws), None
+                v, slopes = v
+                for operand, slope in zip(a, slopes):
+                    g = total(g, lift(k, operand, slope))
             else:
                 raise ValueError(f"{op} is not a rational operation")
             if d > _UNREDUCED_DEPTH or op not in ("add", "neg"):
@@ -348,6 +355,11 @@ def degrees(graph, roots, memo=None) -> list[tuple[int, int]]:
                 D[k] = (kk * na, {atom: kk * m for atom, m in qa.items()} if qa else empty, kk * da)
             else:  # (na / qa)^-m = qa^m / (atom a)^m
                 D[k] = (-kk * da, {a[0]: -kk}, -kk * na)
+        elif graph_elementary.rationalizable(graph, k):
+            # a generator (or an algebraic root) of the rationalised graph: a new variable,
+            # its degree bounded by twice one plus its operands' (a circle point is of
+            # degree 2 in its parameter; a root's norm doubles the degree)
+            D[k] = (2 * (1 + sum(D[b][0] + D[b][2] for b in a)), empty, 0)
         else:
             raise ValueError(f"{op} is not a rational operation")
     return [(D[r][0], D[r][2]) for r in roots]
