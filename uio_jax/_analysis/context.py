@@ -14,6 +14,7 @@ import jax
 import numpy as np
 
 from .._calculus.generators import Node, builder_for
+from .._engine import graph_exact
 from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
@@ -21,7 +22,7 @@ from .evidence import Certificate, Step
 from .memory import CERTIFY_BYTES, certify_samples, decision_count
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Report
-from .settle import Escalation, Settler
+from .settle import DEFAULT_PROB_THRESHOLD, Escalation, Settler
 from .space import SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
@@ -40,13 +41,21 @@ class Context:
         samples: number of sampled states S.
         seed: seed of the samples.
         rtol: rank tolerance.
+        prob_threshold: the probability of correctness of the exact decisions
+            (:class:`~uio_jax._analysis.settle.Settler`).
     """
 
-    def __init__(self, system, samples, seed, rtol):
+    def __init__(self, system, samples, seed, rtol, prob_threshold=DEFAULT_PROB_THRESHOLD):
         self.system = system
         self.builder = builder_for(system)
         self.samples = samples
         self.seed = seed
+        lo, hi = system.box()
+        #: one Settler per analysis, shared by its forks: each question is settled once, and
+        #: the error bound of the exact decisions is summed over all of them
+        self.settler = None if self.builder.graph is None else \
+            Settler(self.builder.graph, lo, hi, seed, prob_threshold)
+        self.prob_threshold = prob_threshold
         with jax.enable_x64(True):
             xs_all = sample_states(system, samples, seed)
             self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n))
@@ -70,8 +79,8 @@ class Context:
         self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
-        if self.builder.graph is not None:  # weak votes settled in the expression graph
-            self.codist.settle = Settler(self.builder.graph, lo, hi, self.seed).settle
+        if self.settler is not None:  # every vote settled again in the expression graph
+            self.codist.settle = self.settler.settle
             self.codist.verify_rejections = "exact"
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
@@ -83,7 +92,7 @@ class Context:
         e.g. a closure that may be discarded."""
         sub = Context.__new__(Context)
         sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
-        sub.seed = self.seed
+        sub.seed, sub.settler, sub.prob_threshold = self.seed, self.settler, self.prob_threshold
         sub._start(self.xs_all, self.codist.rtol, self.decisions)
         sub._grads = self._grads if not self.certified or sub.certified else {}
         return sub
@@ -332,6 +341,7 @@ class Context:
 
         used = int(cd.valid.sum())
         certifying = len(cd.valid)
+        how = [d.settled for d in everything]
         return Certificate(
             samples=self.samples,
             used=used,
@@ -348,6 +358,12 @@ class Context:
             verified=cd.verified,
             closure_verified=cd.closure_verified,
             rejections_verified=cd.rejections_verified,
+            exact_decisions=how.count("exact mod p"),
+            extended_decisions=how.count("mpmath"),
+            float64_decisions=len(how) - how.count("exact mod p") - how.count("mpmath"),
+            error_bound=0.0 if self.settler is None else self.settler.error_bound,
+            prime=graph_exact.PRIME,
+            prob_threshold=self.prob_threshold,
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,

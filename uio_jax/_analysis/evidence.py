@@ -3,6 +3,7 @@
 float64). :class:`~uio_jax._analysis.report.Report` carries both.
 """
 
+import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -33,6 +34,22 @@ class Step:
     def to_dict(self):
         return {"m": self.m, "dim": self.dim, "added": list(self.added),
                 "fraction": self.fraction, **jsonable(dict(self.extra))}
+
+
+class Arithmetic(enum.Enum):
+    """How the rank decisions of an analysis were made (the weakest one decides).
+
+    ``EXACT``: every decision modulo a prime at random points of the (rationalised) model,
+    each wrong with a probability bounded a priori (``Certificate.error_bound``).
+    ``EXTENDED``: some decision was settled in extended precision (mpmath at two
+    precisions: the model has a function that is not made rational), none rests on float64.
+    ``FLOAT64``: some decision rests on the float64 vote of the sampled states alone, or
+    could not be settled.
+    """
+
+    EXACT = "exact arithmetic modulo p"
+    EXTENDED = "extended precision (mpmath), not exact arithmetic"
+    FLOAT64 = "float64 votes of the sampled states, not exact arithmetic"
 
 
 @dataclass(frozen=True)
@@ -97,6 +114,19 @@ class Certificate:
     capped: int = 0
     closure_verified: int = 0
     rejections_verified: int = 0
+    exact_decisions: int = 0
+    extended_decisions: int = 0
+    float64_decisions: int = 0
+    error_bound: float = 0.0
+    prime: int = 0
+    prob_threshold: float = 0.0
+
+    @property
+    def arithmetic(self) -> Arithmetic:
+        """How the decisions were made (:class:`Arithmetic`): the weakest one decides."""
+        if self.float64_decisions or self.undecided or self.error_bound > 1 - self.prob_threshold:
+            return Arithmetic.FLOAT64
+        return Arithmetic.EXTENDED if self.extended_decisions else Arithmetic.EXACT
 
     @property
     def escalated(self) -> int:
@@ -126,6 +156,8 @@ class Certificate:
         d = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "escalations"}
         d["gap_decades"] = self.gap_decades
         d["status"] = self.status
+        d["arithmetic"] = self.arithmetic.name.lower()
+        d["prime"] = str(self.prime)  # 2^127 - 1 exceeds what JSON readers keep exactly
         d["escalations"] = [e.to_dict() for e in self.escalations]
         return jsonable(d)
 
@@ -139,7 +171,17 @@ class Certificate:
             f"{self.sigma_r_min:.2e}, largest rejected {self.sigma_next_max:.2e} "
             f"(gap {gap} decades around rtol {self.rtol:.0e}); final s_r/s_1 >= "
             f"{self.conditioning:.1e}"
-        ) + self._escalation_text()
+        ) + self._escalation_text() + self._arithmetic_text()
+
+    def _arithmetic_text(self) -> str:
+        if not self.decisions:
+            return ""
+        text = (f"; decisions: {self.exact_decisions} exact modulo p, {self.extended_decisions} in "
+                f"extended precision, {self.float64_decisions} on float64 votes")
+        if self.exact_decisions:
+            text += (f"; P(some exact decision wrong) <= {self.error_bound:.1e} (required "
+                     f"<= {1 - self.prob_threshold:.0e})")
+        return text
 
     def _escalation_text(self) -> str:
         if not self.escalations:
@@ -180,4 +222,4 @@ def jsonable(obj):
     return obj
 
 
-__all__ = ["Step", "Certificate", "jsonable"]
+__all__ = ["Arithmetic", "Step", "Certificate", "jsonable"]

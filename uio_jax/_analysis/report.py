@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
-from .evidence import Certificate, Step, jsonable
+from .evidence import Arithmetic, Certificate, Step, jsonable
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
 SEMANTICS = (
@@ -468,13 +468,18 @@ class Report:
                         "ORC with every input known"}
         meaning = {"smooth": "; known inputs generic smooth functions of time",
                    "switchable": "; known inputs switchable (may jump)"}.get(self.known_inputs, "")
-        return (f"exact ({what.get(self.method, self.method)}{meaning}): the observable "
-                "functions at generic states of the domain")
+        question = f"({what.get(self.method, self.method)}{meaning}): the observable functions at generic states"
+        arithmetic = self.certificate.arithmetic
+        if arithmetic is Arithmetic.EXACT:
+            return f"exact {question}, every decision in exact arithmetic modulo p"
+        return f"necessary and sufficient {question}; decided in {arithmetic.value}: not certified exact"
 
     @property
     def exact(self) -> bool:
-        """Whether the verdicts are exact (observable and unobservable both certain at generic
-        states), not a sufficient condition (:meth:`answer_kind`)."""
+        """Whether the verdicts are exact: the question is the necessary and sufficient one
+        (not a sufficient condition) and every decision was made in exact arithmetic, with
+        the probability bound of the certificate (:meth:`answer_kind`,
+        :attr:`Certificate.arithmetic`)."""
         return self.answer_kind().startswith("exact")
 
     def to_json(self, **kw) -> str:

@@ -80,6 +80,14 @@ DIGITS = (30, 60)
 #: point is a root of a nonzero minor stays below this (else: undecided).
 MAX_BOUND = 1e-9
 
+#: The default probability of correctness of the exact decisions (StructuralIdentifiability.jl's
+#: default is 0.99; ours is stricter, and costs nothing: ``D / p`` is about 1e-30 per point).
+DEFAULT_PROB_THRESHOLD = 0.999999
+
+#: The number of modular dependences an analysis is assumed to decide at most: each gets
+#: ``1 / DECISIONS_BUDGET`` of the allowed error ``1 - prob_threshold``.
+DECISIONS_BUDGET = 10**6
+
 
 @dataclasses.dataclass(frozen=True)
 class Escalation:
@@ -134,10 +142,20 @@ class Settler:
         lo, hi: the sampling box ``(n,)`` (mpmath points are drawn in it; the columns are
             scaled by its widths, as in the float64 test).
         seed: seed of the points.
+        prob_threshold: the probability of correctness asked for: a dependence modulo p is
+            certified when its bound is under ``(1 - prob_threshold) / DECISIONS_BUDGET``
+            (and :data:`MAX_BOUND`), so that the union bound over the decisions of an
+            analysis, :attr:`error_bound`, stays under ``1 - prob_threshold``.
+
+    Attributes:
+        error_bound: the sum of the probability bounds of the dependences found modulo p
+            (each question once): the probability that one of them is wrong.
     """
 
-    def __init__(self, graph, lo, hi, seed):
+    def __init__(self, graph, lo, hi, seed, prob_threshold: float = DEFAULT_PROB_THRESHOLD):
         self.graph = graph
+        self.max_bound = min(MAX_BOUND, (1.0 - prob_threshold) / DECISIONS_BUDGET)
+        self.error_bound = 0.0
         self.lo, self.hi = np.asarray(lo, float), np.asarray(hi, float)
         self.rng = np.random.default_rng([int(seed), 0x5E771E])
         self._modular = {}  # point number -> ModularEvaluator at that point
@@ -264,9 +282,10 @@ class Settler:
             if degree is None:
                 degree = sum(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
             bound = min(1.0, degree / p) ** point
-            if bound <= MAX_BOUND:
+            if bound <= self.max_bound:
+                self.error_bound += bound
                 return Escalation(what, float64, how, "dependent", bound)
-            needed = math.ceil(math.log(MAX_BOUND) / math.log(degree / p)) if degree < p else math.inf
+            needed = math.ceil(math.log(self.max_bound) / math.log(degree / p)) if degree < p else math.inf
             if needed > MAX_POINTS:
                 return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",
                                   bound)
@@ -354,5 +373,6 @@ class _Orthonormal:
         return float(self._residual(basis, candidate)[0])
 
 
-__all__ = ["WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND",
+__all__ = ["DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS",
+           "MAX_POINTS", "DIGITS", "MAX_BOUND",
            "Escalation", "Settler", "is_weak", "median_decades"]
