@@ -2,22 +2,16 @@
 the working system, the closure ``Close``, the reconstructability matrix and the UI extension,
 as stated in the module docstring of :mod:`.general_ui` and in ``docs/general_ui.md``."""
 
-import contextlib
 import dataclasses
 
 import jax.numpy as jnp
 import numpy as np
 
-from .._calculus.generators import Node, builder_for
+from .._calculus.generators import Node
 from .._model.smooth_inputs import known_coordinates, known_outputs, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context
 from .rank import ZERO_ROW_RTOL, decide_rank
-
-#: Programs of the general solution above this many equations are compiled at XLA
-#: optimization level 0: each runs once, and level 0 halves the compile time of the large
-#: ones (TUIO6's TAC-2025 case: 120 s -> 74 s cold; ``docs/benchmarks/general_ui.md``).
-LARGE_GRAPH = 1000
 
 
 # ------------------------------------------------------------------ zero tests
@@ -97,35 +91,12 @@ def start_working(system, jet_order, samples, seed, rtol) -> Working:
         sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
                                known_coordinates(sys0), sys0.joint_param_names)
-    own = sys0 is not with_input_jets(system, jet_order)
-    # the System's builder is shared with the other analyses: see one_off_programs
-    ctx = own_context(sys0, samples, seed, rtol) if own else Context(sys0, samples, seed, rtol)
+    ctx = Context(sys0, samples, seed, rtol)
     b = ctx.builder
     drift = b.field("g0", sys0.drift)
     uis = [ctx.field_node(k) for k in sys0.unknown]
     return Working(sys0, ctx, drift, uis, list(range(len(uis))), ctx.output_nodes(),
                    system.n - known_coordinates(system), known=frozenset(known_outputs(sys0)))
-
-
-def own_context(system, samples, seed, rtol) -> Context:
-    """A Context on one of the algorithm's own Systems, whose builder compiles large
-    programs at level 0 (:data:`LARGE_GRAPH`)."""
-    ctx = Context(system, samples, seed, rtol)
-    ctx.builder.large_graph = LARGE_GRAPH
-    return ctx
-
-
-@contextlib.contextmanager
-def one_off_programs(system):
-    """While the block runs, the builder of the System the analysis starts on (possibly the
-    user's, shared with the other analyses) compiles at :data:`LARGE_GRAPH`; restored after."""
-    builder = builder_for(system)
-    before = builder.large_graph
-    builder.large_graph = LARGE_GRAPH
-    try:
-        yield
-    finally:
-        builder.large_graph = before
 
 
 # ------------------------------------------------------------------ Close
@@ -297,7 +268,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     star = lift(theta_star.fn, N)
     full = _working_system(sysw.states + tuple(flat), {"theta*": star}, drift_full, {}, domain,
                            sysw.angles, sysw.name, known_coordinates(sysw), sysw.joint_param_names)
-    ctx_full = own_context(full, samples, seed, rtol)
+    ctx_full = Context(full, samples, seed, rtol)
     b = ctx_full.builder
     theta_v = b.power(b.field("F'", drift_full), b.scalar("theta*", star), order)
     grad = ctx_full.gradients([theta_v])[:, 0]  # (S, N + m L)
@@ -360,7 +331,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
                               domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
                               sysw.joint_param_names)
-    ctx = own_context(new_sys, samples, seed, rtol)
+    ctx = Context(new_sys, samples, seed, rtol)
     nb = ctx.builder
     uis = [ctx.field_node(k) for k in new_uis]
     theta = ctx.output_nodes()

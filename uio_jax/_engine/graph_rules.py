@@ -13,13 +13,15 @@ Structural primitives (slice, reshape, concatenate, broadcast, transpose, indexi
 constant indices, ``.at[]``, ...) move node numbers around with numpy; elementwise
 primitives make one node per element; ``dot_general`` and reductions make sums of
 products; calls are inlined. A primitive without a rule, or one that would need the value
-of a state (an index computed from the state, a loop), raises :class:`Untranslatable`.
+of a state (an index computed from the state, a loop condition), raises
+:class:`Untranslatable`; loops with a static trip count are unrolled (:mod:`.graph_loops`).
 """
 
 import math
 
 import numpy as np
 
+from .graph_loops import loop_rules
 from .interpreter import Rules, inline
 
 
@@ -521,6 +523,7 @@ _TABLE = {
 }
 
 RULES = Rules(_TABLE, default=_untranslatable, calls=_call)
+RULES.update(loop_rules(RULES, as_nodes, is_symbolic, Untranslatable))  # static trip counts unrolled
 
 
 __all__ = ["Untranslatable", "IndexOutOfRange", "RULES", "as_nodes", "is_symbolic"]

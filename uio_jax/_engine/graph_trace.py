@@ -4,10 +4,10 @@ The function is traced once to a jaxpr (``jax.make_jaxpr``: a fraction of a mill
 for a model function) and the jaxpr is walked by the one interpreter
 (:func:`uio_jax._engine.interpreter.interpret`) with the rule table of
 :mod:`.graph_rules`. A primitive without a rule, or one that would need the value of a
-state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: :func:`translate`
-then returns None and the caller keeps the XLA route for that function (the engine
-decides, never the user). :class:`Expressed` functions let closures built on graph nodes
-translate by importing their expressions.
+state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: the graph is the
+only evaluator of the analyses, so such a model is refused where it is built
+(:func:`untranslatable_message` says which primitive). :class:`Expressed` functions let
+closures built on graph nodes translate by importing their expressions.
 """
 
 import contextvars
@@ -18,7 +18,7 @@ import numpy as np
 from jax.extend.core import Primitive
 
 from .graph import Graph
-from .graph_rules import RULES, as_nodes
+from .graph_rules import RULES, Untranslatable, as_nodes
 from .interpreter import interpret
 
 #: True while :func:`trace_to_graph` traces a function: an :class:`Expressed` function
@@ -37,40 +37,47 @@ def _expression_shape(x, *, source):
 
 
 class Expressed:
-    """A function of the state that knows its expression in a graph.
+    """A function of the state given by its expression in a graph.
 
-    Calling it runs the JAX function ``fn``; while a function that calls it is translated
-    into a graph (:func:`trace_to_graph`), it stands for ``expr`` instead: the translation
-    imports the expression with the state it was called on (:meth:`Graph.import_nodes`),
-    so closures built on Lie derivatives, rescaled fields or solves translate without
-    tracing their derivatives again.
+    While a function that calls it is translated into a graph (:func:`trace_to_graph`),
+    it stands for ``expr``: the translation imports the expression with the state it was
+    called on (:meth:`Graph.import_nodes`), so closures built on Lie derivatives, rescaled
+    fields or solves translate without tracing their derivatives again. Called on a
+    numpy state outside a translation, it evaluates the expression there (numpy).
 
     Args:
-        fn: the JAX function ``x (n,) -> shape``.
         graph: the graph of ``expr``, whose ``n`` coordinates are ``x``.
         expr: an int (scalar) or a tuple of ints.
     """
 
-    __slots__ = ("fn", "graph", "expr", "shape", "__name__", "__weakref__")
+    __slots__ = ("graph", "expr", "shape", "__weakref__")
 
-    def __init__(self, fn, graph, expr):
-        self.fn, self.graph, self.expr = fn, graph, expr
+    def __init__(self, graph, expr):
+        self.graph, self.expr = graph, expr
         self.shape = () if isinstance(expr, int) else (len(expr),)
-        self.__name__ = getattr(fn, "__name__", "expressed")
 
     def __call__(self, x):
         if _TRANSLATING.get():
             return expression_p.bind(x, source=self)
-        return self.fn(x)
+        from .graph_numpy import evaluate
+
+        roots = [self.expr] if self.shape == () else list(self.expr)
+        values = evaluate(self.graph, roots, np.asarray(x, dtype=np.float64).reshape(1, -1), gradients=False)
+        return values[0, 0] if self.shape == () else values[0]
 
 
-def expressed(fn, graph, expr):
-    """``fn`` as an :class:`Expressed` function (``fn`` itself when ``expr`` is None)."""
-    if expr is None or fn is None:
-        return fn
-    if isinstance(fn, Expressed):
-        fn = fn.fn
-    return Expressed(fn, graph, expr)
+def expressed(graph, expr):
+    """The expression ``expr`` of ``graph`` as an :class:`Expressed` function (None for None)."""
+    return None if expr is None else Expressed(graph, expr)
+
+
+def untranslatable_message(what, exc) -> str:
+    """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
+    :class:`~uio_jax._engine.graph_rules.Untranslatable`)."""
+    detail = str(exc).removeprefix(exc.primitive).removeprefix(": ")
+    supported = ", ".join(sorted(n for n in RULES if n != "uio_jax_expression"))
+    return (f"{what}: the expression graph has no rule for the JAX primitive '{exc.primitive}'"
+            f"{f' ({detail})' if detail else ''} (supported: {supported})")
 
 
 def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
@@ -114,7 +121,7 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
 
 
 def translate(graph: Graph, fn, shape, extra=()):
-    """The expression of a model function ``fn(x, *extra)`` in ``graph``, or None.
+    """The expression of a model function ``fn(x, *extra)`` in ``graph``.
 
     Args:
         graph: the graph of the state ``x`` (its ``n`` coordinates).
@@ -124,10 +131,11 @@ def translate(graph: Graph, fn, shape, extra=()):
             as the coordinates after ``x``: ``graph.n`` must count them.
 
     Returns:
-        an int (scalar) or a tuple of ints (one per output element); None when the graph has
-        no rule for a primitive of ``fn`` or the output shape differs.
+        an int (scalar) or a tuple of ints (one per output element); None when ``fn`` does
+        not run on these arguments or its output shape differs.
 
     Raises:
+        Untranslatable: the graph has no rule for a primitive of ``fn``.
         IndexOutOfRange: ``fn`` indexes an argument past its end with a constant index.
     """
     if fn is None:
@@ -140,8 +148,10 @@ def translate(graph: Graph, fn, shape, extra=()):
         at += size
     try:
         out, _ = trace_to_graph(graph, fn, nodes, shapes)
-    except NotImplementedError:  # Untranslatable, or a transformation of an Expressed
-        return None
+    except Untranslatable:
+        raise
+    except NotImplementedError as exc:  # e.g. a transformation of an Expressed function
+        raise Untranslatable(getattr(exc, "primitive", "uio_jax_expression"), str(exc)) from None
     except (TypeError, ValueError):  # the function does not run on these arguments
         return None
     if tuple(out.shape) != tuple(shape):
@@ -149,5 +159,5 @@ def translate(graph: Graph, fn, shape, extra=()):
     return int(out.reshape(())) if tuple(shape) == () else tuple(int(k) for k in out.reshape(-1))
 
 
-__all__ = ["Expressed", "expressed", "expression_p",
+__all__ = ["Expressed", "expressed", "expression_p", "untranslatable_message",
            "trace_to_graph", "translate"]
