@@ -20,8 +20,8 @@ import numpy as np
 
 from .._engine import graph_numpy as _graph_numpy
 from .._engine.graph import Graph
-from .._engine.graph_rules import IndexOutOfRange, Untranslatable
-from .._engine.graph_trace import expressed, translate, untranslatable_message
+from .._engine.graph_rules import IndexOutOfRange
+from .._engine.graph_trace import expressed, translate_or_refuse
 from .._errors import ModelError
 
 
@@ -106,15 +106,9 @@ class Builder:
         if system is not None and getattr(system, "_graph", None) is self.graph:
             return system.expression(fn, shape)
         try:
-            expr = translate(self.graph, fn, shape)
-        except Untranslatable as exc:
-            raise ModelError(untranslatable_message(label, exc)) from None
+            return translate_or_refuse(self.graph, fn, shape, label)
         except IndexOutOfRange as exc:
             raise ModelError(f"{label} indexes outside the state vector: {exc}") from None
-        if expr is None:
-            raise ModelError(f"{label} does not return shape {tuple(shape)} on a state vector of "
-                             f"length {self.graph.n}")
-        return expr
 
     def _jvp(self, exprs, v):
         """Graph nodes ``d e . v`` of the expressions ``exprs`` along the field node ``v``."""

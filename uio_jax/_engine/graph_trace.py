@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.extend.core import Primitive
 
+from .._errors import ModelError
 from .graph import Graph
 from .graph_rules import RULES, Untranslatable, as_nodes
 from .interpreter import interpret
@@ -159,5 +160,18 @@ def translate(graph: Graph, fn, shape, extra=()):
     return int(out.reshape(())) if tuple(shape) == () else tuple(int(k) for k in out.reshape(-1))
 
 
-__all__ = ["Expressed", "expressed", "expression_p", "untranslatable_message",
+def translate_or_refuse(graph: Graph, fn, shape, what, extra=()):
+    """:func:`translate`, refusing in one line (:class:`~uio_jax.ModelError`, ``what`` names
+    the function) a function with a primitive the graph has no rule for or of another shape."""
+    try:
+        expr = translate(graph, fn, shape, extra)
+    except Untranslatable as exc:
+        raise ModelError(untranslatable_message(what, exc)) from None
+    if expr is None:
+        raise ModelError(f"{what} does not translate into the expression graph (it fails on traced "
+                         f"arguments or does not return shape {tuple(shape)})")
+    return expr
+
+
+__all__ = ["Expressed", "expressed", "expression_p", "untranslatable_message", "translate_or_refuse",
            "trace_to_graph", "translate"]

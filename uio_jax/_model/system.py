@@ -30,8 +30,8 @@ import numpy as np
 
 from .._engine.graph import Graph
 from .._engine.graph_numpy import evaluate
-from .._engine.graph_rules import IndexOutOfRange, Untranslatable
-from .._engine.graph_trace import translate, untranslatable_message
+from .._engine.graph_rules import IndexOutOfRange
+from .._engine.graph_trace import translate_or_refuse
 from .._errors import ModelError
 from .arguments import ANGLE_BOX as ANGLE_BOX  # the sampling boxes, imported from here too
 from .arguments import DEFAULT_BOX as DEFAULT_BOX
@@ -188,7 +188,9 @@ class System:
             self._check_shapes()
             check_symmetry_shapes(self)
         if params:
-            object.__setattr__(self, "_joint", self._build_joint())  # validated there
+            from .joint import build_joint
+
+            object.__setattr__(self, "_joint", build_joint(self))  # validated there
         elif time is not None:
             from .time import build_autonomous
 
@@ -389,7 +391,7 @@ class System:
         if key not in table:
             if "_graph" not in self.__dict__:
                 object.__setattr__(self, "_graph", Graph(self.n))
-            table[key] = (fn, _translated(self._graph, fn, shape, what))
+            table[key] = (fn, translate_or_refuse(self._graph, fn, shape, what))
         return table[key][1]
 
     def _check_index_range(self, what, fn, expected):
@@ -407,7 +409,7 @@ class System:
                     object.__setattr__(self, "_index_graph", scratch)
                 extra = ((P,),) if P else ()
                 extra += ((),) if self.time is not None else ()
-                _translated(scratch, fn, expected, what, extra)
+                translate_or_refuse(scratch, fn, expected, what, extra)
         except IndexOutOfRange as exc:
             where = f"the state vector of length {n}" if not P else f"x (length {n}) or p (length {P})"
             raise ModelError(f"{what} indexes outside {where}: {exc}") from None
@@ -452,41 +454,6 @@ class System:
             )
         object.__setattr__(self, "notes", tuple(notes))
 
-    def _build_joint(self) -> "System":
-        """The System on ``z = [x; p]`` (see :meth:`joint`); it validates itself."""
-        n, P = self.n, len(self.params)
-
-        if self.time is None:
-            def scalar(fn):
-                return lambda z: fn(z[:n], z[n:])
-
-            def vector(fn):
-                return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
-        else:  # a time-varying joint System: its callables take (z, t)
-            def scalar(fn):
-                return lambda z, t: fn(z[:n], z[n:], t)
-
-            def vector(fn):
-                return lambda z, t: jnp.concatenate([fn(z[:n], z[n:], t), jnp.zeros(P, dtype=z.dtype)])
-
-        joint = System(
-            self.states + tuple(self.params),
-            {k: scalar(fn) for k, fn in self.outputs.items()},
-            known={k: vector(fn) for k, fn in self.known.items()},
-            unknown={k: vector(fn) for k, fn in self.unknown.items()},
-            drift=None if self.drift is None else vector(self.drift),
-            domain={**self.domain, **self.params},
-            angles=self.angles,
-            name=self.name,
-            notes=self.notes,
-            time=self.time,
-        )
-        object.__setattr__(joint, "as_params", tuple(self.params))
-        if self.time is not None:  # built before the joint knew its parameters: mark it too
-            object.__setattr__(joint._autonomous, "as_params", tuple(self.params))
-        object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
-        return joint
-
 
 def _finite_masks(system, fns, samples, seed) -> list[np.ndarray]:
     """For each function of ``x``, the ``(samples,)`` mask of sampled states where it is finite.
@@ -507,19 +474,6 @@ def _finite_masks(system, fns, samples, seed) -> list[np.ndarray]:
         masks.append(np.isfinite(values[:, at:at + width]).all(axis=1))
         at += width
     return masks
-
-
-def _translated(graph, fn, shape, what, extra=()):
-    """:func:`~uio_jax._engine.graph_trace.translate`, refusing in one line (ModelError) a
-    function with a primitive the graph has no rule for or of another output shape."""
-    try:
-        expr = translate(graph, fn, shape, extra)
-    except Untranslatable as exc:
-        raise ModelError(untranslatable_message(what, exc)) from None
-    if expr is None:
-        raise ModelError(f"{what} does not translate into the expression graph (it fails on traced "
-                         f"arguments or does not return shape {tuple(shape)})")
-    return expr
 
 
 def _percent(fraction: float) -> str:
