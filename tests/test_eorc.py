@@ -96,22 +96,24 @@ def test_children_gradients_equal_dense_jacobian_of_the_children():
     several generators (a power, a mixed word, an output), the drift and two known fields."""
     from uio_jax._analysis.eorc import _Eorc
 
-    sys_ = uj.System(
-        ("a", "b", "c"), {"y": lambda s: s[0] * s[1], "z": lambda s: jnp.sin(s[2])},
-        known={"u1": lambda s: jnp.array([1.0, s[2], 0.0]),
-               "u2": lambda s: jnp.array([0.0, jnp.cos(s[0]), s[1] ** 2])},
-        unknown={"w": lambda s: jnp.array([0.0, 0.0, s[0]])},
-        drift=lambda s: jnp.array([s[1], -s[0] * s[2], 0.5 * s[1]]))
+    y_, z_ = (lambda s: s[0] * s[1]), (lambda s: jnp.sin(s[2]))
+    u1 = lambda s: jnp.array([1.0, s[2], 0.0])  # noqa: E731
+    u2 = lambda s: jnp.array([0.0, jnp.cos(s[0]), s[1] ** 2])  # noqa: E731
+    gw = lambda s: jnp.array([0.0, 0.0, s[0]])  # noqa: E731
+    f0 = lambda s: jnp.array([s[1], -s[0] * s[2], 0.5 * s[1]])  # noqa: E731
+    sys_ = uj.System(("a", "b", "c"), {"y": y_, "z": z_}, known={"u1": u1, "u2": u2}, unknown={"w": gw}, drift=f0)
     run = _Eorc(sys_, 2, 16, 0, default_rtol())
     y, z = run.ctx.output_nodes()
     up, mixed, _ = run.children(y)  # L_F0 y (a power) and L_u1 y (a mixed word)
     assert (up.label, mixed.label) == ("L_F0 y", "L_u1 y")
     frontier = [up, mixed, z]
     _, _, got = run.dispatch(frontier, 2)
-    ext = run.ext
+    ext = run.ext  # X = [a, b, c, w, w']: F0 = [f0 + g w; w'; 0], the known fields padded
     lie = lambda p, v: lambda x: jax.jvp(p, (x,), (v(x),))[1]  # noqa: E731
-    fields = [ext.drift] + list(ext.known.values())
-    base = [lie(ext.outputs["y"], ext.drift), lie(ext.outputs["y"], ext.known["u1"]), ext.outputs["z"]]
+    F0 = lambda X: jnp.concatenate([f0(X[:3]) + gw(X[:3]) * X[3], X[4:5], jnp.zeros(1)])  # noqa: E731
+    fields = [F0] + [lambda X, f=f: jnp.concatenate([f(X[:3]), jnp.zeros(2)]) for f in (u1, u2)]
+    Y, Zo = (lambda X: y_(X[:3])), (lambda X: z_(X[:3]))
+    base = [lie(Y, F0), lie(Y, fields[1]), Zo]
     children = [lie(p, v) for p in base for v in fields]
     with jax.enable_x64(True):
         xs = jnp.asarray(run.ctx.xs)

@@ -153,11 +153,11 @@ def test_settler_on_a_graph_by_hand():
 
     g = Graph(2)
     settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=0)
-    kept = [Node("x0", None, "scalar", expr=g.x(0))]
+    kept = [Node("x0", "scalar", expr=g.x(0))]
     tiny = g.add(g.x(0), g.mul(g.const(1e-12), g.x(1)))
     same = g.mul(g.x(0), g.const(1.0 + 1e-12))
-    up = settler.settle(kept, Node("tiny", None, "scalar", expr=tiny), "dependent")
-    flat = settler.settle(kept, Node("same", None, "scalar", expr=same), "independent")
+    up = settler.settle(kept, Node("tiny", "scalar", expr=tiny), "dependent")
+    flat = settler.settle(kept, Node("same", "scalar", expr=same), "independent")
     assert up.result == "independent" and up.bound == 0.0
     assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30
 
@@ -237,7 +237,7 @@ def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkey
 
     g = Graph(2)
     x1 = g.coords[0]
-    kept, cand = [Node("x1", None, "scalar", expr=x1)], Node("x1^2", None, "scalar", expr=g.mul(x1, x1))
+    kept, cand = [Node("x1", "scalar", expr=x1)], Node("x1^2", "scalar", expr=g.mul(x1, x1))
     one = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
     assert one.result == "dependent" and one.how.endswith("at 1 point")
     monkeypatch.setattr(_settle, "MAX_BOUND", one.bound ** 1.5)  # two points needed

@@ -1,12 +1,14 @@
 """The extended system ``Sigma^(K)`` of the EORC (004 eq. 4-7; :mod:`.eorc` runs on it):
-the state augmented by the unknown inputs and their derivatives up to order ``K - 1``."""
+the state augmented by the unknown inputs and their derivatives up to order ``K - 1``,
+built on the expression graph from the System's own expressions."""
 
 import weakref
 
-import jax.numpy as jnp
-
+from .._calculus.generators import builder_for
+from .._engine.graph import Graph
+from .._model.graph_system import graph_system
 from .._model.naming import derivative_names
-from .._model.system import DEFAULT_BOX, System, derived_system
+from .._model.system import DEFAULT_BOX, System
 
 _EXTENSIONS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
@@ -50,41 +52,27 @@ def extended_system(system: System, K: int) -> System:
     n, mw = system.n, len(system.unknown)
     names = input_names(system, K)
     N = n + K * mw
-    drift, gs = system.drift, tuple(system.unknown.values())
+    b = builder_for(system)  # the System's expressions, imported into the extension's graph
+    g = Graph(N)
+    x, xi = g.coords[:n], g.coords[n:]
+    w = xi[:mw]
 
-    def F0(X):
-        x, xi = X[:n], X[n:]
-        w = xi[:mw]
-        dx = jnp.zeros(n, dtype=X.dtype) if drift is None else drift(x)
-        for j, g in enumerate(gs):
-            dx = dx + g(x) * w[j]
-        tail = jnp.concatenate([xi[mw:], jnp.zeros(mw, dtype=X.dtype)])
-        return jnp.concatenate([dx, tail])
+    def pad(nodes):  # a function of x, as a function of X = [x; xi]
+        return g.import_nodes(b.graph, list(nodes), x)
 
-    def pad_field(f):
-        def F(X):
-            return jnp.concatenate([f(X[:n]), jnp.zeros(N - n, dtype=X.dtype)])
-
-        return F
-
-    def pad_output(h):
-        def H(X):
-            return h(X[:n])
-
-        return H
-
+    fields = {k: b.translate(f, (n,), f"known field {k!r}") for k, f in system.known.items()}
+    dx = [g.zero] * n if system.drift is None else pad(b.translate(system.drift, (n,), "drift"))
+    for j, (k, f) in enumerate(system.unknown.items()):
+        dx = [g.add(d, g.mul(gi, w[j])) for d, gi in zip(dx, pad(b.translate(f, (n,), f"unknown field {k!r}")))]
+    F0 = tuple(dx) + tuple(xi[mw:]) + (g.zero,) * mw
     domain = dict(system.domain)
     domain.update({nm: DEFAULT_BOX for nm in names})
-    with derived_system():  # the parts are the validated system's functions, padded
-        ext = System(
-            states=system.states + names,
-            outputs={k: pad_output(h) for k, h in system.outputs.items()},
-            known={k: pad_field(f) for k, f in system.known.items()},
-            drift=F0,
-            domain=domain,
-            angles=system.angles,
-            name=f"{system.name or 'system'} extended to order {K}",
-        )
+    ext = graph_system(
+        g, system.states + names,
+        {k: pad([b.translate(h, (), f"output {k!r}")])[0] for k, h in system.outputs.items()},
+        known={k: tuple(pad(f)) + (g.zero,) * (N - n) for k, f in fields.items()},
+        drift=F0, domain=domain, angles=system.angles,
+        name=f"{system.name or 'system'} extended to order {K}")
     per[K] = ext
     return ext
 

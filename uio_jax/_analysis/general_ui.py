@@ -230,7 +230,10 @@ def observable_inputs(out: Outcome, full: bool = False) -> dict:
     ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
     N = w.system.n
     b = ctx.builder
-    lifted = [b.scalar(nd.label, lift(nd.fn, N)) for nd in out.omega.codist.nodes]
+    src = out.omega.builder.graph  # the working system's: Omega's nodes, lifted to [z; w~]
+    lifted = [b.node(("scalar", nd.label),
+                     lambda nd=nd: b.make(nd.label, "scalar", 0, lift(b.graph, src, nd.expr, b.graph.coords[:N])[0]))
+              for nd in out.omega.codist.nodes]
     F0 = b.field("F0", ext.drift)
     ctx.absorb(lifted)
     ctx.absorb_lie(lifted, [F0])

@@ -75,7 +75,7 @@ class _Series:
         self.outs = ctx.output_nodes()
         self.ctx = ctx
         self.nodes = {}
-        self.graphed = _GraphCoefficients.of(ctx, self.a, cap)
+        self.coefficients = _GraphCoefficients.of(ctx, self.a, cap)
 
     def node(self, k, i):
         """The node ``y_k[h_i]`` (memoized by the builder)."""
@@ -86,7 +86,7 @@ class _Series:
                 return h
             self.nodes[k, i] = self.builder.node(
                 ("series", self.tag, k, h.label),
-                lambda: self.builder.make(f"y_{k}[{h.label}]", "scalar", k, self.graphed.order(k)[i]))
+                lambda: self.builder.make(f"y_{k}[{h.label}]", "scalar", k, self.coefficients.order(k)[i]))
         return self.nodes[k, i]
 
     def gradients(self, ctx: Context, k_lo, k_hi):

@@ -21,7 +21,7 @@ import numpy as np
 from .._engine import graph_numpy as _graph_numpy
 from .._engine.graph import Graph
 from .._engine.graph_rules import IndexOutOfRange
-from .._engine.graph_trace import expressed, translate_or_refuse
+from .._engine.graph_trace import translate_or_refuse
 from .._errors import ModelError
 
 
@@ -31,8 +31,6 @@ class Node:
 
     Attributes:
         label: readable name, e.g. ``"L_f4 h_u"`` or ``"[phi1_v, g]/L_g^1"``.
-        fn: the node as a function of the state (:class:`~uio_jax._engine.graph_trace.Expressed`:
-            a closure calling it translates into a graph by importing ``expr``).
         kind: ``"scalar"`` or ``"field"``.
         depth: number of differentiations behind it (a measure of the expression's size).
         expr: the node in the System's expression graph (an int for a scalar, a tuple of
@@ -40,7 +38,6 @@ class Node:
     """
 
     label: str
-    fn: object
     kind: str
     depth: int = 0
     expr: object = None
@@ -90,8 +87,8 @@ class Builder:
         return self.make(label, "scalar", 0, self.translate(fn, (), label))
 
     def make(self, label, kind, depth, expr) -> Node:
-        """A Node of this Builder's graph (its callable: :func:`~uio_jax._engine.graph_trace.expressed`)."""
-        return Node(label, expressed(self.graph, expr), kind, depth, expr)
+        """A Node of this Builder's graph."""
+        return Node(label, kind, depth, expr)
 
     def translate(self, fn, shape, label="function"):
         """The expression of a model function ``x (n,) -> shape`` in the System's graph:

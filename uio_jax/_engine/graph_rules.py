@@ -366,19 +366,6 @@ def _scatter(add):
     return rule
 
 
-def _expression(graph, i, eqn, ins):
-    """An :class:`Expressed` function's expression, imported with its argument's nodes."""
-    source = eqn.params["source"]
-    x = as_nodes(graph, ins[0]).reshape(-1)
-    if len(x) != source.graph.n:
-        raise Untranslatable("uio_jax_expression", "called on a state of another length")
-    nodes = graph.import_nodes(source.graph, [source.expr] if source.shape == () else list(source.expr),
-                               tuple(x))
-    out = np.empty(len(nodes), dtype=object)
-    out[:] = nodes
-    return [out.reshape(source.shape)]
-
-
 def _reduce(op):
     def rule(graph, i, eqn, ins):
         axes = tuple(eqn.params["axes"])
@@ -516,7 +503,7 @@ _TABLE = {
     "reduce_precision": _identity, "iota": _iota, "pad": _pad,
     "dynamic_slice": _dynamic_slice, "dynamic_update_slice": _dynamic_update_slice,
     "gather": _gather, "scatter": _scatter(False), "scatter-add": _scatter(True),
-    "scatter_add": _scatter(True), "uio_jax_expression": _expression,
+    "scatter_add": _scatter(True),
     "reduce_sum": _reduce("add"), "reduce_max": _reduce("max"), "reduce_min": _reduce("min"),
     "reduce_prod": _reduce("mul"), "reduce_and": _reduce("and"), "reduce_or": _reduce("or"),
     "dot_general": _dot_general, "split": _split, "cumsum": _cumsum,

@@ -6,49 +6,31 @@ for a model function) and the jaxpr is walked by the one interpreter
 :mod:`.graph_rules`. A primitive without a rule, or one that would need the value of a
 state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: the graph is the
 only evaluator of the analyses, so such a model is refused where it is built
-(:func:`untranslatable_message` says which primitive). :class:`Expressed` functions let
-closures built on graph nodes translate by importing their expressions.
+(:func:`untranslatable_message` says which primitive). A :class:`GraphFunction` is a
+function of the state given by its expression: the Systems the analyses derive (extended
+systems, UI extensions) are built of them on a graph, never traced.
 """
-
-import contextvars
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.core import Primitive
 
 from .._errors import ModelError
 from .graph import Graph
 from .graph_rules import RULES, Untranslatable, as_nodes
 from .interpreter import interpret
 
-#: True while :func:`trace_to_graph` traces a function: an :class:`Expressed` function
-#: called then stands for its expression (:data:`expression_p`), not for its JAX code.
-_TRANSLATING = contextvars.ContextVar("uio_jax_translating", default=False)
 
-#: The primitive an :class:`Expressed` function binds while a function is translated:
-#: one operand (the state it is called on), parameter ``source`` (the Expressed). Only
-#: the graph translation has a rule for it.
-expression_p = Primitive("uio_jax_expression")
-
-
-@expression_p.def_abstract_eval
-def _expression_shape(x, *, source):
-    return jax.core.ShapedArray(source.shape, jnp.float64)
-
-
-class Expressed:
+class GraphFunction:
     """A function of the state given by its expression in a graph.
 
-    While a function that calls it is translated into a graph (:func:`trace_to_graph`),
-    it stands for ``expr``: the translation imports the expression with the state it was
-    called on (:meth:`Graph.import_nodes`), so closures built on Lie derivatives, rescaled
-    fields or solves translate without tracing their derivatives again. Called on a
-    numpy state outside a translation, it evaluates the expression there (numpy).
+    A System built of such functions (:func:`uio_jax._model.graph_system.graph_system`)
+    shares their graph: its expressions are these, nothing is traced. Called on a numpy
+    state, it evaluates the expression there (numpy).
 
     Args:
-        graph: the graph of ``expr``, whose ``n`` coordinates are ``x``.
-        expr: an int (scalar) or a tuple of ints.
+        graph: the graph of ``expr``, whose ``n`` coordinates are the state.
+        expr: an int (scalar) or a tuple of ints (a field).
     """
 
     __slots__ = ("graph", "expr", "shape", "__weakref__")
@@ -58,8 +40,6 @@ class Expressed:
         self.shape = () if isinstance(expr, int) else (len(expr),)
 
     def __call__(self, x):
-        if _TRANSLATING.get():
-            return expression_p.bind(x, source=self)
         from .graph_numpy import evaluate
 
         roots = [self.expr] if self.shape == () else list(self.expr)
@@ -67,16 +47,11 @@ class Expressed:
         return values[0, 0] if self.shape == () else values[0]
 
 
-def expressed(graph, expr):
-    """The expression ``expr`` of ``graph`` as an :class:`Expressed` function (None for None)."""
-    return None if expr is None else Expressed(graph, expr)
-
-
 def untranslatable_message(what, exc) -> str:
     """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
     :class:`~uio_jax._engine.graph_rules.Untranslatable`)."""
     detail = str(exc).removeprefix(exc.primitive).removeprefix(": ")
-    supported = ", ".join(sorted(n for n in RULES if n != "uio_jax_expression"))
+    supported = ", ".join(sorted(RULES))
     return (f"{what}: the expression graph has no rule for the JAX primitive '{exc.primitive}'"
             f"{f' ({detail})' if detail else ''} (supported: {supported})")
 
@@ -100,15 +75,14 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
             where a constant is needed.
         IndexOutOfRange: a constant index past the end of an array.
     """
-    if isinstance(fn, Expressed) and fn.graph is graph and len(arg_shapes) == 1 \
-            and tuple(arg_nodes[0]) == graph.coords:
-        return np.array(fn.expr, dtype=object).reshape(fn.shape), np.dtype(np.float64)
-    token = _TRANSLATING.set(True)
-    try:
-        with jax.enable_x64(True):
-            closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
-    finally:
-        _TRANSLATING.reset(token)
+    if isinstance(fn, GraphFunction) and len(arg_shapes) == 1 and len(arg_nodes[0]) == fn.graph.n:
+        roots = [fn.expr] if fn.shape == () else list(fn.expr)
+        out = np.empty(len(roots), dtype=object)
+        out[:] = graph.import_nodes(fn.graph, roots, tuple(arg_nodes[0])) if fn.graph is not graph \
+            or tuple(arg_nodes[0]) != graph.coords else roots
+        return out.reshape(fn.shape), np.dtype(np.float64)
+    with jax.enable_x64(True):
+        closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
     args = []
     for nodes, shape in zip(arg_nodes, arg_shapes):
         arr = np.empty(len(nodes), dtype=object)
@@ -151,8 +125,8 @@ def translate(graph: Graph, fn, shape, extra=()):
         out, _ = trace_to_graph(graph, fn, nodes, shapes)
     except Untranslatable:
         raise
-    except NotImplementedError as exc:  # e.g. a transformation of an Expressed function
-        raise Untranslatable(getattr(exc, "primitive", "uio_jax_expression"), str(exc)) from None
+    except NotImplementedError as exc:
+        raise Untranslatable(getattr(exc, "primitive", type(exc).__name__), str(exc)) from None
     except (TypeError, ValueError):  # the function does not run on these arguments
         return None
     if tuple(out.shape) != tuple(shape):
@@ -173,5 +147,5 @@ def translate_or_refuse(graph: Graph, fn, shape, what, extra=()):
     return expr
 
 
-__all__ = ["Expressed", "expressed", "expression_p", "untranslatable_message", "translate_or_refuse",
+__all__ = ["GraphFunction", "untranslatable_message", "translate_or_refuse",
            "trace_to_graph", "translate"]

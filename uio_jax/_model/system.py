@@ -432,11 +432,11 @@ class System:
         a small fraction a note in ``notes`` (the analyses drop the states where it is not).
         """
         named = list(self._named_functions())
-        finite = _finite_masks(self, [fn for _, fn, _ in named], _CHECK_SAMPLES, 12345)
+        finite = _finite_masks(self, named, _CHECK_SAMPLES, 12345)
         sparse = [i for i, ok in enumerate(finite) if ok.mean() < _SPARSE_FRACTION]
         if not sparse:
             return
-        more = _finite_masks(self, [named[i][1] for i in sparse], _MORE_SAMPLES, 12346)
+        more = _finite_masks(self, [named[i] for i in sparse], _MORE_SAMPLES, 12346)
         notes = list(self.notes)
         for i, ok in zip(sparse, more):
             what = named[i][0]
@@ -455,17 +455,14 @@ class System:
         object.__setattr__(self, "notes", tuple(notes))
 
 
-def _finite_masks(system, fns, samples, seed) -> list[np.ndarray]:
-    """For each function of ``x``, the ``(samples,)`` mask of sampled states where it is finite.
-
-    Every function has an expression in the System's graph (translated by its validation):
-    they are evaluated by numpy over it, nothing is compiled.
-    """
+def _finite_masks(system, named, samples, seed) -> list[np.ndarray]:
+    """For each ``(what, fn, shape)`` of ``named`` (functions of ``x``), the ``(samples,)``
+    mask of sampled states where it is finite: their expressions in the System's graph
+    evaluated by numpy (nothing is compiled)."""
     from .sampling import sample_states
 
     xs = sample_states(system, samples, seed=seed)
-    table = system.__dict__.get("_expressions", {})
-    exprs = [next(e for f, e in table.values() if f is fn) for fn in fns]
+    exprs = [system.expression(fn, shape, what) for what, fn, shape in named]
     roots = [r for e in exprs for r in ((e,) if isinstance(e, int) else e)]
     values = evaluate(system._graph, roots, xs, gradients=False)
     masks, at = [], 0
