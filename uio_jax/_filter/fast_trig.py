@@ -140,7 +140,7 @@ def _trig(state, i, eqn, ins):
 
 
 def _call(state, i, eqn, ins):
-    """Sub-functions inline (as the Taylor interpreters do), their sin / cos replaced too."""
+    """Sub-functions inline (as the graph translation does), their sin / cos replaced too."""
     out = inline(_RULES, state, eqn, ins)
     return out if out is not None else bind(eqn, ins)
 
