@@ -1,6 +1,6 @@
 """Benchmark on an accelerator: the Monte Carlo EKF of 003 section 5 and one analysis.
 
-The CPU benchmarks (``bench_ekf.py``, ``bench_eorc.py``) measure the 2-core machine the
+The CPU benchmarks (``bench_ekf.py``) measure the 2-core machine the
 targets are set for; this script measures the same code on whatever JAX device is the
 default (a GPU where one is installed), at trial counts a CPU cannot reach in seconds:
 

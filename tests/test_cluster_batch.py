@@ -237,7 +237,7 @@ def test_cli_batch_on_a_scheduler_address(client, tmp_path, capsys):
 def test_cluster_order_is_longest_first_from_recorded_times(client, tmp_path, monkeypatch):
     """The driver hands the cluster the models in the order of the recorded times."""
     from uio_jax._batch import timing
-    from uio_jax._engine.compile_cache import compile_cache
+    from uio_jax._filter.compile_cache import compile_cache
 
     specs = [f"{zoo_path('gps')}:v_unknown", f"{zoo_path('gps')}:omega_unknown"]
     sent = []

@@ -1,4 +1,4 @@
-"""Vectorizable float64 sin / cos (``uio_jax._engine.fast_trig``) against mpmath at 40 digits."""
+"""Vectorizable float64 sin / cos (``uio_jax._filter.fast_trig``) against mpmath at 40 digits."""
 
 import jax
 import jax.numpy as jnp
@@ -6,7 +6,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from uio_jax._engine.fast_trig import ACCURATE_BELOW, cos, sin, with_vectorized_trig
+from uio_jax._filter.fast_trig import ACCURATE_BELOW, cos, sin, with_vectorized_trig
 
 
 def _ulps(got, exact):

@@ -1,5 +1,5 @@
 """The one jaxpr interpreter (``uio_jax._engine.interpreter``): the walk, its rule tables,
-calls, literals, and the error of a primitive without a Taylor rule."""
+calls and literals."""
 
 import ast
 from pathlib import Path
@@ -10,9 +10,7 @@ import numpy as np
 import pytest
 
 from uio_jax._engine import interpreter
-from uio_jax._engine.interpreter import CALLS, NoTaylorRule, Rules, bind, call_body, inline, interpret
-from uio_jax._engine.taylor import taylor
-from uio_jax._engine.taylor_flow import flow_coefficients
+from uio_jax._engine.interpreter import CALLS, Rules, bind, call_body, inline, interpret
 
 ENGINE = Path(interpreter.__file__).parent
 
@@ -100,26 +98,14 @@ def test_call_body_reads_the_sub_jaxpr():
     assert call_body({}) is None
 
 
-@pytest.mark.parametrize("route", ["taylor", "flow"])
-def test_a_primitive_without_a_taylor_rule_raises_no_taylor_rule(route):
-    fn = lambda x: jax.scipy.special.gammaln(2.0 + x)  # noqa: E731
-    x = jnp.array([0.3, 0.4])
-    with pytest.raises(NoTaylorRule, match="lgamma") as info:
-        if route == "taylor":
-            taylor(fn, x, jnp.ones((2, 2)))
-        else:
-            flow_coefficients(fn, x, 3)
-    assert info.value.primitive == "lgamma"
-    assert isinstance(info.value, NotImplementedError)  # older callers still catch it
-
-
 def test_the_uses_import_the_interpreter_not_each_other():
-    """taylor_flow, sparsity and fast_trig walk jaxprs through the interpreter module only
-    (none imports the Taylor module's walk or tables); no other engine module walks."""
-    for name in ("taylor.py", "taylor_flow.py", "sparsity.py", "fast_trig.py"):
-        tree = ast.parse((ENGINE / name).read_text())
+    """The graph translation and the Monte Carlo's sparsity and fast trig walk jaxprs through
+    the interpreter module only; none defines a walk of its own."""
+    package = ENGINE.parent
+    for path in (ENGINE / "graph_trace.py", ENGINE / "graph_loops.py", package / "_filter" / "sparsity.py",
+                 package / "_filter" / "fast_trig.py"):
+        tree = ast.parse(path.read_text())
         sources = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
-        assert "interpreter" in sources, name
-        assert "taylor" not in sources, name
+        assert any(m and m.endswith("interpreter") for m in sources), path.name
         assert not any(isinstance(n, ast.FunctionDef) and n.name in ("interpret", "_eval", "_propagate")
-                       for n in tree.body), name
+                       for n in tree.body), path.name

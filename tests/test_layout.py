@@ -3,11 +3,12 @@
 The rule (README, "Layout"): ``A <- B`` means B may import A, never the reverse.
 
     _errors, _progress  (leaves: import nothing of the package)
-      <- _engine                expression graph, jaxpr interpreters, Taylor arithmetic, programs, caches
+      <- _engine                the front end (jaxpr -> expression graph), the graph and its evaluators
       <- _model                 System, sampling, experiments
-      <- _calculus              Lie derivatives, the node graph, powers of a field
+      <- _calculus              Lie derivatives as graph expressions, the node graph
       <- _analysis              rank certificate, recursion driver, one file per algorithm, report
-    _model <- _filter           EKF, Monte Carlo, its result and plots (never an analysis)
+    _model <- _filter           EKF, Monte Carlo, its result and plots (never an analysis); its fast trig,
+                                Jacobian sparsity and compilation cache
     _model, _calculus <- _io    model files, expressions, importers, loaders
     everything <- _batch <- cli <- uio_jax (the public names)
 

@@ -20,7 +20,7 @@ from uio_jax._analysis import memory
 from uio_jax._analysis.eorc import check_eorc_memory, default_k_max, extended_system
 from uio_jax._analysis.options import check_options, check_seed
 from uio_jax._analysis.rank import Codistribution
-from uio_jax._engine import compile_cache
+from uio_jax._filter import compile_cache
 
 SMALL = dict(samples=64)
 
@@ -256,8 +256,7 @@ def test_a_low_limit_refuses_a_normal_run_and_a_normal_limit_does_not(monkeypatc
     assert uj.analyze(polar_known(), **SMALL).dim == 2
 
 
-# ---------------------------------------------------------------------------- fast -> ORC
-@functools.cache
+# ---------------------------------------------------------------------------- fast
 def sort_system(explicit=False):
     """``y = sort(x)[0]``, which is ``x_0`` on the domain (a < b), and ``u`` along ``[b, 0]``."""
     first = (lambda x: x[0]) if explicit else (lambda x: jax.lax.sort(x)[0])
@@ -266,35 +265,20 @@ def sort_system(explicit=False):
                      domain={"a": (0.5, 1.0), "b": (2.0, 3.0)})
 
 
-@functools.cache
-def sort_report(method, explicit=False):
-    return uj.analyze(sort_system(explicit), method=method, **SMALL)
-
-
-def test_the_orc_handles_sort():
-    rep, ref = sort_report("orc"), sort_report("orc", explicit=True)
-    assert rep.method == "orc" and rep.dims == ref.dims == (1, 2)
-    assert rep.observable == ref.observable == {"a": True, "b": True}
-
-
-def test_fast_falls_back_to_the_orc_with_a_note():
-    rep = sort_report("fast")
-    assert rep.method == "orc"
-    assert rep.dims == sort_report("orc").dims and rep.observable == sort_report("orc").observable
-    assert "fast: no Taylor rule for 'sort' -> ORC" in rep.notes
-    assert not any("series" in note for note in rep.notes)
+def test_a_primitive_without_a_graph_rule_is_refused_in_one_line():
+    """The expression graph is the only evaluator: ``lax.sort`` is refused where the System
+    is built, in one line naming the function and the primitive."""
+    with pytest.raises(uj.ModelError) as info:
+        sort_system()
+    msg = str(info.value)
+    assert msg.startswith("output 'y': the expression graph has no rule for the JAX primitive 'sort'")
+    assert "(supported: " in msg and "\n" not in msg
 
 
 def test_fast_without_the_fallback_is_the_series():
     rep = uj.analyze(sort_system(explicit=True), method="fast", samples=16)
     assert rep.method == "series" and rep.dim == 2
     assert not any("-> ORC" in note for note in rep.notes)
-
-
-def test_series_on_sort_is_a_one_line_option_error():
-    with pytest.raises(uj.OptionError, match="sort") as e:
-        uj.analyze(sort_system(), method="series", **SMALL)
-    assert "\n" not in str(e.value)
 
 
 # ---------------------------------------------------------------------------- cache directory
@@ -310,17 +294,3 @@ def test_default_cache_dir_rule(monkeypatch, tmp_path):
     assert compile_cache.default_cache_dir() == str(tmp_path / "home" / ".cache" / "uio_jax" / "xla")
     for words in ("$UIO_JAX_CACHE_DIR", "$XDG_CACHE_HOME/uio_jax/xla", "~/.cache/uio_jax/xla"):
         assert words in compile_cache.DEFAULT_DIR_RULE
-
-
-def test_a_bare_no_taylor_rule_is_a_one_line_option_error():
-    """The series engines' own exception, if it reaches analyze, reads as the series' error."""
-    from uio_jax._analysis.analyze import SERIES_FAILURES, _series_error, _series_reason
-    from uio_jax._analysis.series import SeriesNotApplicable
-    from uio_jax._engine.interpreter import NoTaylorRule
-
-    bare = NoTaylorRule("lgamma")
-    assert isinstance(bare, SERIES_FAILURES) and _series_reason(bare) == "no Taylor rule for 'lgamma'"
-    err = _series_error(bare)
-    assert isinstance(err, uj.OptionError) and "'lgamma'" in str(err) and "\n" not in str(err)
-    converted = SeriesNotApplicable("cumsum")
-    assert _series_error(converted) is converted and _series_reason(converted) == "no Taylor rule for 'cumsum'"

@@ -122,7 +122,7 @@ def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     g = rng.normal(size=(S, 3, n))
     g[:, 0, 3:] = g[:, 1, 3:] = 0.0  # the span lies in span{e_1, e_2, e_3}
     g[:, 2] = g[:, 0] + 2.0 * g[:, 1]  # dependent: rank 2
-    codist.absorb([Node(f"g{i}", None, "scalar") for i in range(3)], g)
+    codist.absorb([Node(f"g{i}", "scalar") for i in range(3)], g)
     assert codist.rank == 2
     units = np.zeros((n, S, n))
     units[np.arange(n), :, np.arange(n)] = 1.0
@@ -132,7 +132,7 @@ def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     member = [m for m, _ in codist.contains(None, fast)]
     assert member == [m for m, _ in codist.contains(units)] == [False] * n
     # absorbing e_1..e_3 from the one test raises the rank by exactly 1 (span is 2 of 3)
-    added = codist.absorb([Node(f"e{i}", None, "scalar") for i in range(3)], None, fast.first(3))
+    added = codist.absorb([Node(f"e{i}", "scalar") for i in range(3)], None, fast.first(3))
     assert len(added) == 1 and codist.rank == 3
 
 
@@ -145,14 +145,14 @@ def test_copy_is_independent_and_starts_without_decisions():
     rng = np.random.default_rng(2)
     S, n = 200, 4
     codist = Codistribution(n, S, np.ones(n), default_rtol())
-    codist.absorb([Node(f"g{i}", None, "scalar") for i in range(2)], rng.normal(size=(S, 2, n)))
+    codist.absorb([Node(f"g{i}", "scalar") for i in range(2)], rng.normal(size=(S, 2, n)))
     before = (codist.grads.copy(), codist.kept_basis().copy(), list(codist.nodes), len(codist.acceptances))
     new = rng.normal(size=(S, 1, n))
     for trial in (False, True):  # a trial copy shares the storage, the span is unchanged too
         fork = codist.copy(trial=trial)
         assert fork.rank == 2 and fork.acceptances == [] and fork.rejections == []
         np.testing.assert_array_equal(fork.kept_basis(), codist.kept_basis())
-        fork.absorb([Node("e", None, "scalar")], new)
+        fork.absorb([Node("e", "scalar")], new)
         assert fork.rank == 3 and len(fork.acceptances) == 1
         np.testing.assert_array_equal(codist.grads, before[0])
         np.testing.assert_array_equal(codist.kept_basis(), before[1])

@@ -3,19 +3,13 @@ coefficients, and where its per-order dims differ from the ORC's steps."""
 
 import functools
 
-import jax
 import jax.numpy as jnp
-import numpy as np
 import pytest
 from helpers import zoo_path, zoo_report
 
 import uio_jax as uj
 from uio_jax import cli
-from uio_jax._analysis import memory
-from uio_jax._analysis import series as _series
-from uio_jax._analysis.context import Context
 from uio_jax._analysis.driver import StopReason
-from uio_jax._calculus import generators as _generators
 
 SAMPLES = 512
 
@@ -136,18 +130,3 @@ def _late_chain():
         known={"u": lambda x: jnp.stack([x[1], 0.0 * x[0], 0.0 * x[0], 0.0 * x[0]])},
     )
 
-
-def test_streamed_programs_pad_the_last_batch(monkeypatch):
-    """203 samples, not a multiple of the batch: the padded last batch is dropped again and
-    the rows equal a direct jacfwd. (The compiled route, ``UIO_JAX_ENGINE=xla``.)"""
-    monkeypatch.setenv("UIO_JAX_ENGINE", "xla")
-    monkeypatch.setattr(memory, "DECISION_SAMPLES", 10**6)  # every sample decides
-    assert 203 % _generators.STREAM_BATCH
-    ctx = Context(_late_chain(), 203, 0, 1e-8)
-    series = _series._Series(ctx, 0, 4)  # cap n, as analyze: the programs of the test above
-    _, grads = series.gradients(ctx, 1, 3)
-    coefficients = _series.output_series(ctx.system, series.a, 3)
-    with jax.enable_x64(True):
-        direct = jax.jit(jax.vmap(jax.jacfwd(lambda x: coefficients(x)[1:].reshape(-1))))(ctx.xs)
-    assert grads.shape == (203, 6, 4)
-    np.testing.assert_allclose(grads, np.asarray(direct), rtol=0, atol=1e-12)

@@ -102,13 +102,23 @@ def test_an_exact_dependence_under_round_off_is_confirmed():
     assert rep.certificate.status == "ok"
 
 
-def erf_inv_part(x):
-    """Outside the expression graph (``erf_inv`` has no rule): no escalation possible."""
-    return x[0] + EPS * jax.lax.erf_inv(0.5 * jnp.tanh(x[1]))
+def tanh_part(x):
+    """Not rational: a weak decision about it goes to extended precision."""
+    return x[0] + EPS * jnp.tanh(x[1])
 
 
-def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided():
-    rep = uj.analyze(_two_outputs(erf_inv_part), samples=256)
+@pytest.fixture
+def unsettled(monkeypatch):
+    """Extended precision cannot decide (as when its two precisions disagree): the weak
+    decisions of a model that is not rational stay undecided."""
+    from uio_jax._analysis.settle import Escalation, Settler
+
+    monkeypatch.setattr(Settler, "_settle_extended",
+                        lambda self, what, float64, exprs: Escalation(what, float64, "none: test", "undecided"))
+
+
+def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided(unsettled):
+    rep = uj.analyze(_two_outputs(tanh_part), samples=256)
     cert = rep.certificate
     assert cert.status == "undecided" and cert.undecided >= 1
     undecided = [e for e in cert.escalations if e.result == "undecided"]
@@ -152,19 +162,19 @@ def test_settler_on_a_graph_by_hand():
 
     g = Graph(2)
     settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=0)
-    kept = [Node("x0", None, "scalar", expr=g.x(0))]
+    kept = [Node("x0", "scalar", expr=g.x(0))]
     tiny = g.add(g.x(0), g.mul(g.const(1e-12), g.x(1)))
     same = g.mul(g.x(0), g.const(1.0 + 1e-12))
-    up = settler.settle(kept, Node("tiny", None, "scalar", expr=tiny), "dependent")
-    flat = settler.settle(kept, Node("same", None, "scalar", expr=same), "independent")
+    up = settler.settle(kept, Node("tiny", "scalar", expr=tiny), "dependent")
+    flat = settler.settle(kept, Node("same", "scalar", expr=same), "independent")
     assert up.result == "independent" and up.bound == 0.0
     assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30
 
 
-def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table():
+def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table(unsettled):
     """The undecided vote rejected y2 (float64: dependent): the verdicts it could change are
     the 'not observable' ones: x2. The CLI text and the batch row say UNDECIDED."""
-    weak = _two_outputs(erf_inv_part)
+    weak = _two_outputs(tanh_part)
     settled = _two_outputs(lambda x: x[0] + EPS * x[1] ** 2)
     rep = uj.analyze(weak, samples=256)
     assert rep.undecided == ("x2",) and rep.to_dict()["undecided"] == ["x2"]
@@ -179,16 +189,20 @@ def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table():
     assert "UNDECIDED: x2" in result.to_markdown()
 
 
-def test_is_observable_settles_or_refuses():
+def test_is_observable_settles_or_refuses(unsettled):
     """``is_observable`` of ``x1 + 1e-9 x2^2`` on the span of dx1 alone (y1 = x1): float64
-    says dependent, exact arithmetic says not (False, settled); the same question outside
-    the graph cannot be settled: an error, not an uncertified answer."""
+    says dependent, exact arithmetic says not (False, settled); a question that cannot be
+    settled is an error, not an uncertified answer; a function outside the expression graph
+    is refused in one line."""
     rep = uj.analyze(uj.System(states=("x1", "x2"), outputs={"y1": lambda x: x[0]}), samples=256)
     assert rep.dim == 1
     assert rep.is_observable(lambda x: x[0] + EPS * x[1] ** 2) is False
     assert rep.is_observable(lambda x: 2.0 * x[0]) is True
     with pytest.raises(uj.ModelError, match="undecided"):
-        rep.is_observable(erf_inv_part)
+        rep.is_observable(tanh_part)
+    with pytest.raises(uj.ModelError, match="no rule for the JAX primitive 'erf_inv'") as info:
+        rep.is_observable(lambda x: jax.lax.erf_inv(0.5 * jnp.tanh(x[1])))
+    assert "\n" not in str(info.value)
 
 
 def test_a_step_that_keeps_nothing_is_settled_exactly(monkeypatch):
@@ -232,7 +246,7 @@ def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkey
 
     g = Graph(2)
     x1 = g.coords[0]
-    kept, cand = [Node("x1", None, "scalar", expr=x1)], Node("x1^2", None, "scalar", expr=g.mul(x1, x1))
+    kept, cand = [Node("x1", "scalar", expr=x1)], Node("x1^2", "scalar", expr=g.mul(x1, x1))
     one = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
     assert one.result == "dependent" and one.how.endswith("at 1 point")
     monkeypatch.setattr(_settle, "MAX_BOUND", one.bound ** 1.5)  # two points needed

@@ -1,4 +1,4 @@
-"""Structural Jacobian patterns (``uio_jax._engine.sparsity``).
+"""Structural Jacobian patterns (``uio_jax._filter.sparsity``).
 
 Oracle: the Jacobian by ``jax.jacfwd`` at random points (a pattern must cover every
 non-zero it finds, and is exact for element-wise model code).
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from conftest import zoo
 
-from uio_jax._engine.sparsity import jacobian_pattern, structural_zeros
 from uio_jax._filter.ekf import make_model
+from uio_jax._filter.sparsity import jacobian_pattern, structural_zeros
 from uio_jax._io.loading import load_module
 
 
@@ -77,7 +77,7 @@ def test_loops_are_not_read_as_calls():
 
 
 def test_an_unreadable_jaxpr_gives_the_dense_pattern(monkeypatch):
-    from uio_jax._engine import sparsity as _sparsity
+    from uio_jax._filter import sparsity as _sparsity
 
     def broken(*args):
         raise ValueError("a rule that fails")

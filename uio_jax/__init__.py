@@ -49,7 +49,7 @@ from ._batch.rows import BatchResult as BatchResult
 from ._batch.rows import BatchRow as BatchRow
 
 # the compilation cache
-from ._engine.compile_cache import enable_compile_cache as enable_compile_cache
+from ._filter.compile_cache import enable_compile_cache as enable_compile_cache
 
 # errors
 from ._errors import UioJaxError as UioJaxError

@@ -15,8 +15,8 @@ from .general_ui import general_ui_report
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
-from .series import SERIES_FAILURES, series_report
 from .series import check_applicable as series_applicable
+from .series import series_report
 from .single_ui import check_applicable, single_ui_report
 from .symmetry import symmetry_notes, verify_symmetries
 
@@ -52,10 +52,7 @@ def analyze(
             known input (STRIKE-GOLDD's test, see :mod:`uio_jax._analysis.series`): the
             ORC's final verdict without nested brackets, much faster on large models, but
             per-order dims that are not the ORC's steps.
-            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``; where the
-            series engine cannot expand the model (a primitive without a Taylor rule, e.g.
-            ``lax.sort``) it runs the ORC instead and says so in a note
-            (``"fast: no Taylor rule for 'sort' -> ORC"``).
+            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
             ``Report.method`` records the choice.
         samples: number S of random states of the domain at which every rank is
             evaluated (the certificate). More samples, surer verdict; cost is linear.
@@ -143,30 +140,8 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs):
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":
-            try:
-                return series_report(ctx, seed=seed, why=why, max_order=max_order)
-            except SERIES_FAILURES as exc:
-                if method != "fast":
-                    raise _series_error(exc) from None
-                ctx = Context(system, samples, seed, rtol)
-                return _orc_report(ctx, f"fast: {_series_reason(exc)} -> ORC", max_order)
+            return series_report(ctx, seed=seed, why=why, max_order=max_order)
         return single_ui_report(ctx, why=why, max_order=max_order)
-
-
-def _series_reason(exc) -> str:
-    """Why the series engine gave up, in a few words: ``no Taylor rule for 'sort'``."""
-    primitive = getattr(exc, "primitive", None)
-    if primitive is not None:
-        return f"no Taylor rule for {primitive!r}"
-    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-
-
-def _series_error(exc) -> OptionError:
-    """The one-line OptionError of ``method="series"`` on a model it cannot expand."""
-    if isinstance(exc, OptionError):
-        return exc
-    return OptionError(f"method 'series' cannot expand the model: {_series_reason(exc)}; "
-                       "use method='orc' (or 'fast', which falls back to it)")
 
 
 def _choose(system, method, known_inputs="switchable"):

@@ -2,7 +2,7 @@
 
 Each recursion (ORC, single unknown input, EORC, general solution) is a Python loop over
 steps m; inside a step the new candidate generators are evaluated in one call (numpy over
-the System's expression graph, or a compiled program for a model outside it) at the first
+the System's expression graph) at the first
 samples (:data:`DECISION_SAMPLES` of them where the model is defined) and pruned by
 :class:`~uio_jax._analysis.rank.Codistribution`; the final span is certified on all the
 samples (:meth:`Context.certify`).
@@ -53,19 +53,15 @@ class Context:
         lo, hi = system.box()
         #: one Settler per analysis, shared by its forks: each question is settled once, and
         #: the error bound of the exact decisions is summed over all of them
-        self.settler = None if self.builder.graph is None else \
-            Settler(self.builder.graph, lo, hi, seed, prob_threshold)
+        self.settler = Settler(self.builder.graph, lo, hi, seed, prob_threshold)
         self.prob_threshold = prob_threshold
         with jax.enable_x64(True):
             xs_all = sample_states(system, samples, seed)
             self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n))
 
     def _defined(self, xs_all):
-        """``(S,)``: whether the outputs and fields are finite at each sample (None for a
-        model outside the expression graph: not screened, nothing is compiled for it)."""
+        """``(S,)``: whether the outputs and fields are finite at each sample."""
         nodes = [*self.output_nodes(), *(self.field_node(f) for f in self.system.fields())]
-        if self.builder.graph is None or any(nd.expr is None for nd in nodes):
-            return None
         values = self.builder.values(nodes, xs_all)
         return np.all([np.isfinite(v.reshape(len(xs_all), -1)).all(axis=1) for v in values], axis=0)
 
@@ -79,9 +75,9 @@ class Context:
         self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
-        if self.settler is not None:  # every vote settled again in the expression graph
-            self.codist.settle = self.settler.settle
-            self.codist.verify_rejections = "exact"
+        # every vote settled again in the expression graph
+        self.codist.settle = self.settler.settle
+        self.codist.verify_rejections = "exact"
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
@@ -213,10 +209,9 @@ class Context:
     # -------------------------------------------------------------- nodes
     def unit_nodes(self, count: int) -> list[Node]:
         """The coordinate functions ``z_1..z_count`` as Nodes (labels ``e_i``), whose
-        gradients are the unit covectors; with their expressions when the graph is on."""
-        g = self.builder.graph
-        return [Node(f"e_{i}", None, "scalar", expr=None if g is None else g.coords[i])
-                for i in range(count)]
+        gradients are the unit covectors."""
+        b = self.builder
+        return [b.make(f"e_{i}", "scalar", 0, b.graph.coords[i]) for i in range(count)]
 
     def output_nodes(self) -> list[Node]:
         """The outputs ``h_i: x (n,) -> ()`` of the System as scalar nodes, in order."""
@@ -361,7 +356,7 @@ class Context:
             exact_decisions=how.count("exact mod p"),
             extended_decisions=how.count("mpmath"),
             float64_decisions=len(how) - how.count("exact mod p") - how.count("mpmath"),
-            error_bound=0.0 if self.settler is None else self.settler.error_bound,
+            error_bound=self.settler.error_bound,
             prime=graph_exact.PRIME,
             prob_threshold=self.prob_threshold,
         )

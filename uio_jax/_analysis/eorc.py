@@ -47,15 +47,11 @@ the state components with ``e_j`` in ``Omega-bar_k``, and the extended coordinat
 For a single unknown input and no drift, Theorem 1 of 004 gives
 ``Omega-bar_k = [Omega_k, 0] + span{d L_G^1 h .. d L_G^k h}``, so ``dim_k = dim Omega_k``.
 
-**Evaluation** (:mod:`uio_jax._calculus.blocks`). The order-k generators are mostly
-``L_F0^j`` of a short word (each order brings ``w^(k-1)`` in through the drift), so a
-generator is a node of the System's graph: ``L_F0^j base`` one power node, evaluated by the
-one power policy (:mod:`uio_jax._calculus.powers`: one Taylor pass along the flow of
-``F0``, a graph growing linearly in ``j`` where nested ``jax.jvp`` grows like ``2.5^j``),
-and ``L_{F_i} phi`` a Lie node. Per order, one jitted block gives the gradients of every
-child of the frontier, ``d(L_v phi) = H_phi v + (dv)^T dphi``; where the frontier repeats
-its pattern, one chain program gives the blocks of the next orders. The measurements
-behind these choices are in ``docs/benchmarks/eorc.md``.
+**Evaluation.** The order-k generators are mostly ``L_F0^j`` of a short word (each order
+brings ``w^(k-1)`` in through the drift), so a generator is a node of the System's
+expression graph: ``L_F0^j base`` one power node, ``L_{F_i} phi`` a Lie node
+(:mod:`uio_jax._calculus.generators`); the gradients of an order's children are evaluated
+by numpy over the graph, nothing is compiled.
 
 **Sampling.** The extended coordinates are sampled, like states without a given domain, in
 ``uio_jax._model.system.DEFAULT_BOX`` = (0.5, 1.5): positive, away from 0, where inputs such
@@ -64,19 +60,18 @@ generic rank is the same on every open set of the extended space.
 """
 
 import time
-import weakref
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
-from .._calculus.blocks import Stream, blocks_for
 from .._errors import ModelError
-from .._model.naming import derivative_names
 from .._model.smooth_inputs import known_coordinates, with_input_jets
-from .._model.system import DEFAULT_BOX, System, derived_system
+from .._model.system import DEFAULT_BOX
 from .context import Context
 from .driver import Recursion, StopReason, iterate
+from .eorc_extension import default_k_max as default_k_max
+from .eorc_extension import extended_system as extended_system
+from .eorc_extension import input_names as input_names
 from .evidence import Step
 from .known_bound import known_input_bound, stop_note
 from .memory import analysis_bytes, check_memory, memory_limit
@@ -87,87 +82,6 @@ from .symmetry import symmetry_notes, verify_symmetries
 #: Name of the extended drift field in generator labels.
 DRIFT_LABEL = "F0"
 
-_EXTENSIONS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
-def default_k_max(system: System) -> int:
-    """Default highest order: ``n + 2`` (the bound of the single-input case, 004 section 9)."""
-    return system.n + 2
-
-
-def input_names(system: System, K: int) -> tuple[str, ...]:
-    """Names of the extended coordinates ``w, w^(1), .., w^(K-1)`` (order-major).
-
-    Each unknown input keeps its name for order 0 and gets ``^(d)`` for its d-th derivative;
-    a clash with a state name gets a ``'`` appended
-    (:func:`uio_jax._model.naming.derivative_names`).
-
-    Returns:
-        ``K * m_w`` names, ordered ``[w_1..w_mw, w_1^(1)..w_mw^(1), ...]`` as in 004 eq. 4.
-    """
-    return derivative_names(tuple(system.unknown), K, system.states, order_major=True)
-
-
-def extended_system(system: System, K: int) -> System:
-    """``Sigma^(K)`` of 004 section 4 as a :class:`~uio_jax.System` (cached per System and K).
-
-    Args:
-        system: the original System (``n`` states, ``m_w`` unknown inputs, ``m_u`` known).
-        K: number of input orders in the extension (``K >= 1``).
-
-    Returns:
-        A System with ``n + K m_w`` states (``states + input_names``), the same outputs
-        (functions of the first n coordinates), the known fields padded with zeros, the
-        extended drift ``F0`` (eq. 6) and no unknown input (the last derivatives
-        ``w^(K)`` enter only through unit vectors along which every Lie derivative of
-        order ``<= K`` vanishes, Proposition 1 of 004).
-    """
-    per = _EXTENSIONS.setdefault(system, {})
-    ext = per.get(K)
-    if ext is not None:
-        return ext
-    n, mw = system.n, len(system.unknown)
-    names = input_names(system, K)
-    N = n + K * mw
-    drift, gs = system.drift, tuple(system.unknown.values())
-
-    def F0(X):
-        x, xi = X[:n], X[n:]
-        w = xi[:mw]
-        dx = jnp.zeros(n, dtype=X.dtype) if drift is None else drift(x)
-        for j, g in enumerate(gs):
-            dx = dx + g(x) * w[j]
-        tail = jnp.concatenate([xi[mw:], jnp.zeros(mw, dtype=X.dtype)])
-        return jnp.concatenate([dx, tail])
-
-    def pad_field(f):
-        def F(X):
-            return jnp.concatenate([f(X[:n]), jnp.zeros(N - n, dtype=X.dtype)])
-
-        return F
-
-    def pad_output(h):
-        def H(X):
-            return h(X[:n])
-
-        return H
-
-    domain = dict(system.domain)
-    domain.update({nm: DEFAULT_BOX for nm in names})
-    with derived_system():  # the parts are the validated system's functions, padded
-        ext = System(
-            states=system.states + names,
-            outputs={k: pad_output(h) for k, h in system.outputs.items()},
-            known={k: pad_field(f) for k, f in system.known.items()},
-            drift=F0,
-            domain=domain,
-            angles=system.angles,
-            name=f"{system.name or 'system'} extended to order {K}",
-        )
-    per[K] = ext
-    return ext
-
-
 class _Eorc(Recursion):
     """One EORC run (001 Algorithm 1) on ``Sigma^(K)``, order ``k`` = step ``k`` of the driver.
 
@@ -177,9 +91,8 @@ class _Eorc(Recursion):
     state observable, or ``k = K``. After each order, :meth:`coordinates` reads the
     observable coordinates off ``Omega-bar_k``.
 
-    The gradients of an order are computed by the System's blocks
-    (:mod:`uio_jax._calculus.blocks`); the next order's block is dispatched while this
-    order's rank work runs.
+    The gradients of an order's children are evaluated in the expression graph, the next
+    order's while this order's rank work runs (:meth:`record`).
     """
 
     def __init__(self, system, K, samples, seed, rtol, early_stop=True, analysed=None):
@@ -194,15 +107,9 @@ class _Eorc(Recursion):
         self.names = input_names(system, K)
         self.ctx = Context(self.ext, samples, seed, rtol)
         builder = self.ctx.builder
-        drift = builder.field(DRIFT_LABEL, self.ext.drift)
-        known = tuple(builder.field(k, f) for k, f in self.ext.known.items())
-        self.blocks = blocks_for(self.ext, builder, drift, known)
-        #: the children's gradients come from the expression graph (numpy, nothing
-        #: compiled) when the extended system translates into it, else from XLA blocks
-        self.in_graph = all(nd.expr is not None for nd in (drift, *known, *self.ctx.output_nodes()))
-        self.stream = None if self.in_graph else Stream(self.blocks, self.ctx.xs, K)
-        self.compile_s = []  # seconds spent tracing + compiling, per order
-        self.steps = []  # per order: frontier size, candidates, compile and eval seconds
+        self.drift = builder.field(DRIFT_LABEL, self.ext.drift)
+        self.known = tuple(builder.field(k, f) for k, f in self.ext.known.items())
+        self.steps = []  # per order: frontier size, candidates, eval seconds
         self.frontier = []  # the generators kept at the last order
         self.started = []  # the next order's block, dispatched during this order's rank work
         self._escalations_seen = 0
@@ -309,37 +216,36 @@ class _Eorc(Recursion):
         return Step(k, dim, tuple(nd.label for nd in added), fraction, extra)
 
     # ------------------------------------------------------------------ one order
-    def dispatch(self, frontier, k):
-        """Start the gradient block of order ``k`` (:meth:`uio_jax._calculus.blocks.Stream.dispatch`),
-        or, in the expression graph, evaluate the children's gradients now.
+    def children(self, phi) -> list:
+        """``L_F0 phi`` (a power: ``L_F0^(j+1) base`` for ``phi = L_F0^j base``), then
+        ``L_{F_i} phi`` for the known fields, as nodes of the graph."""
+        b = self.ctx.builder
+        base, j = b.power_of(phi, self.drift)
+        up = b.power(self.drift, base, j + 1, depth=phi.depth + 1)
+        return [up] + [b.lie(v, phi) for v in self.known]
 
-        Returns:
-            ``(frontier, key, compile_s, t1, gradients (S, c, N), chain row)``.
-        """
-        if self.in_graph:
-            t1 = time.perf_counter()
-            children = [c for phi in frontier for c in self.blocks.children(phi)]
-            return frontier, None, 0.0, t1, self.ctx.gradients(children), None
-        return self.stream.dispatch(frontier, k)
+    def dispatch(self, frontier, k):
+        """The children of ``frontier`` (order ``k``) and their gradients, evaluated now in
+        the expression graph: ``(frontier, t1, gradients (S, c, N))``."""
+        t1 = time.perf_counter()
+        children = [c for phi in frontier for c in self.children(phi)]
+        return frontier, t1, self.ctx.gradients(children)
 
     def absorb_children(self, frontier, k, started=None):
         """Form ``L_v phi`` for every phi of the frontier and v in ``F0, F_i``; absorb them.
 
-        ``started``: the :meth:`dispatch` of the same frontier, if it was started earlier
+        ``started``: the :meth:`dispatch` of the same frontier, if it was made earlier
         (its ``eval_s`` then includes the work done meanwhile).
         """
         if not frontier:
             return []
         if started is None:
             started = self.dispatch(frontier, k)
-        frontier, key, compile_s, t1, pending, row = started
-        nodes = [c for phi in frontier for c in self.blocks.children(phi)]
-        grads = np.asarray(pending)
-        self.compile_s.append(compile_s)
+        frontier, t1, grads = started
+        nodes = [c for phi in frontier for c in self.children(phi)]
         self.steps.append({"k": k, "frontier": len(frontier), "candidates": len(nodes),
-                           "compile_s": compile_s, "eval_s": time.perf_counter() - t1,
-                           "key": key, "chain_row": row})
-        return self.ctx.absorb(nodes, grads)
+                           "eval_s": time.perf_counter() - t1})
+        return self.ctx.absorb(nodes, np.asarray(grads))
 
     def coordinates(self, k, meanwhile=None):
         """What ``Omega-bar_k`` says about the coordinates of ``Sigma^(k)``, certified.

@@ -53,7 +53,7 @@ import numpy as np
 
 from .._calculus.rescaled import rescaled_fields
 from .._errors import OptionError
-from .._model.smooth_inputs import jet_names, known_coordinates, with_input_jets
+from .._model.smooth_inputs import jet_names, known_coordinates
 from .._model.system import System
 from .._progress import announce_step
 from .context import Context
@@ -67,8 +67,6 @@ from .general_ui_steps import (
     extend,
     lift,
     nonzero_votes,
-    one_off_programs,
-    own_context,
     reconstructability,
     start_working,
 )
@@ -229,10 +227,13 @@ def observable_inputs(out: Outcome, full: bool = False) -> dict:
         # gives w~ = B^-1 (D h~ - a), a function of observable quantities
         return {k: True for k in w.system.unknown}
     ext = extended_system(w.system, 1)
-    ctx = own_context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
+    ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
     N = w.system.n
     b = ctx.builder
-    lifted = [b.scalar(nd.label, lift(nd.fn, N)) for nd in out.omega.codist.nodes]
+    src = out.omega.builder.graph  # the working system's: Omega's nodes, lifted to [z; w~]
+    lifted = [b.node(("scalar", nd.label),
+                     lambda nd=nd: b.make(nd.label, "scalar", 0, lift(b.graph, src, nd.expr, b.graph.coords[:N])[0]))
+              for nd in out.omega.codist.nodes]
     F0 = b.field("F0", ext.drift)
     ctx.absorb(lifted)
     ctx.absorb_lie(lifted, [F0])
@@ -269,8 +270,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     jet = n + JET_MARGIN
     with jax.enable_x64(True):
         for attempt in range(JET_RETRIES + 1):
-            with one_off_programs(with_input_jets(system, jet)):
-                out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet)
+            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet)
             if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
                 break
             jet = 2 * jet

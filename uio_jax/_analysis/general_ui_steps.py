@@ -2,22 +2,18 @@
 the working system, the closure ``Close``, the reconstructability matrix and the UI extension,
 as stated in the module docstring of :mod:`.general_ui` and in ``docs/general_ui.md``."""
 
-import contextlib
 import dataclasses
 
 import jax.numpy as jnp
 import numpy as np
 
-from .._calculus.generators import Node, builder_for
+from .._calculus.generators import Node
+from .._engine.graph import Graph
+from .._model.graph_system import graph_system
 from .._model.smooth_inputs import known_coordinates, known_outputs, with_input_jets
 from .._model.system import DEFAULT_BOX, System, derived_system
 from .context import Context
 from .rank import ZERO_ROW_RTOL, decide_rank
-
-#: Programs of the general solution above this many equations are compiled at XLA
-#: optimization level 0: each runs once, and level 0 halves the compile time of the large
-#: ones (TUIO6's TAC-2025 case: 120 s -> 74 s cold; ``docs/benchmarks/general_ui.md``).
-LARGE_GRAPH = 1000
 
 
 # ------------------------------------------------------------------ zero tests
@@ -78,11 +74,16 @@ class Working:
         return [cache[nd] for nd in nodes]
 
 
-def _working_system(states, outputs, drift, unknown, domain, angles, name, known_count, params):
-    """A validated-parts System for the algorithm (no traced checks)."""
-    with derived_system():
-        system = System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
-                        domain=domain, angles=angles, name=name)
+def _working_system(states, outputs, drift, unknown, domain, angles, name, known_count, params, graph=None):
+    """A validated-parts System for the algorithm (no traced checks): of JAX functions, or,
+    with ``graph``, of its nodes (outputs name -> node, fields tuples of nodes)."""
+    if graph is not None:
+        system = graph_system(graph, states, outputs, unknown=unknown, drift=drift, domain=domain,
+                              angles=angles, name=name)
+    else:
+        with derived_system():
+            system = System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
+                            domain=domain, angles=angles, name=name)
     object.__setattr__(system, "_known_coordinates", known_count)
     object.__setattr__(system, "_as_params", params)
     return system
@@ -97,35 +98,12 @@ def start_working(system, jet_order, samples, seed, rtol) -> Working:
         sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
                                known_coordinates(sys0), sys0.joint_param_names)
-    own = sys0 is not with_input_jets(system, jet_order)
-    # the System's builder is shared with the other analyses: see one_off_programs
-    ctx = own_context(sys0, samples, seed, rtol) if own else Context(sys0, samples, seed, rtol)
+    ctx = Context(sys0, samples, seed, rtol)
     b = ctx.builder
     drift = b.field("g0", sys0.drift)
     uis = [ctx.field_node(k) for k in sys0.unknown]
     return Working(sys0, ctx, drift, uis, list(range(len(uis))), ctx.output_nodes(),
                    system.n - known_coordinates(system), known=frozenset(known_outputs(sys0)))
-
-
-def own_context(system, samples, seed, rtol) -> Context:
-    """A Context on one of the algorithm's own Systems, whose builder compiles large
-    programs at level 0 (:data:`LARGE_GRAPH`)."""
-    ctx = Context(system, samples, seed, rtol)
-    ctx.builder.large_graph = LARGE_GRAPH
-    return ctx
-
-
-@contextlib.contextmanager
-def one_off_programs(system):
-    """While the block runs, the builder of the System the analysis starts on (possibly the
-    user's, shared with the other analyses) compiles at :data:`LARGE_GRAPH`; restored after."""
-    builder = builder_for(system)
-    before = builder.large_graph
-    builder.large_graph = LARGE_GRAPH
-    try:
-        yield
-    finally:
-        builder.large_graph = before
 
 
 # ------------------------------------------------------------------ Close
@@ -258,9 +236,10 @@ def reconstructability(w: Working, theta) -> Reconstructability:
 
 
 # ------------------------------------------------------------------ UI extension
-def lift(fn, N):
-    """``fn`` of the first ``N`` coordinates, as a function of a longer state."""
-    return lambda Z: fn(Z[:N])
+def lift(graph, source, node, coords):
+    """The node ``node`` of the graph ``source`` (a function of the first ``len(coords)``
+    coordinates there) as a node of ``graph`` where those coordinates are ``coords``."""
+    return graph.import_nodes(source, [node] if isinstance(node, int) else list(node), tuple(coords))
 
 
 def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed, rtol):
@@ -281,25 +260,24 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     ids = [w.theta[i].label for i in rec.rows]  # v_j^(i) = d^(i+1) h~_j / dt^(i+1)
     vnames = [[fresh(f"D{i + 1}({_short(ids[j])})") for i in range(order + 1)] for j in range(m)]
     L = order + 1
-    hat0_fn, hat_fns = hat0.fn, [h.fn for h in hats]
-
-    def drift_full(Z):  # on [z; v_1^(0..ord); ..; v_m^(0..ord)]
-        z, v = Z[:N], Z[N:].reshape((m, L))
-        dz = hat0_fn(z)
-        for j in range(m):
-            dz = dz + v[j, 0] * hat_fns[j](z)
-        chain = jnp.concatenate([v[:, 1:], jnp.zeros((m, 1), Z.dtype)], axis=1)
-        return jnp.concatenate([dz, chain.reshape(-1)])
-
+    src = w.ctx.builder.graph  # the working system's graph: hat0, hats, tildes, theta live there
     domain = dict(sysw.domain)
     flat = [nm for row in vnames for nm in row]
     domain.update({nm: DEFAULT_BOX for nm in flat})
-    star = lift(theta_star.fn, N)
-    full = _working_system(sysw.states + tuple(flat), {"theta*": star}, drift_full, {}, domain,
-                           sysw.angles, sysw.name, known_coordinates(sysw), sysw.joint_param_names)
-    ctx_full = own_context(full, samples, seed, rtol)
+    # the full extension: [z; v_1^(0..ord); ..; v_m^(0..ord)]
+    gf = Graph(N + m * L)
+    z = gf.coords[:N]
+    v = [gf.coords[N + j * L:N + (j + 1) * L] for j in range(m)]
+    dz = lift(gf, src, hat0.expr, z)
+    for j in range(m):
+        dz = [gf.add(a, gf.mul(v[j][0], c)) for a, c in zip(dz, lift(gf, src, hats[j].expr, z))]
+    drift_full = tuple(dz) + tuple(e for j in range(m) for e in (*v[j][1:], gf.zero))
+    full = _working_system(sysw.states + tuple(flat), {"theta*": lift(gf, src, theta_star.expr, z)[0]},
+                           drift_full, {}, domain, sysw.angles, sysw.name, known_coordinates(sysw),
+                           sysw.joint_param_names, graph=gf)
+    ctx_full = Context(full, samples, seed, rtol)
     b = ctx_full.builder
-    theta_v = b.power(b.field("F'", drift_full), b.scalar("theta*", star), order)
+    theta_v = b.power(b.field("F'", full.drift), b.scalar("theta*", full.outputs["theta*"]), order)
     grad = ctx_full.gradients([theta_v])[:, 0]  # (S, N + m L)
     gnorm = np.linalg.norm(grad, axis=-1)
     keep_to = []
@@ -320,21 +298,21 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
               for j in range(m) if keep_to[j] is not None]
     dropped = [j for j in range(m) if keep_to[j] is None]
 
-    def drift_new(Z):
-        z = Z[:N]
-        dz = hat0_fn(z)
-        tail = jnp.zeros(Nn - N, Z.dtype)
-        for j, idx in chains:
-            dz = dz + Z[idx[0]] * hat_fns[j](z)
-            for a, b_ in zip(idx[:-1], idx[1:]):
-                tail = tail.at[a - N].set(Z[b_])
-        return jnp.concatenate([dz, tail])
-
-    def embed(Z):  # the final state into the full one (dropped coordinates: 0)
-        X = jnp.zeros(N + m * L, Z.dtype).at[:N].set(Z[:N])
-        for nm, i in kept_index.items():
-            X = X.at[pos_full[nm]].set(Z[i])
-        return X
+    gn = Graph(Nn)
+    Z = gn.coords
+    hat_new = [lift(gn, src, h.expr, Z[:N]) for h in hats]
+    dz = lift(gn, src, hat0.expr, Z[:N])
+    tail = [gn.zero] * (Nn - N)
+    for j, idx in chains:
+        dz = [gn.add(a, gn.mul(Z[idx[0]], c)) for a, c in zip(dz, hat_new[j])]
+        for a, b_ in zip(idx[:-1], idx[1:]):
+            tail[a - N] = Z[b_]
+    drift_new = tuple(dz) + tuple(tail)
+    embed = [gn.zero] * (N + m * L)  # the final state in the full one (dropped coordinates: 0)
+    embed[:N] = Z[:N]
+    for nm, i in kept_index.items():
+        embed[pos_full[nm]] = Z[i]
+    pad = (gn.zero,) * (Nn - N)
 
     new_uis, new_origin = {}, []
     order_idx = list(rec.cols) + [i for i in range(len(w.uis)) if i not in rec.cols]
@@ -342,31 +320,30 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
         top = -1 if keep_to[j] is None else keep_to[j]
         nm = fresh(f"D{top + 2}({_short(ids[j])})")  # the new unknown input
         if keep_to[j] is None:
-            new_uis[nm] = (lambda f: lambda Z: jnp.concatenate([f(Z[:N]), jnp.zeros(Nn - N, Z.dtype)]))(hat_fns[j])
+            new_uis[nm] = tuple(hat_new[j]) + pad
         else:
             unit = kept_index[vnames[j][keep_to[j]]]
-            new_uis[nm] = (lambda u: lambda Z: jnp.zeros(Nn, Z.dtype).at[u].set(1.0))(unit)
+            new_uis[nm] = tuple(gn.one if i == unit else gn.zero for i in range(Nn))
         new_origin.append(w.origin[order_idx[j]])
     for k, t in enumerate(tildes):
         nm = fresh(f"{names_ui[m + k]}~")
-        new_uis[nm] = (lambda f: lambda Z: jnp.concatenate([f(Z[:N]), jnp.zeros(Nn - N, Z.dtype)]))(t.fn)
+        new_uis[nm] = tuple(lift(gn, src, t.expr, Z[:N])) + pad
         new_origin.append(w.origin[order_idx[m + k]])
-    outputs = {th.label: lift(th.fn, N) for th in w.theta}
+    outputs = {th.label: lift(gn, src, th.expr, Z[:N])[0] for th in w.theta}
     for nm in kept_flat:
-        outputs[nm] = (lambda i: lambda Z: Z[i])(kept_index[nm])
-    tv = theta_v.fn
-    outputs["theta_v"] = lambda Z: tv(embed(Z))
+        outputs[nm] = Z[kept_index[nm]]
+    outputs["theta_v"] = lift(gn, b.graph, theta_v.expr, embed)[0]
     domain_new = {k: v for k, v in domain.items() if k in sysw.states or k in kept_flat}
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
                               domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
-                              sysw.joint_param_names)
-    ctx = own_context(new_sys, samples, seed, rtol)
+                              sysw.joint_param_names, graph=gn)
+    ctx = Context(new_sys, samples, seed, rtol)
     nb = ctx.builder
     uis = [ctx.field_node(k) for k in new_uis]
     theta = ctx.output_nodes()
     info = {"order": order, "root": theta_star.label, "theta_v": theta_v.label,
             "new_states": kept_flat, "ui_without_chain": [names_ui[j] for j in dropped]}
-    return Working(new_sys, ctx, nb.field("g0", drift_new), uis, new_origin, theta, w.n0,
+    return Working(new_sys, ctx, nb.field("g0", new_sys.drift), uis, new_origin, theta, w.n0,
                    w.zero_tests, w.known), info
 
 

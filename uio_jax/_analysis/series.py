@@ -23,45 +23,22 @@ Stopping: the increments ``r_K - r_(K-1)`` never increase (the observability ind
 the output filtration), so the first order that adds nothing closes the span; otherwise
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
-Cost: all coefficients up to order K come from one univariate Taylor pass
-(the coefficient recurrence of :mod:`uio_jax._engine.taylor_flow`, ``O(K^2)`` work per operation
-of the model, F's graph traced once) and one forward-mode Jacobian: no nested
-differentiation, so models whose ORC graphs grow geometrically with the step (tens of
-states and parameters, several fields) take seconds.
+Cost: the coefficients are expressions of the System's graph (:class:`_GraphCoefficients`:
+``y^(k) = L_F^k h`` on ``[x; t]`` by symbolic forward mode with shared subexpressions, then
+``t = 0``), their gradients evaluated by numpy over the samples: only the combinations in
+``y^(K)`` are formed, so models whose ORC grows with every field (tens of states and
+parameters, several fields) take seconds.
 """
 
 import hashlib
 import math
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._engine.graph import Graph
-from .._engine.interpreter import NoTaylorRule
-from .._engine.taylor import taylor
-from .._engine.taylor_flow import flow_coefficients
 from .._errors import OptionError
 from .context import Context
 from .driver import Recursion, StopReason, iterate
-
-
-class SeriesNotApplicable(OptionError):
-    """The series test cannot expand the model: a primitive of its dynamics or outputs has
-    no Taylor rule (``primitive``: its name, e.g. ``lgamma``, ``sort``). Other methods
-    (the ORC) differentiate it by JAX's own rules; ``method='fast'`` may fall back to them."""
-
-    def __init__(self, primitive, detail=""):
-        super().__init__(f"method 'series' cannot expand primitive '{primitive}'{detail} (no Taylor rule); "
-                         "use method='orc'")
-        self.primitive = primitive
-
-
-#: What the series test raises when the Taylor engines cannot expand a model: ``fast``
-#: falls back to the ORC on these, ``series`` reports them as a one-line OptionError
-#: (:class:`SeriesNotApplicable` is one; a bare
-#: :class:`~uio_jax._engine.interpreter.NoTaylorRule` is converted).
-SERIES_FAILURES = (SeriesNotApplicable, NoTaylorRule)
 
 
 def check_applicable(system) -> None:
@@ -86,71 +63,19 @@ def input_coefficients(system, orders: int, seed: int) -> np.ndarray:
     return np.stack(cols, axis=1).reshape(len(system.known), orders + 1)
 
 
-def output_series(system, a, K):
-    """``x -> (K + 1, p)``: normalized Taylor coefficients ``y_k(x)`` of the outputs.
-
-    The flow's coefficients come from the coefficient recurrence of
-    :func:`uio_jax._engine.taylor_flow.flow_coefficients` (``O(K^2)`` per operation of the model),
-    with the generic input entering as a known series; the outputs from one stacked Taylor
-    pass (:func:`uio_jax._engine.taylor.taylor`).
-
-    Args:
-        system: a System without unknown inputs (states only; parameters already joint).
-        a: input coefficients ``(m_u, >= K + 1)`` from :func:`input_coefficients`.
-        K: highest order.
-
-    Raises:
-        SeriesNotApplicable: (when the returned function is traced) a primitive of the
-            model without a Taylor rule.
-    """
-    n = system.n
-    drift = system.drift
-    known = tuple(system.known.values())
-    u_series = (jnp.asarray(a[:, :K + 1].T),) if known else ()  # (K + 1, m_u)
-    outputs = tuple(system.outputs.values())
-
-    def field(x, *u):
-        dx = drift(x) if drift is not None else jnp.zeros((n,), x.dtype)
-        for i, f in enumerate(known):
-            dx = dx + f(x) * u[0][i]
-        return dx
-
-    def out(x):
-        return jnp.stack([jnp.asarray(h(x)).reshape(()) for h in outputs])
-
-    def coefficients(x):
-        if K == 0:
-            return out(x)[None]
-        try:
-            return taylor(out, x, flow_coefficients(field, x, K, known=u_series))
-        except NoTaylorRule as exc:  # a primitive of the model without a Taylor rule
-            detail = str(exc).removeprefix(f"no Taylor rule for {exc.primitive}")
-            raise SeriesNotApplicable(exc.primitive, detail) from None
-
-    return coefficients
-
-
 class _Series:
-    """Nodes ``y_k[h]`` of one System and generic input, and the programs that evaluate them.
-
-    A program of order K gives the gradients of every ``y_k``, ``k <= K`` (the Taylor pass
-    and its tangents cost the same whatever rows are kept): a request for orders up to
-    ``k_hi`` runs the smallest program made so far that reaches ``k_hi``, else a new one.
-    """
+    """Nodes ``y_k[h]`` of one System and generic input (expressions of its graph, built
+    order by order on demand: :class:`_GraphCoefficients`)."""
 
     def __init__(self, ctx: Context, seed: int, cap: int):
         self.system = ctx.system
         self.builder = ctx.builder
         self.a = input_coefficients(self.system, cap + 1, seed)
-        tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
+        self.tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
         self.outs = ctx.output_nodes()
-        self.orders_made = []  # K of every program made
-        self.tag, self.ctx = tag, ctx
+        self.ctx = ctx
         self.nodes = {}
-        #: the coefficients as expressions of the System's graph, order by order on
-        #: demand (numpy, nothing compiled); None: the model is outside the graph
-        self.graphed = _GraphCoefficients.of(ctx, self.a, cap)
-        self.in_graph = self.graphed is not None
+        self.coefficients = _GraphCoefficients.of(ctx, self.a, cap)
 
     def node(self, k, i):
         """The node ``y_k[h_i]`` (memoized by the builder)."""
@@ -159,34 +84,17 @@ class _Series:
             if k == 0:
                 self.nodes[k, i] = h
                 return h
-            sig = f"series:{self.tag}:{k}:{h.sig}" if h.sig else ""
-            expr = self.graphed.order(k)[i] if self.in_graph else None
             self.nodes[k, i] = self.builder.node(
                 ("series", self.tag, k, h.label),
-                lambda: self.builder.make(f"y_{k}[{h.label}]", _coefficient(self.system, self.a, k, i),
-                                          "scalar", k, sig, expr))
+                lambda: self.builder.make(f"y_{k}[{h.label}]", "scalar", k, self.coefficients.order(k)[i]))
         return self.nodes[k, i]
 
     def gradients(self, ctx: Context, k_lo, k_hi):
         """Gradients of every ``y_k`` for ``k_lo <= k <= k_hi`` at ``ctx``'s samples:
         ``(S, (k_hi - k_lo + 1) p, n)``."""
         p = len(self.outs)
-        if self.in_graph:
-            nodes = tuple(self.node(k, i) for k in range(k_lo, k_hi + 1) for i in range(p))
-            return nodes, ctx.gradients(nodes)
-        K = min((K for K in self.orders_made if K >= k_hi), default=k_hi)
-        if K not in self.orders_made:
-            self.orders_made.append(K)
-        nodes = tuple(self.node(k, i) for k in range(K + 1) for i in range(p))
-        coefficients = output_series(self.system, self.a, K)
-
-        def make():
-            return jax.jacfwd(lambda x: coefficients(x).reshape(-1))
-
-        grads = self.builder.program("series", nodes, make, ctx.xs, streamed=True)
-        rows = slice(k_lo * p, (k_hi + 1) * p)
-        ctx.remember_gradients(nodes[rows], grads[:, rows])
-        return nodes[rows], grads[:, rows]
+        nodes = tuple(self.node(k, i) for k in range(k_lo, k_hi + 1) for i in range(p))
+        return nodes, ctx.gradients(nodes)
 
 
 class _GraphCoefficients:
@@ -201,14 +109,11 @@ class _GraphCoefficients:
 
     @classmethod
     def of(cls, ctx: Context, a, cap):
-        """The coefficients of ``ctx``'s System, or None when a field or output has no
-        expression."""
+        """The coefficients of ``ctx``'s System."""
         system, g = ctx.system, ctx.builder.graph
         outs = ctx.output_nodes()
         known = [ctx.field_node(k) for k in system.known]
         drift = ctx.field_node("f0") if system.drift is not None else None
-        if g is None or any(nd.expr is None for nd in outs + known + ([drift] if drift else [])):
-            return None
         return cls(g, [h.expr for h in outs], None if drift is None else drift.expr,
                    [f.expr for f in known], a, cap)
 
@@ -238,25 +143,18 @@ class _GraphCoefficients:
         return self.done[k]
 
 
-def _coefficient(system, a, k, i):
-    """``x -> y_k[i](x)`` (one pass to order k; used for single evaluations)."""
-    coefficients = output_series(system, a, k)
-    return lambda x: coefficients(x)[k, i]
-
-
 class SeriesOrders(Recursion):
     """The orders ``k = 0, 1, ...`` of the series test as a
     :class:`~uio_jax._analysis.driver.Recursion`: step k absorbs ``dy_k`` (``p`` rows
     ``(S, p, n)``), ``Omega_k = span{dy_0 .. dy_k}``.
 
-    Orders are evaluated in blocks (one Taylor pass from order 0 each, see
-    :meth:`_Series.gradients`): the first block reaches ``first`` (None: the fewest orders
-    that could reach rank n, ``ceil(n / p) - 1``), a later one the fewest more orders that
-    could reach rank n if every order added what the last one did (2 at least).
+    Orders are evaluated in blocks (:meth:`_Series.gradients`): the first block reaches
+    ``first`` (None: the fewest orders that could reach rank n, ``ceil(n / p) - 1``), a
+    later one the fewest more orders that could reach rank n if every order added what the last one did (2 at least).
 
     Args:
         ctx: the analysis context.
-        series: the nodes and programs of the ``y_k``.
+        series: the nodes of the ``y_k``.
         cap: the highest order.
         first: the highest order of the first block (None: see above).
     """
@@ -274,8 +172,7 @@ class SeriesOrders(Recursion):
             n, p = self.ctx.system.n, len(self.ctx.system.outputs)
             if self.added is not None:
                 # an order adds at most what the last one added (non-increasing increments):
-                # reaching rank n needs at least this many more orders; 2 at least, since
-                # every block re-runs the Taylor pass from order 0
+                # reaching rank n needs at least this many more orders (2 at least)
                 self.chunk = max(2, math.ceil((n - self.ctx.dim) / len(self.added)))
             hi = min(self.cap, max(k + self.chunk - 1, k))
             nodes, grads = self.series.gradients(self.ctx, k, hi)
@@ -336,5 +233,4 @@ def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
     return ctx.report("series", history, reason, notes=notes, details={"order": k})
 
 
-__all__ = ["series_report", "run_series", "SERIES_FAILURES", "output_series", "input_coefficients", "check_applicable",
-           "SeriesNotApplicable"]
+__all__ = ["series_report", "run_series", "input_coefficients", "check_applicable"]

@@ -31,8 +31,7 @@ A weak decision is settled again (:class:`Settler`) in the System's expression g
   states of the sampling box): a genuine distance keeps its value between the two
   precisions, round-off shrinks below ``10^-(0.6 digits)``.
 
-Neither can decide (no expression: a model the graph does not translate; the points are
-singular; the two precisions disagree): the decision is **undecided**. The float64
+Neither can decide (the points are singular; the two precisions disagree): the decision is **undecided**. The float64
 majority is kept for the rest of the run, and the report says that its verdicts are not
 certified (:attr:`uio_jax.Certificate.undecided`). Every escalation is recorded
 (:class:`Escalation`) in the certificate.
@@ -181,11 +180,6 @@ class Settler:
         """
         what = f"{candidate.label} against rank {len(kept)}"
         exprs = [nd.expr for nd in kept] + [candidate.expr]
-        if any(e is None or not isinstance(e, int) for e in exprs):
-            if exact_only:
-                return None
-            return Escalation(what, float64, "none: a generator has no expression in the graph",
-                              "undecided")
         known = self._answers.get(tuple(exprs))
         if known is not None:  # the same question again (the final span re-decided): the
             return known       # same answer, the same record (kept once in a certificate)

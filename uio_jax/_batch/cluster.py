@@ -23,8 +23,8 @@ pool. What the cluster adds:
   other worker of its host holds (:func:`~uio_jax._filter.cluster.claim_one_cpu`), as the
   local pool's workers are bound; ``UIO_JAX_PIN_WORKERS=0`` on a host turns it off;
 * **caches**: each task enables the caller's compilation cache directory on its worker
-  (the program cache in it, :mod:`uio_jax._engine.program_cache`): on a path shared by
-  every host, a model compiled once is loaded everywhere after. Where that path cannot be
+  (JAX's own programs; the analyses compile nothing): on a path shared by every host, a
+  program compiled once is loaded everywhere after. Where that path cannot be
   created, the worker's own default directory is used (``$UIO_JAX_CACHE_DIR`` on the
   worker), else no cache.
 
@@ -37,8 +37,8 @@ import queue
 import time
 import uuid
 
-from .._engine.compile_cache import cache_dir_in_use, default_cache_dir, disable_compile_cache, enable_compile_cache
 from .._filter.cluster import NO_WORKER_S, claim_one_cpu, stop_tasks, worker_threads
+from .._filter.compile_cache import cache_dir_in_use, default_cache_dir, disable_compile_cache, enable_compile_cache
 from .executor import Executor, drive
 from .rows import one_line
 

@@ -1,15 +1,10 @@
 """Batch certification: many models, one table (``uio-jax batch``, :func:`batch_analyze`).
 
-**What is reused between models.** Compiled generator evaluators are cached per System
-(:mod:`uio_jax._calculus.generators`): two models are two Systems built from distinct
-Python closures, so even models of the same shape trace and compile their own Lie
-derivatives in memory. Shared across models of the same sample count and dimensions are
-only the rank kernels (module-level ``jax.jit`` functions of :mod:`uio_jax._analysis.rank`).
-Across processes, with the caches on (:func:`uio_jax.enable_compile_cache`, the command
-line's default), every analysis program is loaded from the program cache
-(:mod:`uio_jax._engine.program_cache`, keyed by the model's own jaxprs and the generator
-structure, no tracing) and the small shared kernels from JAX's persistent compilation
-cache: a second run of the same batch evaluates only.
+**What is reused between models.** Nothing is compiled for an analysis: every model is
+translated into its System's expression graph and evaluated by numpy over it
+(:mod:`uio_jax._calculus.generators`); nodes and gradients are cached per System. The
+compilation cache (:func:`uio_jax.enable_compile_cache`, the command line's default)
+serves JAX's own small programs only.
 
 **Parallel runs and time limits.** ``jobs > 1`` analyses models in that many worker
 processes (:mod:`uio_jax._batch.workers`), one model at a time each, each worker bound to

@@ -12,7 +12,7 @@ import json
 import math
 import os
 
-from .._engine.compile_cache import cache_dir_in_use
+from .._filter.compile_cache import cache_dir_in_use
 from .rows import BatchRow
 
 #: File in the cache directory with each model's last batch time in seconds.

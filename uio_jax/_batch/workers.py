@@ -16,7 +16,7 @@ import multiprocessing
 import signal
 from multiprocessing.connection import wait
 
-from .._engine.compile_cache import cache_dir_in_use, enable_compile_cache
+from .._filter.compile_cache import cache_dir_in_use, enable_compile_cache
 from .._progress import step_listener
 from .discovery import Entry, Skipped
 from .executor import Executor, drive

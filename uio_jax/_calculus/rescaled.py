@@ -11,36 +11,12 @@ With the drift ``g0`` (time and smooth known inputs folded in), the unknown-inpu
 
 In the new unknown inputs ``v_j = d h~_j / dt`` the dynamics read
 ``x' = g^0 + sum_{j<=m} v_j g^_j + sum_{k>m} w_k G~_k``. Each field is one
-:class:`~uio_jax._calculus.generators.Node` whose callable computes ``B`` and ``a`` from
-the identifiers' Lie derivatives at ``x`` (forward mode) and solves with ``B``:
-Lie derivatives along it, and their gradients, differentiate through the solve.
-In the System's expression graph (when every operand has an expression) the same fields
-are expressions: ``B`` and ``a`` are Lie derivatives of the identifiers, and the solve is
-the adjugate formula (:meth:`uio_jax._engine.graph.Graph.solve`; ``m`` is small).
+:class:`~uio_jax._calculus.generators.Node`, an expression of the System's graph: ``B``
+and ``a`` are Lie derivatives of the identifiers, and the solve is the adjugate formula
+(:meth:`uio_jax._engine.graph.Graph.solve`; ``m`` is small).
 """
 
-import jax
-import jax.numpy as jnp
-
 from .generators import Builder, Node
-
-
-def _parts(drift, fields, identifiers):
-    """``x -> (g0 (N,), G (mw, N), M (m, 1 + mw))`` at one state, ``M = [L_g0 h~, L_{g_j} h~]``.
-
-    The Lie derivatives are forward-mode (one vmapped ``jvp`` of each identifier over the
-    tangents ``g0, g_1..g_mw``): Lie derivatives of and along these fields then nest forward
-    mode in forward mode, several times cheaper to trace than a gradient inside.
-    """
-
-    def at(x):
-        g0 = drift(x)
-        G = jnp.stack([g(x) for g in fields])
-        T = jnp.concatenate([g0[None], G])
-        M = jnp.stack([jax.vmap(lambda t, h=h: jax.jvp(h, (x,), (t,))[1])(T) for h in identifiers])
-        return g0, G, M
-
-    return at
 
 
 def rescaled_fields(builder: Builder, drift: Node, fields, identifiers, names=None):
@@ -59,46 +35,24 @@ def rescaled_fields(builder: Builder, drift: Node, fields, identifiers, names=No
     fields, identifiers = tuple(fields), tuple(identifiers)
     m = len(identifiers)
     names = tuple(names or (f.label for f in fields))
-    parts = _parts(drift.fn, tuple(f.fn for f in fields), tuple(h.fn for h in identifiers))
     ids = ",".join(h.label for h in identifiers)
     key = ("rescaled", drift.label, tuple(f.label for f in fields), ids)
     depth = max([drift.depth] + [f.depth for f in fields] + [h.depth for h in identifiers]) + 1
 
     exprs = _expressions(builder, drift, fields, identifiers)
 
-    def make(kind, k, label, fn):
-        expr = None if exprs is None else exprs[kind][k]
-        return builder.node(key + (kind, k), lambda: builder.make(label, fn, "field", depth, "", expr))
+    def make(kind, k, label):
+        return builder.node(key + (kind, k), lambda: builder.make(label, "field", depth, exprs[kind][k]))
 
-    def g_hat0(x):
-        g0, G, M = parts(x)
-        return g0 - G[:m].T @ jnp.linalg.solve(M[:, 1:m + 1], M[:, 0])
-
-    def g_hat(k):
-        def f(x):
-            _, G, M = parts(x)
-            return G[:m].T @ jnp.linalg.solve(M[:, 1:m + 1], jnp.eye(m, dtype=x.dtype)[:, k])
-        return f
-
-    def G_tilde(k):
-        def f(x):
-            _, G, M = parts(x)
-            coef = jnp.linalg.solve(M[:, 1:m + 1], M[:, 1 + k])  # B^-1 (L_{g_k} h~)
-            return G[k] - G[:m].T @ coef
-        return f
-
-    hat0 = make("g^0", 0, f"{drift.label}^", g_hat0)
-    hats = [make("g^", k, f"{names[k]}^", g_hat(k)) for k in range(m)]
-    tildes = [make("G~", k, f"{names[k]}~", G_tilde(k)) for k in range(m, len(fields))]
+    hat0 = make("g^0", 0, f"{drift.label}^")
+    hats = [make("g^", k, f"{names[k]}^") for k in range(m)]
+    tildes = [make("G~", k, f"{names[k]}~") for k in range(m, len(fields))]
     return hat0, hats, tildes
 
 
 def _expressions(builder, drift, fields, identifiers):
     """The rescaled fields as expressions of the builder's graph:
-    ``{"g^0": [g^0], "g^": [g^_1..g^_m], "G~": {k: G~_k}}`` (tuples of nodes), or None when
-    an operand has no expression."""
-    if any(nd.expr is None for nd in (drift, *fields, *identifiers)):
-        return None
+    ``{"g^0": [g^0], "g^": [g^_1..g^_m], "G~": {k: G~_k}}`` (tuples of nodes)."""
     g = builder.graph
     m = len(identifiers)
     G = [f.expr for f in fields]

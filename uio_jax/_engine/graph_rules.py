@@ -13,13 +13,15 @@ Structural primitives (slice, reshape, concatenate, broadcast, transpose, indexi
 constant indices, ``.at[]``, ...) move node numbers around with numpy; elementwise
 primitives make one node per element; ``dot_general`` and reductions make sums of
 products; calls are inlined. A primitive without a rule, or one that would need the value
-of a state (an index computed from the state, a loop), raises :class:`Untranslatable`.
+of a state (an index computed from the state, a loop condition), raises
+:class:`Untranslatable`; loops with a static trip count are unrolled (:mod:`.graph_loops`).
 """
 
 import math
 
 import numpy as np
 
+from .graph_loops import loop_rules
 from .interpreter import Rules, inline
 
 
@@ -364,19 +366,6 @@ def _scatter(add):
     return rule
 
 
-def _expression(graph, i, eqn, ins):
-    """An :class:`Expressed` function's expression, imported with its argument's nodes."""
-    source = eqn.params["source"]
-    x = as_nodes(graph, ins[0]).reshape(-1)
-    if len(x) != source.graph.n:
-        raise Untranslatable("uio_jax_expression", "called on a state of another length")
-    nodes = graph.import_nodes(source.graph, [source.expr] if source.shape == () else list(source.expr),
-                               tuple(x))
-    out = np.empty(len(nodes), dtype=object)
-    out[:] = nodes
-    return [out.reshape(source.shape)]
-
-
 def _reduce(op):
     def rule(graph, i, eqn, ins):
         axes = tuple(eqn.params["axes"])
@@ -514,13 +503,14 @@ _TABLE = {
     "reduce_precision": _identity, "iota": _iota, "pad": _pad,
     "dynamic_slice": _dynamic_slice, "dynamic_update_slice": _dynamic_update_slice,
     "gather": _gather, "scatter": _scatter(False), "scatter-add": _scatter(True),
-    "scatter_add": _scatter(True), "uio_jax_expression": _expression,
+    "scatter_add": _scatter(True),
     "reduce_sum": _reduce("add"), "reduce_max": _reduce("max"), "reduce_min": _reduce("min"),
     "reduce_prod": _reduce("mul"), "reduce_and": _reduce("and"), "reduce_or": _reduce("or"),
     "dot_general": _dot_general, "split": _split, "cumsum": _cumsum,
 }
 
 RULES = Rules(_TABLE, default=_untranslatable, calls=_call)
+RULES.update(loop_rules(RULES, as_nodes, is_symbolic, Untranslatable))  # static trip counts unrolled
 
 
 __all__ = ["Untranslatable", "IndexOutOfRange", "RULES", "as_nodes", "is_symbolic"]

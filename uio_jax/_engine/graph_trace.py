@@ -4,73 +4,56 @@ The function is traced once to a jaxpr (``jax.make_jaxpr``: a fraction of a mill
 for a model function) and the jaxpr is walked by the one interpreter
 (:func:`uio_jax._engine.interpreter.interpret`) with the rule table of
 :mod:`.graph_rules`. A primitive without a rule, or one that would need the value of a
-state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: :func:`translate`
-then returns None and the caller keeps the XLA route for that function (the engine
-decides, never the user). :class:`Expressed` functions let closures built on graph nodes
-translate by importing their expressions.
+state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: the graph is the
+only evaluator of the analyses, so such a model is refused where it is built
+(:func:`untranslatable_message` says which primitive). A :class:`GraphFunction` is a
+function of the state given by its expression: the Systems the analyses derive (extended
+systems, UI extensions) are built of them on a graph, never traced.
 """
-
-import contextvars
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.core import Primitive
 
+from .._errors import ModelError
 from .graph import Graph
-from .graph_rules import RULES, as_nodes
+from .graph_rules import RULES, Untranslatable, as_nodes
 from .interpreter import interpret
 
-#: True while :func:`trace_to_graph` traces a function: an :class:`Expressed` function
-#: called then stands for its expression (:data:`expression_p`), not for its JAX code.
-_TRANSLATING = contextvars.ContextVar("uio_jax_translating", default=False)
 
-#: The primitive an :class:`Expressed` function binds while a function is translated:
-#: one operand (the state it is called on), parameter ``source`` (the Expressed). Only
-#: the graph translation has a rule for it.
-expression_p = Primitive("uio_jax_expression")
+class GraphFunction:
+    """A function of the state given by its expression in a graph.
 
-
-@expression_p.def_abstract_eval
-def _expression_shape(x, *, source):
-    return jax.core.ShapedArray(source.shape, jnp.float64)
-
-
-class Expressed:
-    """A function of the state that knows its expression in a graph.
-
-    Calling it runs the JAX function ``fn``; while a function that calls it is translated
-    into a graph (:func:`trace_to_graph`), it stands for ``expr`` instead: the translation
-    imports the expression with the state it was called on (:meth:`Graph.import_nodes`),
-    so closures built on Lie derivatives, rescaled fields or solves translate without
-    tracing their derivatives again.
+    A System built of such functions (:func:`uio_jax._model.graph_system.graph_system`)
+    shares their graph: its expressions are these, nothing is traced. Called on a numpy
+    state, it evaluates the expression there (numpy).
 
     Args:
-        fn: the JAX function ``x (n,) -> shape``.
-        graph: the graph of ``expr``, whose ``n`` coordinates are ``x``.
-        expr: an int (scalar) or a tuple of ints.
+        graph: the graph of ``expr``, whose ``n`` coordinates are the state.
+        expr: an int (scalar) or a tuple of ints (a field).
     """
 
-    __slots__ = ("fn", "graph", "expr", "shape", "__name__", "__weakref__")
+    __slots__ = ("graph", "expr", "shape", "__weakref__")
 
-    def __init__(self, fn, graph, expr):
-        self.fn, self.graph, self.expr = fn, graph, expr
+    def __init__(self, graph, expr):
+        self.graph, self.expr = graph, expr
         self.shape = () if isinstance(expr, int) else (len(expr),)
-        self.__name__ = getattr(fn, "__name__", "expressed")
 
     def __call__(self, x):
-        if _TRANSLATING.get():
-            return expression_p.bind(x, source=self)
-        return self.fn(x)
+        from .graph_numpy import evaluate
+
+        roots = [self.expr] if self.shape == () else list(self.expr)
+        values = evaluate(self.graph, roots, np.asarray(x, dtype=np.float64).reshape(1, -1), gradients=False)
+        return values[0, 0] if self.shape == () else values[0]
 
 
-def expressed(fn, graph, expr):
-    """``fn`` as an :class:`Expressed` function (``fn`` itself when ``expr`` is None)."""
-    if expr is None or fn is None:
-        return fn
-    if isinstance(fn, Expressed):
-        fn = fn.fn
-    return Expressed(fn, graph, expr)
+def untranslatable_message(what, exc) -> str:
+    """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
+    :class:`~uio_jax._engine.graph_rules.Untranslatable`)."""
+    detail = str(exc).removeprefix(exc.primitive).removeprefix(": ")
+    supported = ", ".join(sorted(RULES))
+    return (f"{what}: the expression graph has no rule for the JAX primitive '{exc.primitive}'"
+            f"{f' ({detail})' if detail else ''} (supported: {supported})")
 
 
 def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
@@ -92,15 +75,14 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
             where a constant is needed.
         IndexOutOfRange: a constant index past the end of an array.
     """
-    if isinstance(fn, Expressed) and fn.graph is graph and len(arg_shapes) == 1 \
-            and tuple(arg_nodes[0]) == graph.coords:
-        return np.array(fn.expr, dtype=object).reshape(fn.shape), np.dtype(np.float64)
-    token = _TRANSLATING.set(True)
-    try:
-        with jax.enable_x64(True):
-            closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
-    finally:
-        _TRANSLATING.reset(token)
+    if isinstance(fn, GraphFunction) and len(arg_shapes) == 1 and len(arg_nodes[0]) == fn.graph.n:
+        roots = [fn.expr] if fn.shape == () else list(fn.expr)
+        out = np.empty(len(roots), dtype=object)
+        out[:] = graph.import_nodes(fn.graph, roots, tuple(arg_nodes[0])) if fn.graph is not graph \
+            or tuple(arg_nodes[0]) != graph.coords else roots
+        return out.reshape(fn.shape), np.dtype(np.float64)
+    with jax.enable_x64(True):
+        closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
     args = []
     for nodes, shape in zip(arg_nodes, arg_shapes):
         arr = np.empty(len(nodes), dtype=object)
@@ -114,7 +96,7 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
 
 
 def translate(graph: Graph, fn, shape, extra=()):
-    """The expression of a model function ``fn(x, *extra)`` in ``graph``, or None.
+    """The expression of a model function ``fn(x, *extra)`` in ``graph``.
 
     Args:
         graph: the graph of the state ``x`` (its ``n`` coordinates).
@@ -124,10 +106,11 @@ def translate(graph: Graph, fn, shape, extra=()):
             as the coordinates after ``x``: ``graph.n`` must count them.
 
     Returns:
-        an int (scalar) or a tuple of ints (one per output element); None when the graph has
-        no rule for a primitive of ``fn`` or the output shape differs.
+        an int (scalar) or a tuple of ints (one per output element); None when ``fn`` does
+        not run on these arguments or its output shape differs.
 
     Raises:
+        Untranslatable: the graph has no rule for a primitive of ``fn``.
         IndexOutOfRange: ``fn`` indexes an argument past its end with a constant index.
     """
     if fn is None:
@@ -140,8 +123,10 @@ def translate(graph: Graph, fn, shape, extra=()):
         at += size
     try:
         out, _ = trace_to_graph(graph, fn, nodes, shapes)
-    except NotImplementedError:  # Untranslatable, or a transformation of an Expressed
-        return None
+    except Untranslatable:
+        raise
+    except NotImplementedError as exc:
+        raise Untranslatable(getattr(exc, "primitive", type(exc).__name__), str(exc)) from None
     except (TypeError, ValueError):  # the function does not run on these arguments
         return None
     if tuple(out.shape) != tuple(shape):
@@ -149,5 +134,18 @@ def translate(graph: Graph, fn, shape, extra=()):
     return int(out.reshape(())) if tuple(shape) == () else tuple(int(k) for k in out.reshape(-1))
 
 
-__all__ = ["Expressed", "expressed", "expression_p",
+def translate_or_refuse(graph: Graph, fn, shape, what, extra=()):
+    """:func:`translate`, refusing in one line (:class:`~uio_jax.ModelError`, ``what`` names
+    the function) a function with a primitive the graph has no rule for or of another shape."""
+    try:
+        expr = translate(graph, fn, shape, extra)
+    except Untranslatable as exc:
+        raise ModelError(untranslatable_message(what, exc)) from None
+    if expr is None:
+        raise ModelError(f"{what} does not translate into the expression graph (it fails on traced "
+                         f"arguments or does not return shape {tuple(shape)})")
+    return expr
+
+
+__all__ = ["GraphFunction", "untranslatable_message", "translate_or_refuse",
            "trace_to_graph", "translate"]

@@ -1,9 +1,9 @@
 """One jaxpr interpreter: a walk over the equations, a rule per primitive from a table.
 
-Every jaxpr evaluation of the engine (the translation into the expression graph in
-:mod:`.graph_rules`, Taylor arithmetic in :mod:`.taylor`, the Taylor flow recurrence in
-:mod:`.taylor_flow`, structural sparsity in :mod:`.sparsity`, vectorised float64 trig in
-:mod:`.fast_trig`) is :func:`interpret` with a rule table of its own
+Every jaxpr walk of the package (the translation into the expression graph in
+:mod:`.graph_rules`; the Monte Carlo's structural sparsity in
+:mod:`uio_jax._filter.sparsity` and vectorised float64 trig in
+:mod:`uio_jax._filter.fast_trig`) is :func:`interpret` with a rule table of its own
 (:class:`Rules`) and a state of its own:
 
 * the walk binds the jaxpr's constants and arguments to its variables, then takes the
@@ -14,10 +14,6 @@ Every jaxpr evaluation of the engine (the translation into the expression graph 
 * call primitives (:data:`CALLS`: ``pjit``, ``closed_call``, ``custom_jvp_call``, ...)
   get the table's ``calls`` rule, which usually evaluates their sub-jaxpr
   (:func:`call_body`) by the same table: :func:`inline`.
-
-The module also names the classes of primitives the two Taylor uses share
-(:data:`LINEAR`, :data:`BILINEAR`, :data:`CONSTANT`, :data:`DATA_OPERANDS`) and their
-error for a primitive without a rule (:class:`NoTaylorRule`).
 """
 
 from jax.extend.core import Literal
@@ -25,45 +21,6 @@ from jax.extend.core import Literal
 #: call-like primitives: a sub-jaxpr (see :func:`call_body`) evaluated where they stand
 CALLS = ("jit", "pjit", "closed_call", "core_call", "remat", "checkpoint", "custom_jvp_call",
          "custom_vjp_call", "custom_vjp_call_jaxpr")
-
-#: primitives linear in their operands taken together (``add``, ``sub``), or in each data
-#: operand with the others fixed (indexing, ``select_n``), or moving elements
-#: (``slice``, ``reshape``, ``concatenate``, ...): ``op(a + b) = op(a) + op(b)``
-LINEAR = frozenset({
-    "neg", "slice", "squeeze", "reshape", "broadcast_in_dim", "concatenate", "transpose",
-    "convert_element_type", "reduce_sum", "copy", "copy_p", "expand_dims", "rev", "pad",
-    "add", "sub", "add_any", "dynamic_slice", "gather", "real", "imag", "cumsum",
-    "select_n", "dynamic_update_slice", "reduce_precision", "stack", "split",
-    "scatter", "scatter-add", "scatter_add", "tile", "repeat", "reduce_and_broadcast",
-})
-
-#: primitives bilinear in their two operands: ``op(a, b)`` linear in each
-BILINEAR = frozenset({"mul", "dot_general"})
-
-#: indexing primitives: the positions of their data operands (the others are indices)
-DATA_OPERANDS = {"dynamic_slice": (0,), "gather": (0,), "dynamic_update_slice": (0, 1),
-                 "scatter": (0, 2), "scatter-add": (0, 2), "scatter_add": (0, 2)}
-
-#: piecewise constant primitives (comparisons, rounding, ``stop_gradient``, ...): their
-#: outputs are constant along a smooth curve through a generic point
-CONSTANT = frozenset({
-    "lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not", "sign", "floor", "ceil",
-    "round", "is_finite", "stop_gradient", "iota", "argmax", "argmin",
-})
-
-
-class NoTaylorRule(NotImplementedError):
-    """A primitive the Taylor arithmetic has no rule for (``primitive``: its name).
-
-    Raised by :func:`uio_jax._engine.taylor.taylor` (and :func:`~.taylor.flow_series`,
-    :func:`~.taylor.lie_powers`) and :func:`uio_jax._engine.taylor_flow.flow_coefficients`
-    when an operand is a series; callers with another route (nested ``jvp``,
-    ``jax.experimental.jet``) catch exactly this.
-    """
-
-    def __init__(self, primitive, detail=""):
-        super().__init__(f"no Taylor rule for {primitive}{detail}")
-        self.primitive = primitive
 
 
 class Rules(dict):
@@ -151,5 +108,5 @@ def bind(eqn, ins):
     return out if prim.multiple_results else [out]
 
 
-__all__ = ["CALLS", "LINEAR", "BILINEAR", "DATA_OPERANDS", "CONSTANT", "NoTaylorRule", "Rules",
+__all__ = ["CALLS", "Rules",
            "interpret", "call_body", "inline", "bind"]

@@ -13,7 +13,7 @@ trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
 
 * **Predict** ``P <- J P J^T + Q(xa, u)``, ``J = d xa+ / d xa``, using its structure: the
   augmented rows are ``I + dt * shift`` by construction, and ``D = d f / d(x, w)`` (the only
-  dense part) has the structural zeros that :func:`~uio_jax._engine.sparsity.jacobian_pattern`
+  dense part) has the structural zeros that :func:`~uio_jax._filter.sparsity.jacobian_pattern`
   reads from the model's jaxpr. Only the columns of ``D`` that can be non-zero are
   computed (one JVP tangent each, the step's value from the same pass), and the products
   are element-wise sums over the non-zeros, never ``@``: XLA's CPU dot on a batch of 5x5
@@ -45,8 +45,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._engine.fast_trig import with_vectorized_trig
-from .._engine.sparsity import jacobian_pattern
+from .fast_trig import with_vectorized_trig
+from .sparsity import jacobian_pattern
 
 TWO_PI = 2.0 * math.pi
 
@@ -69,7 +69,7 @@ class Model(NamedTuple):
         sigma: ``(n_out,)`` measurement noise std. angle_out: ``(n_out,)`` bool.
         period: ``(n_out,)`` int, each output's period in epochs.
         pattern: ``(n, n + p)`` bool, where ``d dynamics / d(x, w)`` may be non-zero (read
-            from the jaxpr by :func:`~uio_jax._engine.sparsity.jacobian_pattern`).
+            from the jaxpr by :func:`~uio_jax._filter.sparsity.jacobian_pattern`).
     """
 
     n: int
@@ -91,7 +91,7 @@ def make_model(exp, fast_trig: bool = True) -> Model:
     """Build the one-trial :class:`Model` of an :class:`~uio_jax.Experiment`.
 
     ``fast_trig``: the model's functions evaluate float64 ``sin`` / ``cos`` by
-    :func:`~uio_jax._engine.fast_trig.with_vectorized_trig` (XLA's CPU backend runs the
+    :func:`~uio_jax._filter.fast_trig.with_vectorized_trig` (XLA's CPU backend runs the
     library calls one element at a time); ``False`` keeps ``jnp.sin`` / ``jnp.cos`` (the
     reference filter). ``pattern`` is read from the plain functions either way.
     """

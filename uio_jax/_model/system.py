@@ -31,7 +31,7 @@ import numpy as np
 from .._engine.graph import Graph
 from .._engine.graph_numpy import evaluate
 from .._engine.graph_rules import IndexOutOfRange
-from .._engine.graph_trace import translate
+from .._engine.graph_trace import translate_or_refuse
 from .._errors import ModelError
 from .arguments import ANGLE_BOX as ANGLE_BOX  # the sampling boxes, imported from here too
 from .arguments import DEFAULT_BOX as DEFAULT_BOX
@@ -188,7 +188,9 @@ class System:
             self._check_shapes()
             check_symmetry_shapes(self)
         if params:
-            object.__setattr__(self, "_joint", self._build_joint())  # validated there
+            from .joint import build_joint
+
+            object.__setattr__(self, "_joint", build_joint(self))  # validated there
         elif time is not None:
             from .time import build_autonomous
 
@@ -370,13 +372,15 @@ class System:
         if promote:
             self._promote_to_float(promote)
 
-    def expression(self, fn, shape):
+    def expression(self, fn, shape, what="function"):
         """The expression of one of this System's functions ``x (n,) -> shape`` in its
         expression graph (:mod:`uio_jax._engine.graph`), translated once: an int for a
-        scalar, a tuple of ints for a field, None where the graph has no rule for a
-        primitive of ``fn`` (it is then evaluated by XLA).
+        scalar, a tuple of ints for a field.
 
         Raises:
+            ModelError: the graph has no rule for a primitive of ``fn`` (the analyses have
+                no other evaluator), or ``fn`` does not return ``shape``; ``what`` names
+                the function in the message.
             IndexOutOfRange: ``fn`` indexes the state past its end (a constant index).
         """
         table = self.__dict__.get("_expressions")
@@ -387,18 +391,17 @@ class System:
         if key not in table:
             if "_graph" not in self.__dict__:
                 object.__setattr__(self, "_graph", Graph(self.n))
-            table[key] = (fn, translate(self._graph, fn, shape))
+            table[key] = (fn, translate_or_refuse(self._graph, fn, shape, what))
         return table[key][1]
 
     def _check_index_range(self, what, fn, expected):
-        """Catch indexing past the state vector (or the parameters), which JAX silently
-        clamps (``x[5]`` of 2 states): a constant index out of range found while the
-        function is translated into the expression graph; a function the graph cannot
-        translate is called once on numpy arrays instead (:func:`_check_indexing`)."""
+        """Translate every function into the expression graph: refuse one with a primitive
+        the graph has no rule for, and catch indexing past the state vector (or the
+        parameters), which JAX silently clamps (``x[5]`` of 2 states)."""
         n, P = self.n, len(self.params)
         try:
             if not self.params and self.time is None:
-                expr = self.expression(fn, expected)
+                self.expression(fn, expected, what)
             else:
                 scratch = self.__dict__.get("_index_graph")
                 if scratch is None:
@@ -406,13 +409,10 @@ class System:
                     object.__setattr__(self, "_index_graph", scratch)
                 extra = ((P,),) if P else ()
                 extra += ((),) if self.time is not None else ()
-                expr = translate(scratch, fn, expected, extra)
+                translate_or_refuse(scratch, fn, expected, what, extra)
         except IndexOutOfRange as exc:
             where = f"the state vector of length {n}" if not P else f"x (length {n}) or p (length {P})"
             raise ModelError(f"{what} indexes outside {where}: {exc}") from None
-        if expr is None:
-            _check_indexing(what, fn, n, P if P else None,
-                            None if self.time is None else sum(self.time_box) / 2)
 
     def _promote_to_float(self, which):
         """Wrap the functions named in ``which`` (integer/boolean results) to return floats."""
@@ -432,11 +432,11 @@ class System:
         a small fraction a note in ``notes`` (the analyses drop the states where it is not).
         """
         named = list(self._named_functions())
-        finite = _finite_masks(self, [fn for _, fn, _ in named], _CHECK_SAMPLES, 12345)
+        finite = _finite_masks(self, named, _CHECK_SAMPLES, 12345)
         sparse = [i for i, ok in enumerate(finite) if ok.mean() < _SPARSE_FRACTION]
         if not sparse:
             return
-        more = _finite_masks(self, [named[i][1] for i in sparse], _MORE_SAMPLES, 12346)
+        more = _finite_masks(self, [named[i] for i in sparse], _MORE_SAMPLES, 12346)
         notes = list(self.notes)
         for i, ok in zip(sparse, more):
             what = named[i][0]
@@ -454,73 +454,22 @@ class System:
             )
         object.__setattr__(self, "notes", tuple(notes))
 
-    def _build_joint(self) -> "System":
-        """The System on ``z = [x; p]`` (see :meth:`joint`); it validates itself."""
-        n, P = self.n, len(self.params)
 
-        if self.time is None:
-            def scalar(fn):
-                return lambda z: fn(z[:n], z[n:])
-
-            def vector(fn):
-                return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
-        else:  # a time-varying joint System: its callables take (z, t)
-            def scalar(fn):
-                return lambda z, t: fn(z[:n], z[n:], t)
-
-            def vector(fn):
-                return lambda z, t: jnp.concatenate([fn(z[:n], z[n:], t), jnp.zeros(P, dtype=z.dtype)])
-
-        joint = System(
-            self.states + tuple(self.params),
-            {k: scalar(fn) for k, fn in self.outputs.items()},
-            known={k: vector(fn) for k, fn in self.known.items()},
-            unknown={k: vector(fn) for k, fn in self.unknown.items()},
-            drift=None if self.drift is None else vector(self.drift),
-            domain={**self.domain, **self.params},
-            angles=self.angles,
-            name=self.name,
-            notes=self.notes,
-            time=self.time,
-        )
-        object.__setattr__(joint, "as_params", tuple(self.params))
-        if self.time is not None:  # built before the joint knew its parameters: mark it too
-            object.__setattr__(joint._autonomous, "as_params", tuple(self.params))
-        object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
-        return joint
-
-
-def _finite_masks(system, fns, samples, seed) -> list[np.ndarray]:
-    """For each function of ``x``, the ``(samples,)`` mask of sampled states where it is finite.
-
-    Functions with an expression in the System's graph are evaluated by numpy over it (no
-    program compiled); the others by one jitted, vmapped program.
-    """
+def _finite_masks(system, named, samples, seed) -> list[np.ndarray]:
+    """For each ``(what, fn, shape)`` of ``named`` (functions of ``x``), the ``(samples,)``
+    mask of sampled states where it is finite: their expressions in the System's graph
+    evaluated by numpy (nothing is compiled)."""
     from .sampling import sample_states
 
     xs = sample_states(system, samples, seed=seed)
-    fns = tuple(fns)
-    exprs = [None] * len(fns)
-    if "_expressions" in system.__dict__:
-        table = system._expressions
-        exprs = [next((e for f, e in table.values() if f is fn), None) for fn in fns]
-    masks = [None] * len(fns)
-    graphed = [i for i, e in enumerate(exprs) if e is not None]
-    if graphed:
-        roots = [r for i in graphed for r in ((exprs[i],) if isinstance(exprs[i], int) else exprs[i])]
-        values = evaluate(system._graph, roots, xs, gradients=False)
-        at = 0
-        for i in graphed:
-            width = 1 if isinstance(exprs[i], int) else len(exprs[i])
-            masks[i] = np.isfinite(values[:, at:at + width]).all(axis=1)
-            at += width
-    rest = [i for i, e in enumerate(exprs) if e is None]
-    if rest:
-        others = tuple(fns[i] for i in rest)
-        with jax.enable_x64(True):
-            values = jax.jit(lambda s: tuple(jax.vmap(fn)(s) for fn in others))(jnp.asarray(xs))
-        for i, v in zip(rest, values):
-            masks[i] = np.isfinite(np.asarray(v).reshape(samples, -1)).all(axis=1)
+    exprs = [system.expression(fn, shape, what) for what, fn, shape in named]
+    roots = [r for e in exprs for r in ((e,) if isinstance(e, int) else e)]
+    values = evaluate(system._graph, roots, xs, gradients=False)
+    masks, at = [], 0
+    for e in exprs:
+        width = 1 if isinstance(e, int) else len(e)
+        masks.append(np.isfinite(values[:, at:at + width]).all(axis=1))
+        at += width
     return masks
 
 
@@ -541,25 +490,3 @@ def _as_float(fn):
 
     f.__name__ = getattr(fn, "__name__", "f")
     return f
-
-
-def _check_indexing(what, fn, n, n_params=None, t=None):
-    """Catch indexing past the state vector, which JAX silently clamps (x[5] of 2 states).
-
-    The function is called once on a plain numpy vector (and parameter vector, and time
-    ``t`` when given), where out-of-range indexing raises IndexError; any other failure is
-    left to the traced checks.
-    """
-    args = (np.full(n, 0.75),) if n_params is None else (np.full(n, 0.75), np.full(n_params, 0.75))
-    if t is not None:
-        args += (np.float64(t),)
-    try:
-        fn(*args)
-    except IndexError as exc:
-        where = f"the state vector of length {n}" if n_params is None else (
-            f"x (length {n}) or p (length {n_params})")
-        raise ModelError(
-            f"{what} indexes outside {where}: {exc}"
-        ) from None
-    except Exception:  # numpy input not supported by this function: traced checks decide
-        pass

@@ -5,8 +5,8 @@ stderr, never a traceback from inside JAX), 1 when a batch has failures.
 
 All three use JAX's persistent compilation cache (:func:`uio_jax.enable_compile_cache`;
 ``--cache-dir`` moves it, ``--no-cache`` turns it off) for the duration of the command: a
-second run of the same models, or of the same experiment with as many trials, skips XLA
-compilation. ``--no-cache`` with ``--cache-dir`` is a usage error.
+second Monte Carlo of the same experiment with as many trials skips XLA compilation (the
+analyses compile nothing). ``--no-cache`` with ``--cache-dir`` is a usage error.
 
 Every option is checked before any work (:func:`uio_jax._analysis.options.check_options`;
 the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is known).

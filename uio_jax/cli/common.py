@@ -23,9 +23,9 @@ class Parser(argparse.ArgumentParser):
 
 def add_cache_options(p):
     """``--no-cache`` and ``--cache-dir`` on the sub-command parser ``p`` (the default
-    directory's rule in the help is :data:`uio_jax._engine.compile_cache.DEFAULT_DIR_RULE`,
-    the rule :func:`~uio_jax._engine.compile_cache.default_cache_dir` applies)."""
-    from .._engine.compile_cache import DEFAULT_DIR_RULE
+    directory's rule in the help is :data:`uio_jax._filter.compile_cache.DEFAULT_DIR_RULE`,
+    the rule :func:`~uio_jax._filter.compile_cache.default_cache_dir` applies)."""
+    from .._filter.compile_cache import DEFAULT_DIR_RULE
 
     p.add_argument("--no-cache", action="store_true",
                    help="do not use the persistent compilation cache (not with --cache-dir)")
@@ -48,7 +48,7 @@ def compile_cache(args):
     ``--cache-dir`` is an error, and so is ``--cache-dir`` with ``--no-cache``
     (:func:`check_cache_options`).
     """
-    from .._engine.compile_cache import compile_cache as use_cache
+    from .._filter.compile_cache import compile_cache as use_cache
 
     check_cache_options(args)
     with contextlib.ExitStack() as stack:

@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .interpreter import Rules, bind, inline, interpret
+from .._engine.interpreter import Rules, bind, inline, interpret
 
 # fdlibm's __kernel_sin and __kernel_cos coefficients (|r| <= pi/4)
 _S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
@@ -140,7 +140,7 @@ def _trig(state, i, eqn, ins):
 
 
 def _call(state, i, eqn, ins):
-    """Sub-functions inline (as the Taylor interpreters do), their sin / cos replaced too."""
+    """Sub-functions inline (as the graph translation does), their sin / cos replaced too."""
     out = inline(_RULES, state, eqn, ins)
     return out if out is not None else bind(eqn, ins)
 

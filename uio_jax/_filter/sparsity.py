@@ -28,7 +28,7 @@ derivative is finite.
 import jax
 import numpy as np
 
-from .interpreter import Rules, call_body, interpret
+from .._engine.interpreter import Rules, call_body, interpret
 
 #: Primitives whose output element ``e`` depends on operand elements ``e`` only.
 _ELEMENTWISE = frozenset("""

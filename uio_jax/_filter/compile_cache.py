@@ -1,13 +1,11 @@
-"""JAX's persistent compilation cache, set up for the many small compiles of an analysis.
+"""JAX's persistent compilation cache, set up for the Monte Carlo's programs.
 
-An analysis compiles one XLA program per block of generators (tens per model, most well
-under a second each). JAX can keep compiled programs on disk and reuse them in a later
-process when the program is the same (the key is a hash of the program without its source locations,
-the compile options, the jax/jaxlib version and the device). JAX has to trace and lower a
-program to find that key; the analysis programs themselves are therefore also kept by
-:mod:`uio_jax._program_cache` (in ``<dir>/uio_jax_programs``) under a key found without
-tracing, so a second ``uio-jax analyze`` or ``uio-jax batch`` of the same models only
-evaluates them. Both caches are on exactly when this one is.
+The analyses compile nothing (numpy over the expression graph); the Monte Carlo
+(:mod:`uio_jax._filter.montecarlo`: the EKF of every trial, one XLA program per experiment)
+does. JAX can keep compiled programs on disk and reuse them in a later process when the
+program is the same (the key is a hash of the program without its source locations, the
+compile options, the jax/jaxlib version and the device), so a second ``uio-jax montecarlo``
+of the same experiment skips the compile.
 
 By default JAX only writes programs that took at least 1 s to compile; uio_jax lowers that
 threshold to 0 and lifts the minimum entry size, so every program is written.

@@ -1,0 +1,40 @@
+"""Systems built on an expression graph: the Systems the analyses derive.
+
+The extended system of the EORC and the systems of a UI extension are built of the
+expressions of the analysed System (imported into a new graph with a map of the
+coordinates, :meth:`uio_jax._engine.graph.Graph.import_nodes`), never written as JAX
+closures and traced again. Their functions are
+:class:`~uio_jax._engine.graph_trace.GraphFunction` objects of that graph, which is the
+System's own: its expressions are these nodes.
+"""
+
+from .._engine.graph_trace import GraphFunction
+from .system import System, derived_system
+
+
+def graph_system(graph, states, outputs, *, known=None, unknown=None, drift=None, domain=None,
+                 angles=(), name="") -> System:
+    """A System on the ``graph.n`` coordinates of ``graph`` (the states, in order).
+
+    Args:
+        graph: the :class:`~uio_jax._engine.graph.Graph` of every function.
+        states: the names of its coordinates.
+        outputs: name -> node (an int).
+        known, unknown: name -> field (a tuple of ``n`` nodes).
+        drift: a tuple of ``n`` nodes, or None.
+        domain, angles, name: as for :class:`System`.
+    """
+    def field(nodes):
+        return GraphFunction(graph, tuple(int(k) for k in nodes))
+
+    with derived_system():  # parts built from a validated System: no traced checks
+        system = System(states=tuple(states), outputs={k: GraphFunction(graph, int(e)) for k, e in outputs.items()},
+                        known={k: field(f) for k, f in (known or {}).items()},
+                        unknown={k: field(f) for k, f in (unknown or {}).items()},
+                        drift=None if drift is None else field(drift), domain=domain or {}, angles=angles,
+                        name=name)
+    object.__setattr__(system, "_graph", graph)  # the System's expressions are the graph's nodes
+    return system
+
+
+__all__ = ["graph_system"]
