@@ -15,6 +15,7 @@ import pytest
 from helpers import zoo_system
 
 import uio_jax as uj
+from uio_jax._analysis.evidence import Arithmetic
 from uio_jax._analysis.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
 from uio_jax._engine import graph_exact
 from uio_jax._engine.graph import Graph
@@ -102,9 +103,9 @@ def test_an_exact_dependence_under_round_off_is_confirmed():
     assert rep.certificate.status == "ok"
 
 
-def tanh_part(x):
-    """Not rational: a weak decision about it goes to extended precision."""
-    return x[0] + EPS * jnp.tanh(x[1])
+def erf_part(x):
+    """Not made rational (erf): a weak decision about it goes to extended precision."""
+    return x[0] + EPS * jax.scipy.special.erf(x[1])
 
 
 @pytest.fixture
@@ -118,7 +119,7 @@ def unsettled(monkeypatch):
 
 
 def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided(unsettled):
-    rep = uj.analyze(_two_outputs(tanh_part), samples=256)
+    rep = uj.analyze(_two_outputs(erf_part), samples=256)
     cert = rep.certificate
     assert cert.status == "undecided" and cert.undecided >= 1
     undecided = [e for e in cert.escalations if e.result == "undecided"]
@@ -174,7 +175,7 @@ def test_settler_on_a_graph_by_hand():
 def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table(unsettled):
     """The undecided vote rejected y2 (float64: dependent): the verdicts it could change are
     the 'not observable' ones: x2. The CLI text and the batch row say UNDECIDED."""
-    weak = _two_outputs(tanh_part)
+    weak = _two_outputs(erf_part)
     settled = _two_outputs(lambda x: x[0] + EPS * x[1] ** 2)
     rep = uj.analyze(weak, samples=256)
     assert rep.undecided == ("x2",) and rep.to_dict()["undecided"] == ["x2"]
@@ -199,7 +200,7 @@ def test_is_observable_settles_or_refuses(unsettled):
     assert rep.is_observable(lambda x: x[0] + EPS * x[1] ** 2) is False
     assert rep.is_observable(lambda x: 2.0 * x[0]) is True
     with pytest.raises(uj.ModelError, match="undecided"):
-        rep.is_observable(tanh_part)
+        rep.is_observable(erf_part)
     with pytest.raises(uj.ModelError, match="no rule for the JAX primitive 'erf_inv'") as info:
         rep.is_observable(lambda x: jax.lax.erf_inv(0.5 * jnp.tanh(x[1])))
     assert "\n" not in str(info.value)
@@ -209,10 +210,9 @@ def test_a_step_that_keeps_nothing_is_settled_exactly(monkeypatch):
     """``y = x1``, ``x1' = x1 + eps x2``: ``d L_f y = (1, eps)`` lies ``eps`` (scaled) from
     ``span{dy}``, under float64's round-off band for ``eps = 1e-14``: the vote rejects it
     clearly, the step keeps nothing, and a step that keeps nothing would end the ORC with
-    ``x2`` unobservable. It is settled exactly instead (a rational model): independent,
-    kept, ``x2`` observable (``x2 = (y' - y) / eps``). Without the check the answer is
-    dim 1."""
-    from uio_jax._analysis import rank as _rank
+    ``x2`` unobservable. It is settled exactly instead (a rational model: every clear
+    rejection is verified modulo p): independent, kept, ``x2`` observable
+    (``x2 = (y' - y) / eps``). Without the check the answer is dim 1."""
 
     def model(eps):
         return uj.System(("x1", "x2"), {"y": lambda x: x[0]},
@@ -222,8 +222,17 @@ def test_a_step_that_keeps_nothing_is_settled_exactly(monkeypatch):
     assert rep.dims == (1, 2) and rep.observable == {"x1": True, "x2": True}
     found = [e for e in rep.certificate.escalations if e.what == "L_f0 y against rank 1"]
     assert len(found) == 1 and found[0].result == "independent" and found[0].float64.startswith("dependent")
-    monkeypatch.setattr(_rank.Codistribution, "_confirm_empty", lambda self, *args: [])
+    monkeypatch.setattr(Settler, "settle", lambda self, *args, **kw: None)  # float64 votes alone
     assert uj.analyze(model(1e-14), samples=256).dims == (1, 1)
+
+
+def test_a_stopping_step_of_a_model_not_made_rational_is_settled_in_extended_precision():
+    """The same model with ``erf`` (not made rational): the stopping step's rejection is
+    settled in mpmath (independent): dim 2, decided in extended precision, not exact."""
+    system = uj.System(("x1", "x2"), {"y": lambda x: x[0]},
+                       drift=lambda x: jnp.array([x[0] + 1e-14 * jax.scipy.special.erf(x[1]), 0.0]))
+    rep = uj.analyze(system, samples=256)
+    assert rep.dims == (1, 2) and rep.certificate.arithmetic is Arithmetic.EXTENDED and not rep.exact
 
 
 def test_the_stop_of_a_rational_orc_is_confirmed_exactly():
@@ -232,9 +241,9 @@ def test_the_stop_of_a_rational_orc_is_confirmed_exactly():
     increases."""
     rep = uj.analyze(zoo_system("vehicle_wind", "no_wind"), samples=256)
     cert = rep.certificate
-    assert rep.stop_reason.startswith("Omega_2 = Omega_1") and cert.closure_verified > 0
-    assert f"{cert.closure_verified} rejections at the stopping step" in str(cert)
-    assert cert.to_dict()["closure_verified"] == cert.closure_verified
+    assert rep.stop_reason.startswith("Omega_2 = Omega_1") and cert.rejections_verified > 0
+    assert cert.float64_decisions == 0 and cert.arithmetic is Arithmetic.EXACT and rep.exact
+    assert 0 < cert.error_bound < 1e-30 and cert.to_dict()["arithmetic"] == "exact"
 
 
 def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkeypatch):
@@ -284,16 +293,16 @@ def test_modular_gradients_with_long_sums_and_interleaved_coordinates():
     assert list(grads[0, 0]) == [mod(sympy.diff(expr, v).subs(at)) for v in s]
 
 
-def test_after_a_contradiction_clear_rejections_are_verified_exactly(monkeypatch):
+def test_clear_rejections_are_verified_exactly(monkeypatch):
     """ORC of ``y = (x1, x1 + 1e-10 x2, x3)``, ``x1' = x5``, ``x3' = x1 + 1e-15 x4``.
 
     Step 0: ``dy2`` lies 1e-10 (scaled) from ``span{dy1}``: a weak vote "dependent", settled
     exactly as independent: float64 has been contradicted. Step 1 keeps ``d L_f y1 = dx5``
     and meets ``d L_f y3 = dx1 + 1e-15 dx4``, a genuine direction 7 decades under ``rtol``:
-    a clear float64 rejection, in a step that keeps something (no closure check). After
-    the contradiction it is verified exactly: independent, kept, every state observable
-    (``x4 = (y3' - y1) / 1e-15``). Without the rule the answer is dim 4, x4 unobservable."""
-    from uio_jax._analysis import rank as _rank
+    a clear float64 rejection, in a step that keeps something (no closure check). Every
+    clear vote is verified exactly: independent, kept, every state observable
+    (``x4 = (y3' - y1) / 1e-15``). With clear votes left to float64 the answer is dim 4, x4
+    unobservable."""
 
     def drift(x):
         return jnp.array([x[4], 0.0, x[0] + 1e-15 * x[3], 0.0, 0.0])
@@ -313,14 +322,13 @@ def test_after_a_contradiction_clear_rejections_are_verified_exactly(monkeypatch
     assert cert.rejections_verified >= 1  # d L_f y2 = dx5: dependent, confirmed exactly
     assert f"{cert.rejections_verified} other rejections" in str(cert)
 
-    # the same model without the rule: the clear rejection stands
-    real = _rank.Codistribution._decide
+    # the same model with clear votes left to float64: the clear rejection stands
+    real = Settler.settle
 
-    def no_rule(self, rho, node, valid):
-        self.verify_rejections = None
-        return real(self, rho, node, valid)
+    def weak_only(self, kept, candidate, float64, exact_only=False):
+        return None if exact_only else real(self, kept, candidate, float64)
 
-    monkeypatch.setattr(_rank.Codistribution, "_decide", no_rule)
+    monkeypatch.setattr(Settler, "settle", weak_only)
     assert uj.analyze(model, samples=256, method="orc").dims == (3, 4, 4)
 
 

@@ -75,9 +75,7 @@ class Context:
         self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
-        # every vote settled again in the expression graph
-        self.codist.settle = self.settler.settle
-        self.codist.verify_rejections = "exact"
+        self.codist.settle = self.settler.settle  # every vote settled again in the expression graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
@@ -199,9 +197,7 @@ class Context:
         codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
         codist.verified += fork.verified  # the trial's exact checks count in the certificate
         codist.rejections_verified += fork.rejections_verified
-        if fork.contradicted:  # float64 contradicted in the trial: distrust it in the span too
-            codist.contradicted = True
-            codist.verify_rejections = codist.verify_rejections or "exact"
+        codist.contradicted = codist.contradicted or fork.contradicted
         self.memberships += [(False, d) for d in fork.acceptances]
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)
@@ -336,7 +332,7 @@ class Context:
 
         used = int(cd.valid.sum())
         certifying = len(cd.valid)
-        how = [d.settled for d in everything]
+        how = [d.settled for d in everything if d.settled != "implied"]
         return Certificate(
             samples=self.samples,
             used=used,

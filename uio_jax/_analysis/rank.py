@@ -102,19 +102,16 @@ class Codistribution:
         #: every candidate is expected to raise the rank (the kept generators re-decided on
         #: more samples): a vote that it does not is settled again, weak or not
         self.expect_rise = False
-        self.verified = 0  # clear float64 rises confirmed exactly (kept generators, non-members)
-        self.closure_verified = 0  # rejections of a step that kept nothing, confirmed exactly
-        #: clear float64 rejections settled again too: None (no), ``"exact"`` (modulo p where
-        #: the graph is rational, else the vote stands) or ``"all"`` (mpmath elsewhere,
-        #: undecided if that fails). Set to ``"exact"`` by the first contradiction
-        #: (:attr:`contradicted`), by the analyses that need every rejection proved
-        self.verify_rejections = None
-        #: whether a settled decision has contradicted a float64 vote: round-off has then
-        #: reached ``rtol`` in this span's derivatives, and a clear float64 rejection can be a
-        #: genuine direction under it (the deep orders of a visual-inertial EORC: medians down
-        #: to 1e-14.5); from then on every rejection is verified where exact arithmetic applies
+        self.verified = 0  # clear float64 rises confirmed beyond float64 (kept generators, non-members)
+        self.closure_verified = 0  # rejections of a step that kept nothing, confirmed in mpmath
+        #: clear float64 votes settled again: ``"exact"`` (modulo p where the graph is made
+        #: rational, else the vote stands; what every analysis sets) or ``"all"`` (mpmath
+        #: elsewhere, undecided if that fails: a span that must be proved)
+        self.verify_rejections = "exact"
+        #: whether a settled decision has contradicted a float64 vote (round-off has reached
+        #: ``rtol`` in this span's derivatives; recorded, the decisions are settled anyway)
         self.contradicted = False
-        self.rejections_verified = 0  # clear float64 rejections confirmed exactly
+        self.rejections_verified = 0  # clear float64 rejections confirmed beyond float64
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
         #: unit covectors ``e_i`` decided members of the span (``i -> RankDecision``): the
         #: span only grows, so they are not tested again
@@ -333,27 +330,32 @@ class Codistribution:
         return added
 
     def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
-        """No candidate was kept: each float64 rejection is settled exactly (modulo ``p``,
-        where the graph is rational; elsewhere the vote stands). A confirmed dependence is
-        counted (:attr:`closure_verified`); the first candidate found independent is kept (its
-        escalation recorded, its rejection withdrawn) and the others are absorbed against
-        the grown span. Returns the kept nodes."""
+        """No candidate was kept: each float64 rejection not settled yet is settled again
+        (modulo ``p`` where the graph is made rational, where :meth:`_decide` has verified it
+        already; in extended precision elsewhere: a step that keeps nothing ends a
+        recursion, and a genuine direction of a deep derivative can sit under float64's
+        round-off). A confirmed dependence is counted (:attr:`closure_verified`) and
+        recorded as settled; the first candidate found independent is kept (its escalation
+        recorded, its rejection withdrawn) and the others are absorbed against the grown
+        span. Returns the kept nodes."""
         if self.settle is None or self.rank >= self.n:
             return []
         for i, (node, d) in enumerate(zip(nodes, first)):
             if node is None or d.settled:  # settled beyond float64 already
                 continue
-            esc = self.settle(self.nodes, node, self._evidence(d, rho[i], self.valid), exact_only=True)
+            esc = self.settle(self.nodes, node, self._evidence(d, rho[i], self.valid))
             if esc is None:
                 continue
+            how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
             if esc.result == "dependent":
                 self.closure_verified += 1
+                self.rejections = [replace(r, settled=how) if r is d else r for r in self.rejections]
                 continue
             if not any(e is esc for e in self.escalations):
                 self.escalations.append(esc)
             if esc.result == "independent":
                 self.rejections = [r for r in self.rejections if r is not d]
-                self._keep(node, cands[i], rho[i], dirs[i], replace(d, rank=self.rank + 1, settled="exact mod p"))
+                self._keep(node, cands[i], rho[i], dirs[i], replace(d, rank=self.rank + 1, settled=how))
                 rest = list(range(i + 1, len(nodes)))
                 more = self.absorb([nodes[j] for j in rest], np.asarray(grads)[:, rest]) if rest else []
                 return [node, *more]
@@ -366,46 +368,38 @@ class Codistribution:
                 f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
 
     def _decide(self, rho, node, valid) -> RankDecision:
-        """:func:`decide_increase` of one candidate, settled again when its vote is weak
-        (:func:`uio_jax._analysis.settle.is_weak`) and a ``settle`` is set: the settled
-        answer replaces the vote (an undecided one keeps it, marked)."""
+        """:func:`decide_increase` of one candidate, settled again in the expression graph
+        (:attr:`settle`): a weak vote (:func:`uio_jax._analysis.settle.is_weak`) exactly or in
+        extended precision; a clear vote exactly where the graph is made rational (also in
+        extended precision when :attr:`verify_rejections` is ``"all"``): round-off of a deep
+        derivative can fake a clear rise, and a genuine direction can sit under it. The
+        settled answer replaces the vote (an undecided one keeps it, marked); a span of every
+        direction contains every covector (``settled="implied"``)."""
         d = decide_increase(rho, valid, self.rtol, self.rank)
+        if self.rank >= self.n:
+            return replace(d, rank=self.rank, settled="implied")
         if self.settle is None or node is None:
             return d
         rises = d.rank > self.rank
-        disagrees = self.expect_rise and not rises
-        weak = disagrees or is_weak(rho, valid, self.rtol, d.fraction)
-        evidence = self._evidence(d, rho, valid)
-        if not weak and not rises and self.verify_rejections:
-            # a clear rejection, verified: under a contradicted float64 (or where every
-            # rejection must be proved) a genuine direction can sit under the round-off
-            esc = self.settle(self.nodes, node, evidence, exact_only=self.verify_rejections == "exact")
-            if esc is None:
-                return d
-            if esc.result == "dependent":
-                self.rejections_verified += 1
-                return replace(d, settled="exact mod p" if esc.how.startswith("exact") else "mpmath")
-        elif not weak:
-            if not rises:
-                return d
-            # a clear rise: round-off of a deep derivative can fake one, and one wrong
-            # generator corrupts every later decision; verified exactly where that is cheap
-            esc = self.settle(self.nodes, node, evidence, exact_only=True)
-            if esc is None:
-                return d
-            if esc.result == "independent":
+        weak = (self.expect_rise and not rises) or is_weak(rho, valid, self.rtol, d.fraction)
+        exact_only = not weak and self.verify_rejections != "all"
+        esc = self.settle(self.nodes, node, self._evidence(d, rho, valid), exact_only=exact_only)
+        if esc is None:  # neither exact nor asked beyond: the float64 vote stands
+            return d
+        how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
+        confirmed = esc.result == ("independent" if rises else "dependent")
+        if confirmed and not weak:  # a clear vote confirmed: counted, not an escalation
+            if rises:
                 self.verified += 1
-                return replace(d, settled="exact mod p")
-        else:
-            esc = self.settle(self.nodes, node, evidence)
+            else:
+                self.rejections_verified += 1
+            return replace(d, settled=how)
         if not any(e is esc for e in self.escalations):  # asked again: recorded once
             self.escalations.append(esc)
         if esc.result == "undecided":
             return replace(d, settled="undecided")
-        if (esc.result == "independent") != rises:  # float64 was wrong: distrust its rejections
+        if not confirmed:  # float64 was wrong: round-off has reached rtol in this span
             self.contradicted = True
-            self.verify_rejections = self.verify_rejections or "exact"
-        how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
         return replace(d, rank=self.rank + (esc.result == "independent"), settled=how)
 
     def contains(self, covectors, tested: "Tested | None" = None, nodes=None):
