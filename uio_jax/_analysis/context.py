@@ -77,6 +77,10 @@ class Context:
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
         self.codist.settle = self.settler.settle  # every vote settled again in the expression graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
+        #: how the decisions made outside the codistribution were settled (the zero tests of
+        #: the general solution: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote),
+        #: counted in the certificate
+        self.extra_decisions = []
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
 
@@ -332,7 +336,7 @@ class Context:
 
         used = int(cd.valid.sum())
         certifying = len(cd.valid)
-        how = [d.settled for d in everything if d.settled != "implied"]
+        how = [d.settled for d in everything if d.settled != "implied"] + list(self.extra_decisions)
         return Certificate(
             samples=self.samples,
             used=used,

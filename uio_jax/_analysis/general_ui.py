@@ -62,11 +62,12 @@ from .eorc import extended_system
 from .evidence import Step
 from .general_ui_steps import (
     Working,
-    ZeroTest,
     close,
+    decide_zero,
     extend,
     lift,
     nonzero_votes,
+    partial_derivative,
     reconstructability,
     start_working,
 )
@@ -165,7 +166,7 @@ def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
                            initially, True, extended, m, spent)
         tilde_vals = w.field_values(tildes)
         raw_norms = [np.linalg.norm(v, axis=-1) for v in w.field_values(fields_ordered[m:])]
-        if all(_field_zero(w, v, ref) for v, ref in zip(tilde_vals, raw_norms)):
+        if all(_field_zero(w, t, v, ref) for t, v, ref in zip(tildes, tilde_vals, raw_norms)):
             entry["action"] = "every unreconstructed field vanishes: closure"
             omega = close(w, w.theta, [hat0] + hats).ctx
             history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
@@ -203,13 +204,13 @@ def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
                    initially, False, extended, trace[-1]["m"], spent)
 
 
-def _field_zero(w, val, ref) -> bool:
-    """A field ``G~_k`` identically zero at the samples: ``|G~_k| <= ZERO_ROW_RTOL |g_k|``
-    (``ref``: the ``(S,)`` norms of the raw field ``g_k`` it was projected from) by majority."""
+def _field_zero(w, field, val, ref) -> bool:
+    """A field ``G~_k`` (its Node ``field``) identically zero: the float64 vote
+    ``|G~_k| <= ZERO_ROW_RTOL |g_k|`` (``ref``: the ``(S,)`` norms of the raw field ``g_k`` it
+    was projected from) settled again on its expressions (:func:`decide_zero`)."""
     norms = np.linalg.norm(val, axis=-1)
     nz, frac = nonzero_votes(norms, ref, w.ctx.codist.valid)
-    w.zero_tests.append(ZeroTest("G~ vanishes", not nz, frac))
-    return not nz
+    return decide_zero(w, w.ctx, f"{field.label} vanishes", list(field.expr), nz, frac)
 
 
 # ------------------------------------------------------------------ observable UIs
@@ -320,6 +321,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         notes.append(f"weak zero test: a 'vanishes identically' decision was backed by only "
                      f"{100 * weakest:.0f}% of the samples")
     space = SampledSpace(omega, n=n, dim=dim)
+    omega.extra_decisions = [t.settled for t in zero_tests]
     return omega.report("general_ui", out.history, out.stop.message, notes=notes,
                         details=details, system=report_system or report_view(system, n),
                         dim=dim, observable=observable, space=space,
@@ -341,7 +343,8 @@ def _top_jet_used(out: Outcome, system, jet) -> bool:
     norms = np.linalg.norm(grads, axis=-1)
     for c in top:
         for i in range(len(nodes)):
-            nz, _ = nonzero_votes(grads[:, i, c], norms[:, i], ctx.codist.valid)
-            if nz:
+            nz, frac = nonzero_votes(grads[:, i, c], norms[:, i], ctx.codist.valid)
+            expr = partial_derivative(ctx.builder.graph, nodes[i].expr, c)
+            if not decide_zero(out.w, ctx, f"d {nodes[i].label}/d u^({jet})", [expr], nz, frac):
                 return True
     return False

@@ -19,12 +19,31 @@ from .rank import ZERO_ROW_RTOL, decide_rank
 # ------------------------------------------------------------------ zero tests
 @dataclasses.dataclass(frozen=True)
 class ZeroTest:
-    """The evidence of one "vanishes identically" decision: ``zero`` by majority of the
-    valid samples, ``fraction`` of them agreeing."""
+    """The evidence of one "vanishes identically" decision: ``zero`` (the decision),
+    ``fraction`` of the valid samples agreeing with the float64 vote, ``settled``: how the
+    decision was made beyond the vote (``"exact mod p"``, ``"mpmath"``; ``""``: the vote)."""
 
     what: str
     zero: bool
     fraction: float
+    settled: str = ""
+
+
+def decide_zero(w, ctx, what, exprs, nonzero, fraction) -> bool:
+    """A zero test: the float64 vote ``nonzero`` (``fraction`` agreeing) settled again in the
+    expression graph (:meth:`uio_jax._analysis.settle.Settler.vanishes`); recorded in
+    ``w.zero_tests``. Returns whether the expressions vanish identically."""
+    zero, how = ctx.settler.vanishes(exprs)
+    if not how:
+        zero = not nonzero
+    w.zero_tests.append(ZeroTest(what, zero, fraction, how))
+    return zero
+
+
+def partial_derivative(graph, expr, coordinate):
+    """The node ``d expr / d z_coordinate`` (a derivative along a unit tangent)."""
+    unit = tuple(graph.one if i == coordinate else graph.zero for i in range(graph.n))
+    return graph.jvp([expr], unit)[0]
 
 
 def nonzero_votes(values, scale, valid):
@@ -174,8 +193,8 @@ def _any_nonzero(w: Working, ctx: Context, theta, fields, scales=None) -> bool:
     for v, val, vnorm in zip(fields, values, scales):
         lie = np.einsum("sn,sn->s", grad, val)
         nonzero, frac = nonzero_votes(lie, gnorm * vnorm, ctx.codist.valid)
-        w.zero_tests.append(ZeroTest(f"L_{v.label} {theta.label}", not nonzero, frac))
-        if nonzero:
+        expr = ctx.builder.lie(v, theta).expr
+        if not decide_zero(w, ctx, f"L_{v.label} {theta.label}", [expr], nonzero, frac):
             return True
     return False
 
@@ -284,8 +303,10 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     for j in range(m):
         top = None
         for i in range(L):
-            nz, _ = nonzero_votes(grad[:, N + j * L + i], gnorm, ctx_full.codist.valid)
-            if nz:
+            c = N + j * L + i
+            nz, frac = nonzero_votes(grad[:, c], gnorm, ctx_full.codist.valid)
+            expr = partial_derivative(gf, theta_v.expr, c)
+            if not decide_zero(w, ctx_full, f"d theta*/d {vnames[j][i]}", [expr], nz, frac):
                 top = i
         keep_to.append(top)
     # the final extended system: kept chains only

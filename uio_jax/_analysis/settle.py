@@ -192,6 +192,49 @@ class Settler:
         self._answers[tuple(exprs)] = answer
         return answer
 
+    def vanishes(self, exprs) -> tuple[bool, str]:
+        """Whether the graph nodes ``exprs`` all vanish identically (a zero test of the general
+        solution), decided beyond float64: ``(zero, how)``.
+
+        Modulo p where the graph is made rational: a nonzero value at a random point proves
+        "not zero"; zero values are "zero" with probability bound ``D / p`` per point (points
+        added while the degree bound needs them, as for a dependence; the bound is added to
+        :attr:`error_bound`). Elsewhere mpmath at two precisions (zero when under
+        ``10^-(0.6 digits)`` at both, nonzero when the two agree on a larger value).
+        ``how`` is ``""`` where neither applies (no expression, or the precisions disagree):
+        the caller's float64 vote stands.
+        """
+        exprs = [e for e in exprs if e is not None]
+        if not exprs:
+            return True, "exact mod p"
+        if self._rational(exprs):
+            p, degree = graph_exact.PRIME, None
+            for point in range(MAX_POINTS):
+                ev = self._modular_evaluator(point, exprs)
+                if ev is None:
+                    return False, ""
+                if any(int(ev.V[e][0]) % p for e in exprs):
+                    return False, "exact mod p"
+                if degree is None:
+                    degree = max(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
+                bound = min(1.0, degree / p) ** (point + 1)
+                if bound <= self.max_bound:
+                    self.error_bound += bound
+                    return True, "exact mod p"
+            return False, ""
+        self._extended_points()
+        verdicts = set()
+        for spans in self._extended:
+            values = [[abs(span.ev.gradients([e])[0][0]) for e in exprs] for span in spans]
+            tiny1, tiny2 = [10.0 ** (-0.6 * d) for d in DIGITS]
+            if all(v < tiny2 for v in values[1]) and all(v < tiny1 for v in values[0]):
+                verdicts.add(True)
+            elif any(v > tiny1 and abs(a - v) <= 1e-6 * v for a, v in zip(values[0], values[1])):
+                verdicts.add(False)
+            else:
+                return False, ""
+        return (verdicts == {True}), "mpmath"
+
     def _rational(self, exprs) -> bool:
         """Whether the nodes behind ``exprs`` are rational, or elementary functions made
         rational by independent generators (:mod:`uio_jax._engine.graph_elementary`; the
@@ -285,13 +328,17 @@ class Settler:
                                   bound)
 
     # ------------------------------------------------------------------ mpmath
-    def _settle_extended(self, what, float64, exprs):
-        r = len(exprs) - 1
+    def _extended_points(self):
+        """The mpmath evaluators (per point, one per precision), drawn once in the box."""
         if self._extended is None:
             scale = self.hi - self.lo
             points = [self.lo + self.rng.random(self.graph.n) * scale for _ in range(POINTS)]
             self._extended = [[_Orthonormal(graph_exact.ExtendedEvaluator(self.graph, pt, d), scale)
                                for d in DIGITS] for pt in points]
+
+    def _settle_extended(self, what, float64, exprs):
+        r = len(exprs) - 1
+        self._extended_points()
         independent = dependent = 0
         for spans in self._extended:
             rho1, rho2 = [span.distance(exprs[:r], exprs[r]) for span in spans]
