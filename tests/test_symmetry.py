@@ -8,6 +8,7 @@ origin, ``xi = (-py, px)``: ``L_xi (px^2 + py^2) = 0``; with the radial known fi
 ``Dxi = [[0, -1], [1, 0]]`` gives ``[xi, g1] = -Dxi e_x = -g2`` and ``[xi, g2] = g1``.
 """
 
+import jax
 import jax.numpy as jnp
 import pytest
 
@@ -72,12 +73,23 @@ def test_a_nonconstant_input_mixing_is_not_a_symmetry_of_this_kind():
     assert not check["verified"] and "not a CONSTANT combination" in check["failure"]
 
 
-def test_a_model_that_is_not_rational_is_verified_in_mpmath():
+def test_a_trigonometric_model_is_verified_exactly():
+    """``cos`` is made rational (a point of the circle per argument): exact modulo p."""
     rep = uj.analyze(plane({"rot": rotation}, output=lambda x: jnp.cos(x[0] ** 2 + x[1] ** 2)),
                      method="eorc", samples=64)
     check = rep.details["symmetries"]["checks"][0]
-    assert check["verified"] and "mpmath" in check["how"] and rep.details["symmetries"]["probability"] is None
+    assert check["verified"] and check["how"].startswith("exact mod p")
     assert rep.dim == 1 and rep.exact
+
+
+def test_a_model_not_made_rational_is_verified_in_mpmath():
+    """``erf`` is not made rational: the symmetry is verified in mpmath, and the analysis's
+    own decisions are not exact either."""
+    rep = uj.analyze(plane({"rot": rotation}, output=lambda x: jax.scipy.special.erf(x[0] ** 2 + x[1] ** 2)),
+                     method="eorc", samples=64)
+    check = rep.details["symmetries"]["checks"][0]
+    assert check["verified"] and "mpmath" in check["how"] and rep.details["symmetries"]["probability"] is None
+    assert rep.dim == 1 and not rep.exact
 
 
 def test_a_scaling_of_a_state_against_a_parameter_proves_both_unidentifiable():
@@ -123,3 +135,20 @@ def test_the_rank_of_several_symmetries_is_taken_at_one_point():
     sym = rep.details["symmetries"]
     assert [c["verified"] for c in sym["checks"]] == [True, True]
     assert sym["rank"] == 1 and sym["dim"] == 1 and rep.dim == 1 and rep.exact
+
+
+@pytest.mark.parametrize("field, how", [
+    (lambda x: jnp.stack([0 * x[0], jnp.sqrt(x[1])]), "exact mod p"),
+    (lambda x: jnp.stack([0 * x[0], jnp.cos(x[1]) + 2.0]), "exact mod p"),
+    (lambda x: jnp.stack([0 * x[0], jax.scipy.special.erf(x[1]) + 2.0]), "mpmath"),
+], ids=["sqrt", "cos", "erf"])
+def test_a_declared_symmetry_of_a_model_that_is_not_rational(field, how):
+    """``x1' = 0``, ``x2' = a(x2) w``, ``y = x2`` with the symmetry ``e_1``: verified exactly
+    for ``sqrt`` and ``cos`` (made rational), in mpmath for ``erf``; before, ``sqrt`` crashed in
+    mpmath's QR solve of the mixing matrix (a column with zeros under its pivot)."""
+    system = uj.System(states=("x1", "x2"), outputs={"y": lambda x: x[1]}, unknown={"w": field},
+                       symmetries={"e1": lambda x: jnp.array([1.0, 0.0]) + 0 * x[0]})
+    rep = uj.analyze(system, samples=64)
+    check = rep.details["symmetries"]["checks"][0]
+    assert check["verified"] and check["how"].startswith(how)
+    assert rep.observable == {"x1": False, "x2": True}

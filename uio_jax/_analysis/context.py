@@ -206,6 +206,32 @@ class Context:
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)
 
+    # -------------------------------------------------------------- decisions outside the span
+    def decide_zero(self, exprs, float64_zero: bool) -> tuple[bool, str]:
+        """Whether the graph nodes ``exprs`` vanish identically: the float64 vote
+        ``float64_zero`` settled again (:meth:`~uio_jax._analysis.settle.Settler.vanishes`),
+        recorded for the certificate. Returns ``(zero, how)``."""
+        zero, how = self.settler.vanishes(exprs)
+        self.extra_decisions.append(how)
+        return (zero if how else float64_zero), how
+
+    def decide_vector_rank(self, fields, float64_rank: int) -> int:
+        """Generic rank of the vector fields ``fields`` (field Nodes): modulo p at the
+        Settler's first point where the graph is made rational (its Schwartz-Zippel bound
+        added), else the float64 ``float64_rank``; recorded for the certificate."""
+        exprs = [e for f in fields for e in f.expr]
+        values = self.settler.values_mod_p(exprs)
+        if values is None:
+            self.extra_decisions.append("")
+            return float64_rank
+        n = len(fields[0].expr) if fields else 0
+        echelon = graph_exact.Echelon()
+        for i in range(len(fields)):
+            echelon.add(values[i * n:(i + 1) * n])
+        self.settler.count_bound(exprs, 1, max(echelon.rank, 1))
+        self.extra_decisions.append("exact mod p")
+        return echelon.rank
+
     # -------------------------------------------------------------- nodes
     def unit_nodes(self, count: int) -> list[Node]:
         """The coordinate functions ``z_1..z_count`` as Nodes (labels ``e_i``), whose

@@ -142,6 +142,7 @@ def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
     for it in range(ITERATION_CAP):
         spent.append(c.ctx)
         rec = reconstructability(w, w.theta)
+        w.rank_tests.append(rec.settled)
         m = rec.m
         if initially is None:
             initially = m == mw
@@ -321,7 +322,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         notes.append(f"weak zero test: a 'vanishes identically' decision was backed by only "
                      f"{100 * weakest:.0f}% of the samples")
     space = SampledSpace(omega, n=n, dim=dim)
-    omega.extra_decisions = [t.settled for t in zero_tests]
+    omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
     return omega.report("general_ui", out.history, out.stop.message, notes=notes,
                         details=details, system=report_system or report_view(system, n),
                         dim=dim, observable=observable, space=space,

@@ -8,6 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._calculus.generators import Node
+from .._engine import graph_exact
 from .._engine.graph import Graph
 from .._model.graph_system import graph_system
 from .._model.smooth_inputs import known_coordinates, known_outputs, with_input_jets
@@ -81,6 +82,8 @@ class Working:
     theta: list
     n0: int
     zero_tests: list = dataclasses.field(default_factory=list)
+    #: how each reconstructability decision was made (``"exact mod p"``, ``""``: float64)
+    rank_tests: list = dataclasses.field(default_factory=list)
     known: frozenset = frozenset()  # labels of the known coordinates' output functions
 
     def field_values(self, nodes):
@@ -221,11 +224,17 @@ class Reconstructability:
     rows: tuple
     cols: tuple
     fraction: float
+    settled: str = ""
 
 
 def reconstructability(w: Working, theta) -> Reconstructability:
-    """``R_ij = L_{g_j} theta_i`` at the samples (as cosines), its generic rank ``m``, the
-    first independent rows (identifiers) and, among them, the first independent columns."""
+    """``R_ij = L_{g_j} theta_i``: its generic rank ``m``, the first independent rows
+    (identifiers) and, among them, the first independent columns. Decided modulo p at a
+    random point where the graph is made rational (:func:`_exact_reconstructability`), else
+    on the float64 votes of the samples (the entries as cosines)."""
+    exact = _exact_reconstructability(w, theta)
+    if exact is not None:
+        return exact
     ctx = w.ctx
     grads = ctx.gradients(theta)  # (S, r, N)
     vals = np.stack(w.field_values(w.uis), axis=1)  # (S, mw, N)
@@ -252,6 +261,34 @@ def reconstructability(w: Working, theta) -> Reconstructability:
         if d.rank > len(cols):
             cols.append(k)
     return Reconstructability(len(rows), tuple(rows), tuple(cols), min(fractions))
+
+
+def _exact_reconstructability(w: Working, theta):
+    """:func:`reconstructability` modulo p at the Settler's first point: the rows and
+    columns chosen greedily by exact elimination (a row independent at the point is
+    independent generically; a dependent one is, unless the point is a root of a nonzero
+    minor: each such decision adds its bound to the certificate's). None where the graph is
+    not made rational."""
+    ctx = w.ctx
+    entries = [[ctx.builder.lie(g, th).expr for g in w.uis] for th in theta]
+    flat = [e for row in entries for e in row]
+    values = ctx.settler.values_mod_p(flat) if flat else []
+    if values is None:
+        return None
+    mw = len(w.uis)
+    R = [values[i * mw:(i + 1) * mw] for i in range(len(theta))]
+    rows, echelon = [], graph_exact.Echelon()
+    for i, row in enumerate(R):
+        if echelon.add(row):
+            rows.append(i)
+    cols, echelon = [], graph_exact.Echelon()
+    for k in range(mw):
+        if len(cols) == len(rows):
+            break
+        if echelon.add([R[i][k] for i in rows]):
+            cols.append(k)
+    ctx.settler.count_bound(flat, len(theta) + mw, max(len(rows), 1))
+    return Reconstructability(len(rows), tuple(rows), tuple(cols), 1.0, "exact mod p")
 
 
 # ------------------------------------------------------------------ UI extension
@@ -365,7 +402,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     info = {"order": order, "root": theta_star.label, "theta_v": theta_v.label,
             "new_states": kept_flat, "ui_without_chain": [names_ui[j] for j in dropped]}
     return Working(new_sys, ctx, nb.field("g0", new_sys.drift), uis, new_origin, theta, w.n0,
-                   w.zero_tests, w.known), info
+                   w.zero_tests, w.rank_tests, w.known), info
 
 
 def _short(label: str) -> str:

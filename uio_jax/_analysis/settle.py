@@ -235,6 +235,21 @@ class Settler:
                 return False, ""
         return (verdicts == {True}), "mpmath"
 
+    def values_mod_p(self, exprs):
+        """The residues of the graph nodes ``exprs`` at the first random point modulo p, or
+        None where the graph is not made rational (or every point drawn is singular)."""
+        if not self._rational(exprs):
+            return None
+        ev = self._modular_evaluator(0, exprs)
+        return None if ev is None else [int(ev.V[e][0]) % graph_exact.PRIME for e in exprs]
+
+    def count_bound(self, exprs, minors: int, size: int) -> None:
+        """Add to :attr:`error_bound` the Schwartz-Zippel bound of ``minors`` decisions, each
+        on a minor of at most ``size`` rows of the nodes ``exprs``, taken at one point."""
+        if minors and exprs:
+            degree = max(num + den for num, den in graph_exact.degrees(self.graph, exprs, self._degrees))
+            self.error_bound += minors * min(1.0, size * degree / graph_exact.PRIME)
+
     def _rational(self, exprs) -> bool:
         """Whether the nodes behind ``exprs`` are rational, or elementary functions made
         rational by independent generators (:mod:`uio_jax._engine.graph_elementary`; the

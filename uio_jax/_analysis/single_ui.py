@@ -315,7 +315,8 @@ def _lie_nonzero(ctx, node, g):
     ok = ctx.codist.valid & np.isfinite(val) & np.isfinite(scale)
     nonzero = np.abs(val) > ZERO_ROW_RTOL * scale
     frac = float(nonzero[ok].mean()) if ok.any() else 0.0
-    return frac > 0.5, frac
+    zero, _ = ctx.decide_zero([lg.expr], not frac > 0.5)
+    return not zero, frac
 
 
 def _fields_vanish(ctx, phis, fs, g, Lg1):
@@ -327,11 +328,11 @@ def _fields_vanish(ctx, phis, fs, g, Lg1):
     k = len(phis)
     gnorm = np.linalg.norm(vals[2 * k], axis=-1)
     lg = np.abs(vals[2 * k + 1])
-    for v, f in zip(vals[:k], vals[k : 2 * k]):
+    for phi, v, f in zip(phis, vals[:k], vals[k : 2 * k]):
         ref = (np.linalg.norm(f, axis=-1) + gnorm) / lg
         ok = ctx.codist.valid & np.isfinite(v).all(axis=-1) & np.isfinite(ref)
         zero = np.linalg.norm(v, axis=-1) <= ZERO_ROW_RTOL * ref
-        if not (ok.any() and zero[ok].mean() > 0.5):
+        if not ctx.decide_zero(list(phi.expr), bool(ok.any() and zero[ok].mean() > 0.5))[0]:
             return False
     return True
 
@@ -345,16 +346,19 @@ def _lemma1_holds(ctx, fs, g, Lg1):
     for f in fs:
         phi = f
         basis_rank = 0
-        vectors = []
+        vectors, fields = [], []
         for j in range(n):
             v = b.values([phi], ctx.xs)[0]
             lie = np.einsum("si,si->s", dlg, v)
             ok = ctx.codist.valid & np.isfinite(lie)
             scale = dlg_norm * np.linalg.norm(v, axis=-1)
-            if not (np.abs(lie[ok]) <= ZERO_ROW_RTOL * scale[ok]).mean() > 0.5:
+            float64_zero = bool((np.abs(lie[ok]) <= ZERO_ROW_RTOL * scale[ok]).mean() > 0.5)
+            if not ctx.decide_zero([b.lie(phi, Lg1).expr], float64_zero)[0]:
                 return False
             vectors.append(v)
-            rank = _vector_rank(np.stack(vectors, axis=1), ctx.codist.valid, ctx.codist.rtol)
+            fields.append(phi)
+            rank = ctx.decide_vector_rank(fields, _vector_rank(np.stack(vectors, axis=1), ctx.codist.valid,
+                                                               ctx.codist.rtol))
             if rank == basis_rank:  # Lambda_j = Lambda_{j-1}: converged
                 break
             basis_rank = rank

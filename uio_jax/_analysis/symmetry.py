@@ -55,7 +55,7 @@ from fractions import Fraction
 import numpy as np
 
 from .._calculus.generators import builder_for
-from .._engine import graph_exact
+from .._engine import graph_exact, graph_independence
 from .._errors import ModelError
 from .._model.smooth_inputs import known_coordinates
 from .._model.symmetries import symmetry_fields
@@ -172,7 +172,7 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
         mixing = [builder.bracket(xi, g).expr for g in unknown]
         roots = [e for _, es in conditions for e in es] + [e for es in mixing for e in es] \
             + [e for g in unknown for e in g.expr] + list(xi.expr)
-        rational = graph.is_rational(roots)
+        rational = _made_rational(graph, roots, rng)
         test = _Modular(graph, roots, rng) if rational else _Extended(system, graph, roots, rng)
         if test.values is None:
             checks.append(SymmetryCheck(name, False, test.how, "every point drawn was singular"))
@@ -234,6 +234,15 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
+def _made_rational(graph, roots, rng) -> bool:
+    """Whether the nodes behind ``roots`` are rational or made rational by independent
+    elementary generators (:mod:`uio_jax._engine.graph_independence`): decided modulo p."""
+    if not graph_independence.rationalizable(graph, roots):
+        return False
+    draws = np.random.default_rng(rng.getrandbits(64))
+    return graph_independence.independent(graph, graph_independence.generator_keys(graph, roots), draws)[0]
+
+
 def _rank(system, graph, fields, n_rep, rng) -> int:
     """Rank of the verified fields (their expressions) at ONE new random point, on the
     reported coordinates: modulo p where they are rational (never above the generic rank),
@@ -242,7 +251,7 @@ def _rank(system, graph, fields, n_rep, rng) -> int:
     if not fields:
         return 0
     roots = [e for f in fields for e in f]
-    if graph.is_rational(roots):
+    if _made_rational(graph, roots, rng):
         test = _Modular(graph, roots, rng)
         if test.values is None:
             return 0  # no point where they are defined: no bound from them
@@ -371,7 +380,9 @@ class _Extended:
             return None, "the unknown-input fields are dependent at a point"
         B = []
         for j, br in enumerate(brackets):
-            b, _ = ctx.qr_solve(A0, ctx.matrix([self.values[e][0] for e in br]))
+            # least squares by the normal equations (A0 has full column rank, checked above;
+            # mpmath's Householder QR divides by zero on a column with zeros under its pivot)
+            b = ctx.lu_solve(A0.T * A0, A0.T * ctx.matrix([self.values[e][0] for e in br]))
             b = [b[i] for i in range(m)]
             for pt in range(POINTS):
                 for c, e in enumerate(br):
