@@ -31,6 +31,7 @@ def analyze(
     max_order: int | None = DEFAULTS["max_order"],
     k_max: int | None = DEFAULTS["k_max"],
     known_inputs: str = DEFAULTS["known_inputs"],
+    prob_threshold: float = DEFAULTS["prob_threshold"],
 ):
     """Which states of ``system`` are observable: the observable codistribution.
 
@@ -54,8 +55,19 @@ def analyze(
             per-order dims that are not the ORC's steps.
             ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
             ``Report.method`` records the choice.
-        samples: number S of random states of the domain at which every rank is
-            evaluated (the certificate). More samples, surer verdict; cost is linear.
+        samples: number S of random states of the domain drawn for the float64 screen:
+            the recursion's votes are taken at the first decision samples where the model
+            is defined (:func:`~uio_jax._analysis.memory.decision_count`, 128 for most
+            models), the final span's margins and the figure at as many of the S as fit in
+            memory (``Certificate.capped`` says how many did not). The verdicts do not rest
+            on these votes: every decision is settled again modulo p (or in extended
+            precision where the model is not made rational, :attr:`Certificate.arithmetic`).
+        prob_threshold: the probability of correctness the exact decisions must reach
+            (StructuralIdentifiability.jl's ``prob_threshold``; default 0.999999): each
+            decision modulo ``p = 2^127 - 1`` is wrong with probability at most
+            ``D / p`` per point (Schwartz-Zippel, ``D`` a degree bound), points are added
+            until the sum over the analysis, ``Certificate.error_bound``, is under
+            ``1 - prob_threshold``.
         seed: seed of the sampled states, an integer in ``[0, 2**64)`` (same seed, same
             report).
         rtol: relative tolerance on ``s_i / s_1`` after scaling (default
@@ -94,13 +106,14 @@ def analyze(
     if not isinstance(system, System):
         raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
-                         max_order=max_order, k_max=k_max, known_inputs=known_inputs)
+                         max_order=max_order, k_max=k_max, known_inputs=known_inputs,
+                         prob_threshold=prob_threshold)
     samples, seed, rtol = opts["samples"], opts["seed"], opts["rtol"]
     max_order, k_max, known_inputs = opts["max_order"], opts["k_max"], opts["known_inputs"]
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
-    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs)
+    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, opts["prob_threshold"])
     if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
         report = _with_symmetries(report, system, seed)
     return report
@@ -117,17 +130,17 @@ def _with_symmetries(report, system, seed):
     return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details)
 
 
-def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs):
+def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold):
     """The report of the analysis ``method`` chooses on the autonomous ``system``."""
     chosen, why = _choose(system, method, known_inputs)
     notes = [why] if why else []
     if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself
-        return eorc_report(system, samples=samples, seed=seed, rtol=rtol, k_max=k_max,
+        return eorc_report(system, samples=samples, seed=seed, rtol=rtol, k_max=k_max, prob_threshold=prob_threshold,
                            notes=notes, known_inputs=known_inputs)
     if chosen == "general_ui":
         check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
                      advice="lower samples")
-        return general_ui_report(system, samples=samples, seed=seed, rtol=rtol,
+        return general_ui_report(system, samples=samples, seed=seed, rtol=rtol, prob_threshold=prob_threshold,
                                  known_inputs=known_inputs, notes=notes)
     check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
                  advice="lower samples")
@@ -136,7 +149,7 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs):
             series_applicable(system)
         elif chosen == "single_ui":
             check_applicable(system)
-        ctx = Context(system, samples, seed, rtol)
+        ctx = Context(system, samples, seed, rtol, prob_threshold)
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":

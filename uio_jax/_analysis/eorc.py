@@ -76,6 +76,7 @@ from .evidence import Step
 from .known_bound import known_input_bound, stop_note
 from .memory import analysis_bytes, check_memory, memory_limit
 from .report import Report
+from .settle import DEFAULT_PROB_THRESHOLD
 from .space import SampledSpace, report_view
 from .symmetry import symmetry_notes, verify_symmetries
 
@@ -95,7 +96,8 @@ class _Eorc(Recursion):
     order's while this order's rank work runs (:meth:`record`).
     """
 
-    def __init__(self, system, K, samples, seed, rtol, early_stop=True, analysed=None):
+    def __init__(self, system, K, samples, seed, rtol, early_stop=True, analysed=None,
+                 prob_threshold=DEFAULT_PROB_THRESHOLD):
         self.system = system
         #: the System before the jets of smooth known inputs were added (its symmetries)
         self.analysed = system if analysed is None else analysed
@@ -105,7 +107,7 @@ class _Eorc(Recursion):
         self.mw = len(system.unknown)
         self.ext = extended_system(system, K)
         self.names = input_names(system, K)
-        self.ctx = Context(self.ext, samples, seed, rtol)
+        self.ctx = Context(self.ext, samples, seed, rtol, prob_threshold)
         builder = self.ctx.builder
         self.drift = builder.field(DRIFT_LABEL, self.ext.drift)
         self.known = tuple(builder.field(k, f) for k, f in self.ext.known.items())
@@ -186,7 +188,7 @@ class _Eorc(Recursion):
         if not self._bound_tried:
             self._bound_tried = True
             self.bound = known_input_bound(self.system, samples=self.samples, seed=self.seed,
-                                           rtol=self.rtol)
+                                           rtol=self.rtol, prob_threshold=self.ctx.prob_threshold)
         return self.bound is not None and dim == self.bound.dim
 
     def record(self, k) -> Step:
@@ -303,7 +305,8 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     return check_memory(samples, N, N, what=what, advice=advice)
 
 
-def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analysed=None):
+def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analysed=None,
+             prob_threshold=DEFAULT_PROB_THRESHOLD):
     """Run the EORC recursion up to ``k_max`` (default ``n + 2``) by the shared driver.
 
     ``early_stop``: stop at the bound of the verified symmetries or at the known-input bound
@@ -320,18 +323,20 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analys
     check_eorc_memory(system, samples, K)
     if early_stop is None:
         early_stop = k_max is None
-    run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop, analysed=analysed)
+    run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop, analysed=analysed,
+                prob_threshold=prob_threshold)
     out = iterate(run)
     return run, out.history, out.stop.message, out.m
 
 
 def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
-                known_inputs="switchable") -> Report:
+                known_inputs="switchable", prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
     """The EORC of ``system`` as a :class:`~uio_jax.Report` (called by ``analyze``).
 
     Args:
         system: the original System.
         samples, seed, rtol: sampling certificate options (see :func:`uio_jax.analyze`).
+        prob_threshold: the probability of correctness of the exact decisions.
         k_max: highest order (default ``n + 2``). Not given, the run may stop earlier, at
             the known-input bound (:mod:`uio_jax._analysis.known_bound`); given, every
             order up to it is run (unless the span closes or every state is observable).
@@ -358,7 +363,8 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     working = with_input_jets(system, K - 1) if smooth else system
     with jax.enable_x64(True):
         run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
-                                           k_max=K, early_stop=k_max is None, analysed=system)
+                                           k_max=K, early_stop=k_max is None, analysed=system,
+                                           prob_threshold=prob_threshold)
         ctx = run.ctx
         last = history[-1]
         # the EORC is monotone in k: the answer is the one of the last order whose

@@ -72,6 +72,7 @@ from .general_ui_steps import (
     start_working,
 )
 from .report import Report
+from .settle import DEFAULT_PROB_THRESHOLD
 from .space import SampledSpace, report_view
 
 #: At most this many iterations of the main loop (TUIO6's bound).
@@ -125,9 +126,9 @@ def _dim_step(w, ctx, it, added, extra):
     return announce_step(Step(it, dim, labels, fraction, extra))
 
 
-def run(system, *, samples, seed, rtol, jet_order) -> Outcome:
+def run(system, *, samples, seed, rtol, jet_order, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Outcome:
     """The main loop of the module docstring on ``system`` (joint, autonomous)."""
-    w = start_working(system, jet_order, samples, seed, rtol)
+    w = start_working(system, jet_order, samples, seed, rtol, prob_threshold)
     mw = len(w.uis)
     trace, history, spent = [], [], []
     c = close(w, w.theta, [])
@@ -229,7 +230,7 @@ def observable_inputs(out: Outcome, full: bool = False) -> dict:
         # gives w~ = B^-1 (D h~ - a), a function of observable quantities
         return {k: True for k in w.system.unknown}
     ext = extended_system(w.system, 1)
-    ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol)
+    ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol, w.ctx.prob_threshold)
     N = w.system.n
     b = ctx.builder
     src = out.omega.builder.graph  # the working system's: Omega's nodes, lifted to [z; w~]
@@ -246,13 +247,14 @@ def observable_inputs(out: Outcome, full: bool = False) -> dict:
 
 # ------------------------------------------------------------------ the report
 def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", notes=(),
-                      report_system=None) -> Report:
+                      report_system=None, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
     """Run the general solution on ``system`` (joint; time as a known coordinate) and build
     the Report on the original state.
 
     Args:
         system: the System the analyses run on (:meth:`System.autonomous`).
         samples, seed, rtol: the sampling certificate's options.
+        prob_threshold: the probability of correctness of the exact decisions.
         known_inputs: the meaning of the known inputs (must be ``"smooth"`` when there are
             any, :func:`check_applicable`).
         notes: notes to carry.
@@ -272,7 +274,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     jet = n + JET_MARGIN
     with jax.enable_x64(True):
         for attempt in range(JET_RETRIES + 1):
-            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet)
+            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet, prob_threshold=prob_threshold)
             if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
                 break
             jet = 2 * jet

@@ -111,7 +111,7 @@ def _working_system(states, outputs, drift, unknown, domain, angles, name, known
     return system
 
 
-def start_working(system, jet_order, samples, seed, rtol) -> Working:
+def start_working(system, jet_order, samples, seed, rtol, prob_threshold) -> Working:
     """The first working system: ``system`` (joint, autonomous) with the jets of its known
     inputs to ``jet_order`` in the drift; Theta = its outputs (known coordinates included)."""
     sys0 = with_input_jets(system, jet_order)
@@ -120,7 +120,7 @@ def start_working(system, jet_order, samples, seed, rtol) -> Working:
         sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
                                known_coordinates(sys0), sys0.joint_param_names)
-    ctx = Context(sys0, samples, seed, rtol)
+    ctx = Context(sys0, samples, seed, rtol, prob_threshold)
     b = ctx.builder
     drift = b.field("g0", sys0.drift)
     uis = [ctx.field_node(k) for k in sys0.unknown]
@@ -331,7 +331,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     full = _working_system(sysw.states + tuple(flat), {"theta*": lift(gf, src, theta_star.expr, z)[0]},
                            drift_full, {}, domain, sysw.angles, sysw.name, known_coordinates(sysw),
                            sysw.joint_param_names, graph=gf)
-    ctx_full = Context(full, samples, seed, rtol)
+    ctx_full = Context(full, samples, seed, rtol, w.ctx.prob_threshold)
     b = ctx_full.builder
     theta_v = b.power(b.field("F'", full.drift), b.scalar("theta*", full.outputs["theta*"]), order)
     grad = ctx_full.gradients([theta_v])[:, 0]  # (S, N + m L)
@@ -395,7 +395,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
                               domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
                               sysw.joint_param_names, graph=gn)
-    ctx = Context(new_sys, samples, seed, rtol)
+    ctx = Context(new_sys, samples, seed, rtol, w.ctx.prob_threshold)
     nb = ctx.builder
     uis = [ctx.field_node(k) for k in new_uis]
     theta = ctx.output_nodes()

@@ -49,6 +49,7 @@ from .._model.smooth_inputs import known_coordinates
 from .._model.system import System, derived_system
 from .context import Context
 from .series import run_series
+from .settle import DEFAULT_PROB_THRESHOLD
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,7 +74,8 @@ def known_input_system(system: System) -> System:
         return dataclasses.replace(system, known={**system.known, **system.unknown}, unknown={})
 
 
-def known_input_bound(system: System, *, samples: int, seed: int, rtol: float) -> KnownBound | None:
+def known_input_bound(system: System, *, samples: int, seed: int, rtol: float,
+                      prob_threshold: float = DEFAULT_PROB_THRESHOLD) -> KnownBound | None:
     """The bound ``r`` of the module docstring for the EORC of ``system``, or None.
 
     Args:
@@ -89,7 +91,7 @@ def known_input_bound(system: System, *, samples: int, seed: int, rtol: float) -
     if known_coordinates(system) or not system.unknown:
         return None
     known = known_input_system(system)
-    ctx = Context(known, samples, seed, rtol)
+    ctx = Context(known, samples, seed, rtol, prob_threshold)
     ctx.codist.verify_rejections = "all"
     history, reason, k = run_series(ctx, seed=seed)
     codist = ctx.codist

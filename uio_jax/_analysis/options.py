@@ -7,6 +7,7 @@ from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._model.smooth_inputs import KNOWN_INPUT_MEANINGS
 from .rank import default_rtol
+from .settle import DEFAULT_PROB_THRESHOLD
 
 #: The analyses ``method`` may name (``analyze``'s docstring says what each one does).
 METHODS = ("auto", "orc", "single_ui", "general_ui", "eorc", "series", "fast")
@@ -17,7 +18,7 @@ KNOWN_INPUTS = KNOWN_INPUT_MEANINGS
 #: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.rank.default_rtol`;
 #: ``max_order`` None: no cap; ``k_max`` None: ``n + 2``).
 DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None,
-            "known_inputs": "switchable"}
+            "known_inputs": "switchable", "prob_threshold": DEFAULT_PROB_THRESHOLD}
 
 #: Smallest sample count: fewer random states cannot certify a rank.
 MIN_SAMPLES = 8
@@ -27,21 +28,24 @@ def check_options(**options) -> dict:
 
     Args:
         **options: any of ``method``, ``samples``, ``seed``, ``rtol``, ``max_order``,
-            ``k_max`` (those not given take :data:`DEFAULTS`). The memory a run needs
+            ``k_max``, ``known_inputs``, ``prob_threshold`` (those not given take
+            :data:`DEFAULTS`). The memory a run needs
             depends on the model and is checked where the analysis knows its size
             (:func:`~uio_jax._analysis.memory.check_memory`).
 
     Returns:
-        dict of all seven: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
+        dict of all eight: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
         (float; None resolved to :func:`~uio_jax._analysis.rank.default_rtol`),
-        ``max_order`` and ``k_max`` (int, or None), ``known_inputs`` (str).
+        ``max_order`` and ``k_max`` (int, or None), ``known_inputs`` (str),
+        ``prob_threshold`` (float).
 
     Raises:
         OptionError: an unknown option name, an unknown method, ``samples`` not an integer
             >= 8, ``seed`` not an integer in ``[0, 2**64)`` (:func:`check_seed`), ``rtol``
             not a finite number in (0, 1) (NaN refused),
             ``max_order`` not a non-negative integer, ``k_max`` not a positive integer,
-            ``known_inputs`` not one of :data:`KNOWN_INPUTS`.
+            ``known_inputs`` not one of :data:`KNOWN_INPUTS`, ``prob_threshold`` not a
+            number in (0, 1).
     """
     unknown = set(options) - set(DEFAULTS)
     if unknown:
@@ -66,8 +70,11 @@ def check_options(**options) -> dict:
     if known_inputs not in KNOWN_INPUTS:
         raise OptionError(f"unknown known_inputs {known_inputs!r}; choose one of "
                           f"{', '.join(KNOWN_INPUTS)}")
+    prob = opts["prob_threshold"]
+    if isinstance(prob, bool) or not (isinstance(prob, numbers.Real) and 0 < prob < 1):
+        raise OptionError(f"prob_threshold must be a number in (0, 1), got {prob!r}")
     return {"method": method, "samples": int(samples), "seed": seed, "rtol": float(rtol),
-            "known_inputs": known_inputs,
+            "known_inputs": known_inputs, "prob_threshold": float(prob),
             "max_order": None if max_order is None else int(max_order),
             "k_max": None if k_max is None else int(k_max)}
 
