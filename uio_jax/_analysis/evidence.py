@@ -176,7 +176,8 @@ class Certificate:
     def _arithmetic_text(self) -> str:
         if not self.decisions:
             return ""
-        text = (f"; decisions: {self.exact_decisions} exact modulo p, {self.extended_decisions} in "
+        prime = "2^127 - 1" if self.prime == 2**127 - 1 else str(self.prime)
+        text = (f"; decisions: {self.exact_decisions} exact modulo p = {prime}, {self.extended_decisions} in "
                 f"extended precision, {self.float64_decisions} on float64 votes")
         if self.exact_decisions:
             text += (f"; P(some exact decision wrong) <= {self.error_bound:.1e} (required "

@@ -94,7 +94,7 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             worker processes; the workers must see the model files and the cache directory
             at the same paths. Not with ``jobs > 1``. Needs the extra ``uio_jax[cluster]``.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
-            ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``).
+            ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``, ``prob_threshold``).
 
     Returns:
         :class:`~uio_jax.BatchResult`, a sequence of :class:`~uio_jax.BatchRow` in the

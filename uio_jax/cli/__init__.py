@@ -51,6 +51,9 @@ def _analysis_options(p):
     p.add_argument("--k-max", type=int, default=d["k_max"],
                    help="highest order k of the EORC, >= 1 (default n + 2, or earlier where no "
                         "higher order can change a verdict; given, every order up to it is run)")
+    p.add_argument("--prob-threshold", type=float, default=d["prob_threshold"],
+                   help="probability of correctness of the exact decisions, in (0, 1) "
+                        f"(default {d['prob_threshold']}; the report states the bound reached)")
     p.add_argument("--known-inputs", default=d["known_inputs"], choices=KNOWN_INPUTS,
                    help="what a known input is: switchable (default: it may jump, the papers' "
                         "meaning) or smooth (a generic smooth function of time, TUIO6's)")

@@ -29,7 +29,7 @@ def run(args) -> int:
     from .._progress import StepPrinter, step_listener
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max,
+                  max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
                   known_inputs=args.known_inputs)  # before loading the model
     if args.plot:
         from .._analysis.plots import check_figure_path
@@ -41,7 +41,7 @@ def run(args) -> int:
     with step_listener(printer):
         rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                       rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                  known_inputs=args.known_inputs)
+                      known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
     print(rep)
     if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
         try:

@@ -58,7 +58,7 @@ def run(args) -> int:
     from .._batch.run import BatchInterrupted, batch_analyze
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max,
+                  max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
                   known_inputs=args.known_inputs)  # before any model is found
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
@@ -76,7 +76,7 @@ def run(args) -> int:
                                on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
                                method=args.method, samples=args.samples,
                                seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                  known_inputs=args.known_inputs)
+                               known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
     except BatchInterrupted as exc:
         result, code = exc.result, EXIT_INTERRUPTED
         print(f"uio-jax: {result.partial}", file=sys.stderr)
