@@ -110,3 +110,16 @@ def test_one_function_written_two_ways_is_one_direction():
         "y2": lambda x: jnp.sin(x[0]) * jnp.cos(x[1]) - jnp.cos(x[0]) * jnp.sin(x[1])})
     rep = uj.analyze(system, samples=256)
     assert rep.dim == 1 and rep.observable == {"x1": False, "x2": False}
+
+
+def test_directions_where_float64_cannot_separate_the_generators():
+    """``y = x1``, ``x1' = x1 + 1e-14 x2``: dim 2 (``x2 = (y' - y) / 1e-14``), ``x3`` hidden. At
+    any state the two kept gradients are ``(1, 0, 0)`` and ``(1, 1e-14, 0)``: ``s_2/s_1`` is
+    under float64's ``rtol``, so the directions were refused; they are computed in extended
+    precision at that state instead (the null space ``e_3``)."""
+    system = uj.System(("x1", "x2", "x3"), {"y": lambda x: x[0]},
+                       drift=lambda x: jnp.array([x[0] + 1e-14 * x[1], 0.0, 0.0]))
+    rep = uj.analyze(system, samples=256)
+    assert rep.dim == 2 and rep.exact
+    d = rep.unobservable_directions([1.0, 0.7, 0.9])
+    assert d.shape == (3, 1) and np.allclose(np.abs(d[:, 0]), [0.0, 0.0, 1.0], atol=1e-12)

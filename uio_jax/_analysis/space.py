@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._engine import graph_exact
 from .._errors import ModelError
 
 
@@ -60,6 +61,11 @@ class Space(Protocol):
 
     def rank_ratio_at(self, z) -> float | None:
         """``s_r / s_1`` of the kept generators at the original state ``z (n,)``."""
+
+
+#: Decimal digits of the unobservable directions at a state where float64 cannot separate
+#: the kept generators (:meth:`SampledSpace.unobservable_directions`).
+EXTENDED_DIGITS = 60
 
 
 class SampledSpace(Space):
@@ -125,17 +131,44 @@ class SampledSpace(Space):
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
         _, sv, vt = np.linalg.svd(g)
         if sv[min(r, N) - 1] < self._ctx.codist.rtol * sv[0]:
-            raise ModelError(
-                f"the {r} kept generators are not independent in float64 at this state "
-                f"(s_r/s_1 = {sv[min(r, N) - 1] / sv[0]:.1e} < rtol): a singular state, or a span "
-                "whose smallest directions are under float64's reach here; the directions would "
-                "not be reliable: ask at another state")
+            return self._directions_extended(X, r)
         if N == n:
             return vt[r:].T.copy()
         q = vt[:r]
         P = np.eye(N) - q.T @ q
         _, _, wt = np.linalg.svd(P[:, :n])
         return wt[: n - self._dim].T.copy()
+
+    def _directions_extended(self, X, r, dps=None) -> np.ndarray:
+        """:meth:`unobservable_directions` in ``dps`` decimal digits (mpmath, default
+        :data:`EXTENDED_DIGITS`): where the kept generators' smallest directions are under
+        float64's reach at ``X`` (``s_r/s_1`` under ``rtol``), their gradients are evaluated in
+        the expression graph at ``X`` (its floats taken exactly) and the null space is
+        computed there. A state where they are dependent even at ``dps`` digits (``s_r/s_1``
+        under ``10^-(dps/2)``) is singular: refused."""
+        n, N = self._n, self._N
+        dps = EXTENDED_DIGITS if dps is None else dps
+        ev = graph_exact.ExtendedEvaluator(self._ctx.builder.graph, X, dps)
+        ctx = ev.ctx
+        _, grads = ev.gradients([nd.expr for nd in self._nodes])
+        rows = []
+        for row in grads:
+            norm = ctx.sqrt(ctx.fsum(v * v for v in row))
+            if not ctx.isfinite(norm) or norm == 0:
+                raise ModelError("the codistribution is not defined at this state (NaN/inf or a zero gradient)")
+            rows.append([v / norm for v in row])
+        _, sv, vt = ctx.svd_r(ctx.matrix(rows), full_matrices=True)
+        if sv[min(r, N) - 1] < ctx.mpf(10) ** (-dps // 2) * sv[0]:
+            raise ModelError(
+                f"a singular state: the {r} kept generators are dependent here even at {dps} digits "
+                f"(s_r/s_1 = {float(sv[min(r, N) - 1] / sv[0]):.1e}); ask at another state")
+        V = np.array([[float(vt[i, j]) for j in range(N)] for i in range(vt.rows)])
+        if N == n:
+            return V[r:].T.copy()
+        q = ctx.matrix([[vt[i, j] for j in range(N)] for i in range(r)])
+        P = ctx.eye(N) - q.T * q
+        _, _, wt = ctx.svd_r(ctx.matrix([[P[i, j] for j in range(n)] for i in range(N)]), full_matrices=True)
+        return np.array([[float(wt[i, j]) for j in range(n)] for i in range(n - self._dim)]).T.copy()
 
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators at the valid samples."""
