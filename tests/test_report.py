@@ -18,7 +18,8 @@ def test_report_fields_and_json_round_trip():
     for key in ("method", "dim", "observable", "fully_observable", "history", "certificate",
                 "generators", "notes", "semantics"):
         assert key in d
-    assert d["certificate"]["used"] + d["certificate"]["dropped"] == d["certificate"]["samples"]
+    cert = d["certificate"]
+    assert cert["used"] + cert["dropped"] + cert["capped"] == cert["samples"]
     text = str(rep)
     assert "dim 2 of 3" in text
     assert re.search(r"^  r +observable$", text, re.M)

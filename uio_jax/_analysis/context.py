@@ -81,8 +81,19 @@ class Context:
         #: the general solution: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote),
         #: counted in the certificate
         self.extra_decisions = []
+        #: the final span was not re-decided on every sample: every decision was exact
+        #: (:meth:`certify`)
+        self.screen_only = False
         self._decided_before = (0, 0)  # acceptances, rejections at the last step()
         self._grads = {}  # Node -> (S, n) gradient at the samples
+
+    def decided_exactly(self) -> bool:
+        """Whether every decision so far (the span's, the memberships, those outside the
+        span) was made modulo p (or is implied by a span of every direction)."""
+        cd = self.codist
+        decisions = cd.acceptances + cd.rejections + [d for _, d in self.memberships]
+        return (all(d.settled in ("exact mod p", "implied") for d in decisions)
+                and all(how == "exact mod p" for how in self.extra_decisions))
 
     def fork(self) -> "Context":
         """A fresh Context on the same samples (empty codistribution, no decisions) that
@@ -106,10 +117,19 @@ class Context:
         decision samples. Afterwards :attr:`codist` and :attr:`xs` are those of all the
         samples; a no-op when they already are and ``upto`` is None.
 
+        Also a no-op (``upto`` None) when every decision so far was made exactly
+        (:meth:`decided_exactly`): the float64 votes are then a screen whose verdicts the
+        exact decisions replaced, and more samples would only refine margins nobody decides
+        on (:attr:`screen_only`; the certificate's margins and the figure come from the
+        decision samples).
+
         Args:
             upto: keep only the first ``upto`` generators (the span at an earlier step of
                 the recursion, e.g. the last EORC order whose decisions are all certified).
         """
+        if upto is None and not self.certified and self.decided_exactly():
+            self.screen_only = True
+            return
         if self.certified and upto is None:
             return
         phase, kept = self.codist, list(self.codist.nodes)[:upto]
@@ -385,6 +405,7 @@ class Context:
             error_bound=self.settler.error_bound,
             prime=graph_exact.PRIME,
             prob_threshold=self.prob_threshold,
+            screen_only=self.screen_only,
         )
 
     def report(self, method, history, stop_reason, *, notes=(), details=None,
@@ -420,7 +441,7 @@ class Context:
                 f"{cert.dropped} of {certifying} sampled states "
                 f"({100 * cert.dropped / certifying:.0f} %) were dropped: the model is NaN/inf there"
             )
-        if cert.capped:
+        if cert.capped and not self.screen_only:
             r, N = self.codist.rank, self.system.n
             exact = f"; {cert.verified} rank increases were verified exactly" if cert.verified else ""
             notes.append(

@@ -86,17 +86,24 @@ class Certificate:
             (:class:`uio_jax._analysis.settle.Escalation`: what, the float64 vote, how,
             the result, the probability bound of a modular answer), and the clear float64
             rises that exact arithmetic contradicted.
-        verified: clear float64 rank increases confirmed by exact modular arithmetic: every
-            generator kept and every covector found outside the span (a "not observable"
-            verdict) of a rational model is checked so.
+        verified: clear float64 rank increases (generators kept, covectors found outside
+            the span) confirmed beyond float64: modulo p where the model is made rational.
         closure_verified: float64 rejections of a step that kept nothing (the step a
-            recursion stops at: "converged", "Omega-bar closed") confirmed dependent by
-            exact modular arithmetic (a rational model): the stop is then exact.
-        rejections_verified: clear float64 rejections (and memberships) of the other steps
-            confirmed dependent beyond float64: every one after a settled decision has
-            contradicted a float64 vote (round-off has reached ``rtol``; exact modulo p,
-            rational models), and every one of a span that must be proved (the known-input
-            bound of the EORC, exact or mpmath).
+            recursion stops at) confirmed in extended precision, where the model is not
+            made rational (elsewhere they are counted in ``rejections_verified``).
+        rejections_verified: clear float64 rejections and memberships confirmed beyond
+            float64: every one, modulo p, where the model is made rational; and every one of
+            a span that must be proved (the known-input bound of the EORC, exact or mpmath).
+        exact_decisions, extended_decisions, float64_decisions: how many decisions (of the
+            span, memberships, zero tests and ranks outside it) were made modulo p, in
+            extended precision, on float64 votes alone (or left undecided).
+        error_bound: the probability that some decision made modulo p is wrong (a union
+            bound over them: Schwartz-Zippel, degree over ``prime`` per point); 0 when none.
+        prime: the prime of the modular decisions.
+        prob_threshold: the probability of correctness the caller asked for: the exact
+            decisions are certified when ``error_bound <= 1 - prob_threshold``.
+        screen_only: every decision was exact, so the final span was not re-decided on
+            every sample: ``capped`` counts the samples the float64 screen did not use.
     """
 
     samples: int
@@ -120,6 +127,7 @@ class Certificate:
     error_bound: float = 0.0
     prime: int = 0
     prob_threshold: float = 0.0
+    screen_only: bool = False
 
     @property
     def arithmetic(self) -> Arithmetic:
@@ -163,7 +171,9 @@ class Certificate:
 
     def __str__(self):
         gap = "inf" if math.isinf(self.gap_decades) else f"{self.gap_decades:.1f}"
-        capped = (f", {self.capped} not evaluated on the final span (its size)" if self.capped else "")
+        why = "every decision exact: the float64 screen stopped at the decision samples" if self.screen_only \
+            else "its size"
+        capped = (f", {self.capped} not evaluated on the final span ({why})" if self.capped else "")
         return (
             f"{self.used}/{self.samples} samples used ({self.dropped} dropped{capped}), "
             f"{100 * self.fraction:.1f}% at the generic rank (worst decision "

@@ -1,0 +1,113 @@
+"""How the cost of an exact verdict grows with the model's size.
+
+Two families (the exactness issue's targets):
+
+* **chain**: one output, parameters: ``x_i' = -a_i x_i + x_{i+1} + 0.5 x_{i-1} x_i``
+  (``x_{n}`` = 0, ``x_{-1}`` = 0), ``y = x_0``, the ``a_i`` unknown parameters; ``--fn sin``
+  replaces ``x_{i-1} x_i`` by ``x_{i-1} sin(x_i)``. Variables: ``2 n_states``.
+* **slam**: a planar robot ``(px, py, th)`` with known speed and turn rate, range and bearing
+  to ``L`` landmarks at unknown fixed positions: ``3 + 2 L`` states, generic dimension
+  ``n - 3`` (the rigid motions of the plane are hidden).
+
+Each size runs in a fresh process (``python scripts/bench_scaling.py --one FAMILY SIZE``), so
+the time is a first call: CPU time, wall time and peak memory (``ru_maxrss``) of the process,
+with the report's dimension and arithmetic.
+
+    python scripts/bench_scaling.py chain 10 25 35 50 [--fn sin] [--repeat 3]
+    python scripts/bench_scaling.py slam 10 40 100 200
+"""
+
+import argparse
+import json
+import resource
+import statistics
+import subprocess
+import sys
+import time
+
+
+def chain(n_states: int, fn: str = "mul"):
+    import jax.numpy as jnp
+
+    import uio_jax as uj
+
+    def drift(x, a):
+        nxt = jnp.concatenate([x[1:], jnp.zeros(1)])
+        prev = jnp.concatenate([jnp.zeros(1), x[:-1]])
+        coupling = prev * (jnp.sin(x) if fn == "sin" else x)
+        return -a * x + nxt + 0.5 * coupling
+
+    return uj.System(states=tuple(f"x{i}" for i in range(n_states)), outputs={"y": lambda x, a: x[0]},
+                     drift=drift, params={f"a{i}": (0.5, 1.5) for i in range(n_states)}, name=f"chain{n_states}")
+
+
+def slam(landmarks: int):
+    import jax.numpy as jnp
+
+    import uio_jax as uj
+
+    L = landmarks
+    states = ("px", "py", "th") + tuple(f"{c}{j}" for j in range(L) for c in ("lx", "ly"))
+    outputs = {}
+    for j in range(L):
+        def rng(x, j=j):
+            return (x[3 + 2 * j] - x[0]) ** 2 + (x[4 + 2 * j] - x[1]) ** 2
+
+        def bearing(x, j=j):
+            dx, dy = x[3 + 2 * j] - x[0], x[4 + 2 * j] - x[1]
+            return jnp.arctan2(dy, dx) - x[2]
+
+        outputs[f"r{j}"], outputs[f"b{j}"] = rng, bearing
+    n = 3 + 2 * L
+
+    def speed(x):
+        return jnp.zeros(n).at[0].set(jnp.cos(x[2])).at[1].set(jnp.sin(x[2]))
+
+    def turn(x):
+        return jnp.zeros(n).at[2].set(1.0)
+
+    return uj.System(states=states, outputs=outputs, known={"v": speed, "omega": turn},
+                     angles=("th",), name=f"slam{L}")
+
+
+def one(family: str, size: int, fn: str) -> dict:
+    import uio_jax as uj
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    system = chain(size, fn) if family == "chain" else slam(size)
+    rep = uj.analyze(system)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"family": family, "size": size, "fn": fn, "variables": rep.n, "dim": rep.dim,
+            "method": rep.method, "exact": rep.exact, "arithmetic": rep.certificate.arithmetic.name,
+            "wall_s": wall, "cpu_s": cpu, "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("family", choices=("chain", "slam"))
+    ap.add_argument("sizes", type=int, nargs="+")
+    ap.add_argument("--fn", choices=("mul", "sin"), default="mul")
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--one", action="store_true", help="run one size in this process, print JSON")
+    args = ap.parse_args(argv)
+    if args.one:
+        print(json.dumps(one(args.family, args.sizes[0], args.fn)))
+        return
+    print("| family | size | variables | dim | exact | median wall s | median CPU s | peak MB |")
+    print("|---|---|---|---|---|---|---|---|")
+    for size in args.sizes:
+        runs = []
+        for _ in range(args.repeat):
+            out = subprocess.run([sys.executable, __file__, args.family, str(size), "--fn", args.fn, "--one"],
+                                 capture_output=True, text=True, check=True)
+            runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+        r = runs[0]
+        label = f"{args.family}" + (f" ({args.fn})" if args.family == "chain" else "")
+        print(f"| {label} | {size} | {r['variables']} | {r['dim']} | {r['exact']} "
+              f"| {statistics.median(x['wall_s'] for x in runs):.2f} "
+              f"| {statistics.median(x['cpu_s'] for x in runs):.2f} "
+              f"| {max(x['peak_mb'] for x in runs):.0f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
