@@ -94,13 +94,19 @@ def main(argv=None):
         print(json.dumps(one(args.family, args.sizes[0], args.fn)))
         return
     print("| family | size | variables | dim | exact | median wall s | median CPU s | peak MB |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|", flush=True)
     for size in args.sizes:
         runs = []
         for _ in range(args.repeat):
             out = subprocess.run([sys.executable, __file__, args.family, str(size), "--fn", args.fn, "--one"],
-                                 capture_output=True, text=True, check=True)
+                                 capture_output=True, text=True)
+            if out.returncode:
+                last = (out.stderr.strip().splitlines() or ["?"])[-1]
+                print(f"| {args.family} | {size} | failed: {last} |", flush=True)
+                break
             runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+        if not runs:
+            continue
         r = runs[0]
         label = f"{args.family}" + (f" ({args.fn})" if args.family == "chain" else "")
         print(f"| {label} | {size} | {r['variables']} | {r['dim']} | {r['exact']} "

@@ -263,7 +263,7 @@ class Settler:
             return True
         if not all(graph_elementary.rationalizable(self.graph, k) for k in new):
             return False
-        keys = graph_independence.generator_keys(self.graph, exprs)
+        keys = graph_independence.generator_keys(self.graph, exprs, nodes=new)
         if keys.keys() - self._generators.keys():
             self._generators.update(keys)
             ok, self.not_rational = graph_independence.independent(self.graph, self._generators, self.rng)

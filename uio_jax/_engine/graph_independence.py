@@ -19,11 +19,12 @@ from . import graph_elementary
 from .graph_exact import PRIME, ModularEvaluator, rank_mod_p
 
 
-def generator_keys(graph, roots) -> dict:
+def generator_keys(graph, roots, nodes=None) -> dict:
     """``{key: node}``: the generators of the elementary nodes behind ``roots`` (one node per
-    key: sin and cos of one argument share their circle)."""
+    key: sin and cos of one argument share their circle); ``nodes``: the nodes to look at
+    instead (already walked by the caller)."""
     keys = {}
-    for k in graph.reachable(roots):
+    for k in (graph.reachable(roots) if nodes is None else nodes):
         key = graph_elementary.generator_key(graph, k)
         if key is not None:
             keys.setdefault(key, k)
