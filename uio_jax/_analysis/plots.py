@@ -43,14 +43,16 @@ def plot_analysis(report, path=None, ax=None):
         OptionError: ``ax`` is not two Axes, or ``path`` has an unknown format.
     """
     if path is not None:
-        check_figure_path(path)
+        fmt = check_figure_path(path)
     fig, (ax_dim, ax_sv) = _axes(ax, standalone=path is not None)
     _plot_dims(report, ax_dim)
     _plot_singular_values(report, ax_sv)
     name = report.system_name or "system"
     fig.suptitle(f"{name} ({report.method}): dim {report.dim} of {report.n}", fontsize=11)
     if path is not None:
-        fig.savefig(path, dpi=100, bbox_inches="tight")
+        from .._io.output import write_figure
+
+        write_figure(fig, path, fmt, dpi=100, bbox_inches="tight")
     return fig
 
 

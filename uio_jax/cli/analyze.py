@@ -3,7 +3,7 @@
 import json
 
 from .._errors import UioJaxError
-from .common import add_cache_options, check_writable
+from .common import add_cache_options, check_writable, write_output
 
 
 def add_parser(subparsers, analysis_options):
@@ -35,7 +35,7 @@ def run(args) -> int:
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot, names=("--json", "--plot"))
+    check_writable(args.json, args.plot, names=("--json", "--plot"), inputs=[args.model])
     system = load_system(args.model)
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with step_listener(printer):
@@ -49,9 +49,7 @@ def run(args) -> int:
         except UioJaxError as exc:
             print(f"unobservable directions: not computed at the centre of the domain ({exc})")
     if args.json:
-        d = rep.to_dict()
-        with open(args.json, "w") as fh:
-            json.dump(d, fh, indent=2)
+        write_output(args.json, json.dumps(rep.to_dict(), indent=2))
         print(f"report written to {args.json}")
     if args.plot:
         from .._analysis.plots import plot_analysis

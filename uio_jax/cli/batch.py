@@ -1,9 +1,8 @@
 """``uio-jax batch PATH... [options]``: certify many models into one table."""
 
-import os
 import sys
 
-from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable
+from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, write_output
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
 EXIT_INTERRUPTED = 130
@@ -62,7 +61,8 @@ def run(args) -> int:
                   known_inputs=args.known_inputs)  # before any model is found
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
-    check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"))
+    check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"),
+                   inputs=args.paths)
     if args.scheduler is not None and args.jobs != 1:
         raise UsageError(f"--jobs {args.jobs} and --scheduler exclude each other (the cluster's workers "
                          "run the models)")
@@ -94,19 +94,10 @@ def run(args) -> int:
 
 def write_outputs(outputs, result):
     """Write ``result`` to every ``(path, format)`` of ``outputs`` (json, csv, markdown),
-    each through a temporary file then ``os.replace``: a reader (or a crash) never sees a
-    half-written file."""
+    each by :func:`~uio_jax.cli.common.write_output` (a regular file through a temporary
+    file then ``os.replace``: a reader, or a crash, never sees half a file; a failed
+    write is an OSError naming the file)."""
     for path, fmt in outputs:
         text = {"json": lambda: result.to_json(indent=1), "csv": result.to_csv,
                 "markdown": result.to_markdown}[fmt]()
-        tmp = f"{path}.{os.getpid()}.tmp"
-        try:
-            with open(tmp, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.replace(tmp, path)
-        except BaseException:
-            try:
-                os.remove(tmp)
-            except OSError:
-                pass
-            raise
+        write_output(path, text)

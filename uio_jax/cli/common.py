@@ -6,6 +6,8 @@ import contextlib
 import os
 import sys
 
+from .._io.output import write_output  # noqa: F401  (the one writer of every output)
+
 EXIT_USAGE = 2
 EXIT_FAILED = 1
 
@@ -63,34 +65,77 @@ def compile_cache(args):
         yield
 
 
-def check_writable(*paths, names=None):
+def check_writable(*paths, names=None, inputs=()):
     """Refuse output files that cannot be written, before hours of work, not after.
 
-    Each given path must be in an existing, writable directory, must not be a directory
-    itself, and no two may name the same file.
+    Each given path must be a non-empty name in an existing, writable directory, must not
+    be a directory itself nor one of the input files (a model overwritten by its report),
+    and no two may name the same file. A path that exists and is no regular file (a
+    device, a FIFO) is written in place by :func:`write_output`; a failure there is the
+    same one-line error when it happens.
 
     Args:
-        *paths: output paths (None or "" for an option not given).
+        *paths: output paths (None for an option not given; "" is refused).
         names: the options' names (``"--json"``), one per path, for the messages.
+        inputs: the paths the command reads (``FILE.py:NAME``, files, directories, globs).
 
     Raises:
         UsageError: the first path that fails, named.
     """
     names = names or [None] * len(paths)
+    read = _input_files(inputs)
     seen = {}
     for name, path in zip(names, paths):
-        if not path:
+        if path is None:
             continue
         what = f"{name} {path}" if name else path
+        if not str(path).strip():
+            raise UsageError(f"{name or 'an output'} needs a file name, got {path!r}")
         full = os.path.abspath(path)
         parent = os.path.dirname(full)
         if not os.path.isdir(parent):
             raise UsageError(f"cannot write {what}: no directory {parent}")
         if os.path.isdir(full):
             raise UsageError(f"cannot write {what}: it is a directory")
-        if not os.access(parent, os.W_OK):
-            raise UsageError(f"cannot write {what}: directory {parent} is not writable")
-        if full in seen:
-            raise UsageError(f"{seen[full] or 'two outputs'} and {name or 'another output'} name the same "
+        if not os.access(parent, os.W_OK) or (os.path.exists(full) and not os.access(full, os.W_OK)):
+            raise UsageError(f"cannot write {what}: {'it' if os.path.exists(full) else 'directory ' + parent}"
+                             " is not writable")
+        same = next((src for src in read if _same_file(full, src)), None)
+        if same is not None:
+            raise UsageError(f"cannot write {what}: it is the input model file {same}, which it would "
+                             "overwrite")
+        key = os.path.realpath(full)
+        if key in seen:
+            raise UsageError(f"{seen[key] or 'two outputs'} and {name or 'another output'} name the same "
                              f"file {path}")
-        seen[full] = name
+        seen[key] = name
+
+
+def _input_files(inputs):
+    """The existing files a command reads: each input itself, the FILE of ``FILE.py:NAME``,
+    the model files of a directory or a glob."""
+    from .._batch.discovery import expand
+    from .._errors import UioJaxError
+
+    files = []
+    for item in inputs:
+        item = os.fspath(item)
+        if os.path.isfile(item):
+            files.append(item)
+            continue
+        path, sep, _ = item.rpartition(":")
+        if sep and os.path.isfile(path):
+            files.append(path)
+            continue
+        try:
+            files += [f.rpartition(":")[0] if not os.path.exists(f) else f for f in expand(item)]
+        except (UioJaxError, OSError, ValueError):
+            pass  # a missing input is the loader's error, later
+    return files
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False

@@ -9,8 +9,9 @@ import warnings
 from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
+from .._io.output import write_figure
 from .._model.experiment import TimeScaleWarning
-from .common import check_writable
+from .common import check_writable, write_output
 
 #: Figures are saved at this resolution (raster formats; vector formats ignore it).
 FIGURE_DPI = 150
@@ -70,7 +71,8 @@ def check_options(args):
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot, names=("--json", "--plot"))
+    check_writable(args.json, args.plot, names=("--json", "--plot"), 
+                   inputs=[args.experiment] if getattr(args, "experiment", None) else ())
     if getattr(args, "scheduler", None) is not None:
         from .._filter.cluster import check_scheduler
 
@@ -121,16 +123,18 @@ def run(args) -> int:
         d = res.to_dict()
         if comparison is not None:
             d["comparison"] = comparison
-        with open(args.json, "w") as fh:
-            json.dump(d, fh, indent=1)
+        write_output(args.json, json.dumps(d, indent=1))
         print(f"summary written to {args.json}")
     if args.plot:
+        from .._analysis.plots import check_figure_path
         from .._filter.plots import plot_montecarlo
 
         fig, _ = plot_montecarlo(res)
-        fig.savefig(args.plot, dpi=FIGURE_DPI)
-        import matplotlib.pyplot as plt
+        try:
+            write_figure(fig, args.plot, check_figure_path(args.plot), dpi=FIGURE_DPI)
+        finally:
+            import matplotlib.pyplot as plt
 
-        plt.close(fig)
+            plt.close(fig)
         print(f"figure written to {args.plot}")
     return 0

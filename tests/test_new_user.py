@@ -1,0 +1,141 @@
+"""What a new user found (issue 40): every output written or a one-line error with exit
+code 2, a model file never overwritten by its report, user code that exits turned into an
+error, text from model files sanitised, JSON that says what the text says."""
+
+import os
+import stat
+import textwrap
+
+import pytest
+from helpers import one_line_error, zoo_path
+
+from uio_jax import cli
+
+GOOD = f"{zoo_path('unicycle_polar')}:range_known"
+
+TOY = """
+import jax.numpy as jnp
+import uio_jax as uj
+
+def _system():
+    return uj.System(("x",), {"y": lambda x: x[0]}, drift=lambda x: -2.0 * x)
+
+def toy_experiment():
+    return uj.Experiment(name="toy", system=_system(), dt=0.05, n_steps=20, x0=(1.0,),
+                         inputs=lambda s, z: (s, jnp.zeros(0), jnp.zeros(0)), istate0=(),
+                         n_input_normals=0, known_std=lambda u: jnp.zeros(0),
+                         measurements=(uj.Measurement("y", lambda x: x[0], 0.1, 1),),
+                         prior_std=(5.0,), units={"x": "m"})
+"""
+
+TOML = """
+name = "two states"
+states = ["a", "b"]
+[outputs]
+y = "a"
+[drift]
+a = "b"
+b = "0"
+"""
+
+
+def _full_device(tmp_path, name="full", minor=7):
+    """A private copy of /dev/full (every write fails with ENOSPC; ``minor=3``: /dev/null):
+    an atomic write would replace the device node itself, harmless here, fatal on /dev/full
+    as root."""
+    path = tmp_path / name
+    try:
+        os.mknod(path, stat.S_IFCHR | 0o666, os.makedev(1, minor))
+    except (OSError, AttributeError):
+        pytest.skip("cannot create a character device here")
+    return str(path)
+
+
+def _no_space(capsys, path):
+    line = one_line_error(capsys)
+    assert "No space left on device" in line and path in line, line
+    assert stat.S_ISCHR(os.stat(path).st_mode)  # the device is still a device
+
+
+@pytest.fixture
+def toy(tmp_path):
+    path = tmp_path / "toy.py"
+    path.write_text(textwrap.dedent(TOY))
+    return f"{path}:toy"
+
+
+@pytest.fixture
+def toml_model(tmp_path):
+    path = tmp_path / "m.toml"
+    path.write_text(textwrap.dedent(TOML))
+    return str(path)
+
+
+# -- 1. output lost, success reported -------------------------------------------------------
+
+@pytest.mark.parametrize("option", ["--json", "--csv", "--markdown"])
+def test_batch_output_to_a_full_device_is_an_error(tmp_path, capsys, option):
+    full = _full_device(tmp_path)
+    assert cli.main(["batch", GOOD, "--samples", "64", "--no-progress", option, full]) == 2
+    _no_space(capsys, full)
+
+
+def test_analyze_plot_to_a_full_device_is_an_error(tmp_path, capsys):
+    full = _full_device(tmp_path, "full.png")
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--no-progress", "--plot", full]) == 2
+    _no_space(capsys, full)
+
+
+@pytest.mark.parametrize("option, name", [("--json", "full"), ("--plot", "full.png")])
+def test_montecarlo_output_to_a_full_device_is_an_error(tmp_path, capsys, toy, option, name):
+    full = _full_device(tmp_path, name)
+    assert cli.main(["montecarlo", toy, "--trials", "2", "--keep", "0", "--no-analysis",
+                     "--no-progress", "--no-cache", option, full]) == 2
+    _no_space(capsys, full)
+
+
+@pytest.mark.parametrize("argv", [
+    ["analyze", "{missing}", "--json", ""],
+    ["analyze", "{missing}", "--plot", ""],
+    ["batch", "{missing}", "--json", ""],
+    ["batch", "{missing}", "--csv", " "],
+    ["batch", "{missing}", "--markdown", ""],
+    ["montecarlo", "{missing}:toy", "--json", ""],
+    ["montecarlo", "{missing}:toy", "--plot", ""],
+])
+def test_an_empty_output_name_is_refused_before_any_work(tmp_path, capsys, argv):
+    missing = str(tmp_path / "no_such_model.toml")
+    assert cli.main([a.format(missing=missing) for a in argv]) == 2
+    line = one_line_error(capsys)
+    assert "needs a file name" in line and "no_such_model" not in line, line
+
+
+def test_a_device_output_is_written_in_place(tmp_path, capsys):
+    """/dev/null stays /dev/null (an atomic replace would turn it into a file)."""
+    null = _full_device(tmp_path, "null", minor=3)
+    assert cli.main(["batch", GOOD, "--samples", "64", "--no-progress", "--json", null]) == 0
+    assert stat.S_ISCHR(os.stat(null).st_mode)
+    assert f"written: {null}" in capsys.readouterr().out
+
+
+# -- 2. a model file overwritten ------------------------------------------------------------
+
+@pytest.mark.parametrize("argv", [
+    ["analyze", "{m}", "--json", "{m}"],
+    ["analyze", "{m}", "--plot", "{m}.png", "--json", "{d}/../{dn}/m.toml"],
+    ["batch", "{m}", "--markdown", "{m}"],
+    ["batch", "{d}", "--csv", "{m}"],
+    ["batch", "{d}/*.toml", "--json", "{m}"],
+    ["analyze", "{d}/zoo.py:f", "--json", "{d}/zoo.py"],
+    ["montecarlo", "{d}/zoo.py:toy", "--json", "{d}/zoo.py"],
+])
+def test_an_output_that_is_an_input_file_is_refused(tmp_path, capsys, toml_model, argv):
+    zoo = tmp_path / "zoo.py"
+    zoo.write_text("raise RuntimeError('imported')\n")
+    before = {p: p.read_bytes() for p in tmp_path.iterdir()}
+    d = str(tmp_path)
+    argv = [a.format(m=toml_model, d=d, dn=os.path.basename(d)) for a in argv]
+    assert cli.main(argv) == 2
+    line = one_line_error(capsys)
+    assert "input model file" in line and "overwrite" in line, line
+    assert {p: p.read_bytes() for p in tmp_path.iterdir()} == before
