@@ -139,3 +139,56 @@ def test_an_output_that_is_an_input_file_is_refused(tmp_path, capsys, toml_model
     line = one_line_error(capsys)
     assert "input model file" in line and "overwrite" in line, line
     assert {p: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+# -- 3. user code that exits ---------------------------------------------------------------
+
+EXITS_IN_OUTPUT = """
+import sys
+import uio_jax as uj
+
+def _y(x):
+    raise SystemExit(0)
+
+def f():
+    return uj.System(("a",), {"y": _y})
+
+def g():
+    sys.exit(0)
+"""
+
+
+@pytest.mark.parametrize("name", ["f", "g"])
+def test_a_model_that_exits_is_a_one_line_error(tmp_path, capsys, name):
+    path = tmp_path / "exits.py"
+    path.write_text(textwrap.dedent(EXITS_IN_OUTPUT))
+    assert cli.main(["analyze", f"{path}:{name}", "--samples", "64", "--no-progress"]) == 2
+    assert "sys.exit(0)" in one_line_error(capsys)
+
+
+def test_a_model_file_that_exits_at_import_is_a_one_line_error(tmp_path, capsys):
+    path = tmp_path / "exits.py"
+    path.write_text("import sys\nsys.exit(0)\n")
+    assert cli.main(["analyze", f"{path}:f", "--no-progress"]) == 2
+    assert "fails to load (line 2): SystemExit: 0" in one_line_error(capsys)
+
+
+def test_batch_dir_with_a_zoo_file_that_exits_goes_on(tmp_path, capsys, toml_model):
+    (tmp_path / "exits.py").write_text("# uio-jax: models\nimport sys\nsys.exit(0)\n")
+    (tmp_path / "zoo.py").write_text(textwrap.dedent("""
+        # uio-jax: models
+        import sys
+        import uio_jax as uj
+
+        def quits():
+            sys.exit(3)
+
+        def fine():
+            return uj.System(("a",), {"y": lambda x: x[0]})
+        """))
+    assert cli.main(["batch", str(tmp_path), "--samples", "64", "--no-progress", "--no-cache"]) == 1
+    out = capsys.readouterr().out
+    assert "exits.py fails to load (line 3): SystemExit: 0" in out, out
+    assert "quits called sys.exit(3)" in out, out
+    ok = [ln.split()[0] for ln in out.splitlines() if ln.rstrip().endswith(" ok")]
+    assert [os.path.basename(p) for p in ok] == ["m.toml", "zoo.py:fine"], out

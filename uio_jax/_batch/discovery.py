@@ -46,7 +46,7 @@ import re
 import time
 from dataclasses import dataclass, field, replace
 
-from .._errors import OptionError, UioJaxError
+from .._errors import OptionError, UioJaxError, exit_message
 from .._io.loading import load_module, split_spec
 from .._io.strikepy_import import is_strikepy_module
 from .._model.system import System
@@ -280,6 +280,8 @@ def _call_zoo_function(spec, fn):
         return None, f"{spec}: {exc}", time.perf_counter() - t0
     except Exception as exc:
         return None, f"{spec} raised {one_line(exc)}", time.perf_counter() - t0
+    except SystemExit as exc:  # the batch goes on: an error row
+        return None, f"{spec} {exit_message(exc)}", time.perf_counter() - t0
 
 
 def _no_system(value) -> str:
