@@ -7,8 +7,9 @@ import stat
 import textwrap
 
 import pytest
-from helpers import one_line_error, zoo_path
+from helpers import one_line_error, zoo_path, zoo_report
 
+import uio_jax as uj
 from uio_jax import cli
 
 GOOD = f"{zoo_path('unicycle_polar')}:range_known"
@@ -192,3 +193,12 @@ def test_batch_dir_with_a_zoo_file_that_exits_goes_on(tmp_path, capsys, toml_mod
     assert "quits called sys.exit(3)" in out, out
     ok = [ln.split()[0] for ln in out.splitlines() if ln.rstrip().endswith(" ok")]
     assert [os.path.basename(p) for p in ok] == ["m.toml", "zoo.py:fine"], out
+
+
+# -- 4. a complex function -----------------------------------------------------------------
+
+def test_is_observable_of_a_complex_function_is_refused():
+    """r is observable, phi is not: the old answer, True, was that of the real part."""
+    rep = zoo_report("unicycle_polar", "range_known", samples=64)
+    with pytest.raises(uj.ModelError, match="complex value .*must be real"):
+        rep.is_observable(lambda x: x[0] + 1j * x[1])

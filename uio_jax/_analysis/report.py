@@ -379,6 +379,8 @@ class Report:
         if getattr(out, "shape", None) != ():
             raise ModelError(f"{what}: function must return a scalar (), got shape "
                              f"{getattr(out, 'shape', None)}")
+        if np.issubdtype(np.dtype(getattr(out, "dtype", np.float64)), np.complexfloating):
+            raise ModelError(f"{what}: function returns a complex value ({out.dtype}); it must be real")
         return of_z
 
     def to_dict(self) -> dict:
