@@ -202,3 +202,56 @@ def test_is_observable_of_a_complex_function_is_refused():
     rep = zoo_report("unicycle_polar", "range_known", samples=64)
     with pytest.raises(uj.ModelError, match="complex value .*must be real"):
         rep.is_observable(lambda x: x[0] + 1j * x[1])
+
+
+# -- 5. terminal escapes from model text ---------------------------------------------------
+
+ESC = "\x1b[2J"
+
+
+def _inert(text):
+    assert "\x1b" not in text and "\r" not in text, repr(text)
+    assert not any(ln.startswith("forged") for ln in text.splitlines()), text
+
+
+def test_report_text_of_a_hostile_name_is_inert(tmp_path, capsys):
+    path = tmp_path / "evil.toml"
+    path.write_text(TOML.replace('"two states"', '"evil\\u001b[2J\\nforged line\\r"'))
+    assert cli.main(["analyze", str(path), "--samples", "64", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    _inert(out)
+    assert out.splitlines()[0] == "uio_jax report: evil\\x1b[2J\\nforged line\\r (orc)"
+    assert uj.load_system(str(path)).name.startswith("evil\x1b")  # the data keeps the text
+
+
+def test_batch_table_and_errors_of_hostile_text_are_inert(tmp_path, capsys):
+    (tmp_path / f"m{ESC}.toml").write_text(textwrap.dedent(TOML))
+    (tmp_path / "zoo.py").write_text(textwrap.dedent(f"""
+        # uio-jax: models
+        def boom():
+            raise RuntimeError({ESC!r} + "boom\\rforged")
+        """))
+    assert cli.main(["batch", str(tmp_path), "--samples", "64", "--no-progress", "--no-cache",
+                     "--markdown", str(tmp_path / "t.md")]) == 1
+    out = capsys.readouterr().out
+    _inert(out)
+    assert "m\\x1b[2J.toml" in out and "RuntimeError: \\x1b[2Jboom" in out, out
+    _inert((tmp_path / "t.md").read_text())
+
+
+def test_an_error_line_of_hostile_text_is_one_inert_line(tmp_path, capsys):
+    path = tmp_path / "zoo.py"
+    path.write_text(f"def f():\n    raise RuntimeError({ESC!r} + 'boom\\rforged')\n")
+    assert cli.main(["analyze", f"{path}:f"]) == 2
+    _inert(one_line_error(capsys))
+
+
+def test_montecarlo_summary_of_hostile_units_is_inert(tmp_path, capsys):
+    path = tmp_path / "toy.py"
+    path.write_text(textwrap.dedent(TOY).replace('units={"x": "m"}', 'units={"x": "m\\x1b[2J\\nforged | 1"}')
+                    .replace('name="toy"', 'name="toy\\x1b]0;title\\x07"'))
+    assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-analysis",
+                     "--no-progress", "--no-cache"]) == 0
+    out = capsys.readouterr().out
+    _inert(out)
+    assert "\x07" not in out and "m\\x1b[2J\\nforged | 1" in out, out

@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
+from .._printable import printable
 from .evidence import Certificate, Step, jsonable
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
@@ -484,7 +485,7 @@ class Report:
         return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
-        title = f"uio_jax report: {self.system_name or 'system'} ({self.method})"
+        title = f"uio_jax report: {printable(self.system_name or 'system')} ({self.method})"
         lines = [title, "=" * len(title), f"answer: {self.answer_kind()}"]
         obs = [s for s in self.states if self.observable[s]]
         of = f"{self.n}" + (" (states and parameters)" if self.params else "")
@@ -520,7 +521,7 @@ class Report:
         lines.append(f"certificate: {self.certificate}")
         for note in self.notes:
             lines.append(f"note: {note}")
-        return "\n".join(lines)
+        return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
 
 
 _CENTRE = "centre of the sampling box of every state and parameter"

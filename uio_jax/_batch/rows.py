@@ -7,6 +7,8 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from .._printable import printable
+
 
 @dataclass(frozen=True)
 class BatchRow:
@@ -221,7 +223,7 @@ class BatchResult:
                           "escalated": "escalated", "ok": "ok"}.get(r.status or "ok", r.status)
                 cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
                           ("" if status == "ok" else status) if markdown else status]
-            body.append(cells)
+            body.append([printable(c) for c in cells])  # names and errors from model files
         return headers, body
 
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import OptionError
+from .._printable import printable
 
 #: A quantity "converges" when its RMSE at the end and its RMS filter sigma at the end are
 #: both at most this fraction of the prior std (the expected RMSE at t = 0).
@@ -340,7 +341,7 @@ class MonteCarloResult:
                          f"{tm['devices']} {tm['device_kind']} device(s); compile "
                          f"{tm['compile_s']:.2f} s, run {tm['run_s']:.2f} s; load average "
                          f"{tm['loadavg'][0]:.2f}")
-        return "\n".join(lines)
+        return "\n".join(map(printable, lines))  # names and units from a model file, made inert
 
     def __str__(self) -> str:
         return self.summary()
@@ -376,7 +377,7 @@ def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:
     k = len(header)
     if len(align) != k or set(align) - set("lr"):
         raise OptionError(f"align needs one of 'l', 'r' per column ({k}), got {align!r}")
-    cells = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    cells = [list(map(printable, header))] + [list(map(printable, r)) for r in rows]
     for r in cells:
         if len(r) != k:
             raise OptionError(f"a table row has {len(r)} cells, the header {k}")

@@ -18,6 +18,7 @@ from .._analysis.memory import ENV as MEMORY_ENV
 from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
+from .._printable import printable
 from . import analyze, batch, montecarlo
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
 
@@ -72,10 +73,10 @@ def main(argv=None) -> int:
         with compile_cache(args):
             return COMMANDS[args.command].run(args)
     except (UsageError, UioJaxError) as exc:
-        print(f"uio-jax: error: {exc}", file=sys.stderr)
+        print(f"uio-jax: error: {printable(exc)}", file=sys.stderr)  # one line, inert
         return EXIT_USAGE
     except OSError as exc:
-        print(f"uio-jax: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+        print(printable(f"uio-jax: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")),
               file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -3,6 +3,7 @@
 import json
 
 from .._errors import UioJaxError
+from .._printable import printable
 from .common import add_cache_options, check_writable, write_output
 
 
@@ -45,7 +46,7 @@ def run(args) -> int:
     print(rep)
     if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
         try:
-            print(rep.format_directions())
+            print(printable(rep.format_directions(), keep="\n"))
         except UioJaxError as exc:
             print(f"unobservable directions: not computed at the centre of the domain ({exc})")
     if args.json:

@@ -2,6 +2,7 @@
 
 import sys
 
+from .._printable import printable
 from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, write_output
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
@@ -82,11 +83,11 @@ def run(args) -> int:
         print(f"uio-jax: {result.partial}", file=sys.stderr)
     print(result.table())
     for path in result.not_imported:
-        print(f"not imported: {path} (no '# uio-jax: models' marker; name the file or pass --import-python)")
+        print(f"not imported: {printable(path)} (no '# uio-jax: models' marker; name the file or pass --import-python)")
     print(result.summary())
     write_outputs(outputs, result)
     for path, _ in outputs:
-        print(f"written: {path}")
+        print(f"written: {printable(path)}")
     if code is not None:
         return code
     return 0 if result.ok else EXIT_FAILED
