@@ -255,3 +255,32 @@ def test_montecarlo_summary_of_hostile_units_is_inert(tmp_path, capsys):
     out = capsys.readouterr().out
     _inert(out)
     assert "\x07" not in out and "m\\x1b[2J\\nforged | 1" in out, out
+
+
+# -- 6. tracebacks and raw exceptions ------------------------------------------------------
+
+@pytest.mark.parametrize("name, text", [("deep.json", "[" * 100000), ("deep.toml", "a = " + "[" * 100000)],
+                         ids=["json", "toml"])
+def test_a_deeply_nested_model_file_is_a_one_line_error(tmp_path, capsys, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    assert cli.main(["analyze", str(path)]) == 2
+    assert "nested too deeply" in one_line_error(capsys)
+
+
+def test_plot_functions_name_what_they_need():
+    with pytest.raises(TypeError, match="plot_analysis needs a uio_jax.Report.*got str"):
+        uj.plot_analysis("str")
+    with pytest.raises(TypeError, match="plot_montecarlo needs a uio_jax MonteCarloResult.*got str"):
+        uj.plot_montecarlo("str")
+
+
+def test_batch_on_row_not_callable_is_refused_before_any_model_runs(monkeypatch):
+    from uio_jax._batch import one_model
+
+    ran = []
+    monkeypatch.setattr(one_model, "analyze", lambda *a, **k: ran.append(a))
+    system = uj.System(("a",), {"y": lambda x: x[0]})
+    with pytest.raises(TypeError, match="on_row must be None or a function"):
+        uj.batch_analyze([system], on_row=5, samples=64, progress=False)
+    assert not ran

@@ -40,8 +40,12 @@ def plot_analysis(report, path=None, ax=None):
         the matplotlib Figure.
 
     Raises:
+        TypeError: ``report`` is not a Report.
         OptionError: ``ax`` is not two Axes, or ``path`` has an unknown format.
     """
+    if not all(hasattr(report, a) for a in ("method", "dim", "n", "history", "certificate")):
+        raise TypeError(f"plot_analysis needs a uio_jax.Report (uio_jax.analyze(...)), got "
+                        f"{type(report).__name__}")
     if path is not None:
         fmt = check_figure_path(path)
     fig, (ax_dim, ax_sv) = _axes(ax, standalone=path is not None)

@@ -13,6 +13,7 @@ model stopped on timeout says how far it got; then the row's fields (a dict).
 """
 
 import multiprocessing
+import os
 import signal
 from multiprocessing.connection import wait
 
@@ -183,7 +184,10 @@ def _worker_main(conn, cache_dir, slot=None):
             return
         if task is None:
             return
-        conn.send(worker_run(*task, conn=conn))
+        try:
+            conn.send(worker_run(*task, conn=conn))
+        except OSError:  # the parent is gone (killed, SIGTERM): no one to report to, no traceback
+            return
 
 
 def step_text(step, n=None) -> str:
@@ -201,7 +205,10 @@ def worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> 
 
     def send_step(step):
         if conn is not None:
-            conn.send(("step", step_text(step, n[0] if n else None)))
+            try:
+                conn.send(("step", step_text(step, n[0] if n else None)))
+            except OSError:  # the parent is gone: stop the analysis it can no longer receive
+                os._exit(0)
 
     def loaded(system):
         n.append(len(system.states) + len(system.param_names))

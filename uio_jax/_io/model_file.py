@@ -142,12 +142,16 @@ def read_model_file(path) -> ModelSpec:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise LoadError(f"{path}: TOML syntax error: {exc}") from None
+        except RecursionError:
+            raise LoadError(f"{path}: TOML nested too deeply (arrays or tables in one another)") from None
     else:
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise LoadError(f"{path}: JSON syntax error: {exc.msg} (at line {exc.lineno}, "
                             f"column {exc.colno})") from None
+        except RecursionError:
+            raise LoadError(f"{path}: JSON nested too deeply (arrays or objects in one another)") from None
     return spec_from_dict(data, path)
 
 

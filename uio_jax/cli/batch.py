@@ -1,5 +1,7 @@
 """``uio-jax batch PATH... [options]``: certify many models into one table."""
 
+import contextlib
+import signal
 import sys
 
 from .._printable import printable
@@ -7,6 +9,8 @@ from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, 
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
 EXIT_INTERRUPTED = 130
+#: Exit code after SIGTERM (128 + SIGTERM): stopped as by Ctrl-C.
+EXIT_TERMINATED = 143
 
 
 def add_parser(subparsers, analysis_options):
@@ -52,7 +56,7 @@ def run(args) -> int:
     model. ``--scheduler ADDRESS`` sends the models to a Dask cluster (a scheduler that
     cannot be reached is a one-line error, exit code 2). On Ctrl-C the workers are
     stopped, the partial table is printed and written (marked "interrupted after K of N
-    models") and the exit code is 130.
+    models") and the exit code is 130; SIGTERM does the same with exit code 143.
     """
     from .._analysis.options import check_options
     from .._batch.run import BatchInterrupted, batch_analyze
@@ -69,17 +73,18 @@ def run(args) -> int:
                          "run the models)")
     outputs = [(path, fmt) for path, fmt in ((args.json, "json"), (args.csv, "csv"),
                                               (args.markdown, "markdown")) if path]
-    code = None
+    code, terminated = None, []
     try:
-        result = batch_analyze(args.paths, jobs=args.jobs, timeout=args.timeout, client=args.scheduler,
-                               progress=False if args.no_progress else None,
-                               keep_reports=False, import_python=args.import_python,
-                               on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
-                               method=args.method, samples=args.samples,
-                               seed=args.seed, rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                  known_inputs=args.known_inputs)
+        with _sigterm_as_interrupt(terminated):
+            result = batch_analyze(
+                args.paths, jobs=args.jobs, timeout=args.timeout, client=args.scheduler,
+                progress=False if args.no_progress else None, keep_reports=False,
+                import_python=args.import_python,
+                on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
+                method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
+                max_order=args.max_order, k_max=args.k_max, known_inputs=args.known_inputs)
     except BatchInterrupted as exc:
-        result, code = exc.result, EXIT_INTERRUPTED
+        result, code = exc.result, EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
         print(f"uio-jax: {result.partial}", file=sys.stderr)
     print(result.table())
     for path in result.not_imported:
@@ -91,6 +96,26 @@ def run(args) -> int:
     if code is not None:
         return code
     return 0 if result.ok else EXIT_FAILED
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt(flag):
+    """SIGTERM stops the batch as Ctrl-C does (workers stopped, the partial table printed
+    and written; ``flag`` gets an entry), instead of killing this process under its
+    workers."""
+    def handler(signum, frame):
+        flag.append(signum)
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave SIGTERM as it is
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def write_outputs(outputs, result):
