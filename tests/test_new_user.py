@@ -2,6 +2,7 @@
 code 2, a model file never overwritten by its report, user code that exits turned into an
 error, text from model files sanitised, JSON that says what the text says."""
 
+import json
 import os
 import stat
 import textwrap
@@ -284,3 +285,34 @@ def test_batch_on_row_not_callable_is_refused_before_any_model_runs(monkeypatch)
     with pytest.raises(TypeError, match="on_row must be None or a function"):
         uj.batch_analyze([system], on_row=5, samples=64, progress=False)
     assert not ran
+
+
+# -- 7. machine-readable output that disagrees with the text -------------------------------
+
+def test_analyze_json_of_a_model_without_parameters_has_the_printed_directions(tmp_path, capsys):
+    out_json = tmp_path / "r.json"
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--no-progress", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    assert "unobservable directions at" in out and "+0.707 phi  +0.707 theta" in out, out
+    d = json.loads(out_json.read_text())
+    (direction,) = d["unobservable_directions"]
+    assert direction["r"] == 0.0 and abs(direction["phi"] - 0.5 ** 0.5) < 1e-3, direction
+    assert "off the centre" in d["directions_at"]["rule"] and d["identifiable_combinations"] == []
+
+
+def test_markdown_status_cell_of_an_ok_row_says_ok(tmp_path, capsys):
+    md = tmp_path / "t.md"
+    assert cli.main(["batch", GOOD, "--samples", "64", "--no-progress", "--markdown", str(md)]) == 0
+    row = next(ln for ln in md.read_text().splitlines() if "range_known" in ln)
+    assert row.rstrip().endswith("| ok |"), row
+
+
+def test_montecarlo_json_has_the_verdict_line_and_the_filter(tmp_path, capsys, toy):
+    out_json = tmp_path / "mc.json"
+    assert cli.main(["montecarlo", toy, "--trials", "2", "--keep", "0", "--no-progress", "--no-cache",
+                     "--json", str(out_json)]) == 0
+    verdict_line = capsys.readouterr().out.splitlines()[1]
+    d = json.loads(out_json.read_text())
+    assert d["headline"][0] == verdict_line and d["filter"] == "fast"
+    assert d["outcome"] == d["comparison"]["verdict"] == "agrees", verdict_line
+    assert d["comparison"]["agree"] is True

@@ -373,7 +373,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
                     "trial_steps_per_s": B * exp.n_steps / max(timings["run_s"], 1e-12),
                     "loadavg": os.getloadavg()})
     t = np.arange(stats.shape[1]) * exp.record_every * exp.epoch_steps * exp.dt
-    return MonteCarloResult(exp, B, seed, t, stats, traj, timings)
+    return MonteCarloResult(exp, B, seed, t, stats, traj, timings, filter)
 
 
 def simulate_trials(exp: Experiment, first: int, count: int, *, seed: int, filter: str = "fast",

@@ -44,13 +44,12 @@ def run(args) -> int:
                       rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
                   known_inputs=args.known_inputs)
     print(rep)
-    if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
-        try:
-            print(printable(rep.format_directions(), keep="\n"))
-        except UioJaxError as exc:
-            print(f"unobservable directions: not computed at the centre of the domain ({exc})")
+    directions = _print_directions(rep)
     if args.json:
-        write_output(args.json, json.dumps(rep.to_dict(), indent=2))
+        d = rep.to_dict()
+        for key, value in directions.items():  # what the text printed, parameters or not
+            d.setdefault(key, value)
+        write_output(args.json, json.dumps(d, indent=2))
         print(f"report written to {args.json}")
     if args.plot:
         from .._analysis.plots import plot_analysis
@@ -58,3 +57,22 @@ def run(args) -> int:
         plot_analysis(rep, args.plot)
         print(f"figure written to {args.plot}")
     return 0
+
+
+def _print_directions(rep) -> dict:
+    """Print the unobservable directions of a report that has some (at the centre of the
+    domain); returns them as the JSON keys :meth:`Report.to_dict` gives a model with
+    parameters (``unobservable_directions``, ``identifiable_combinations``,
+    ``directions_at``), empty when there are none."""
+    if rep.dim >= rep.n:  # n: states plus parameters (rep.variables)
+        return {}
+    try:
+        summary = rep.direction_summary()
+    except UioJaxError as exc:
+        print(printable(f"unobservable directions: not computed at the centre of the domain ({exc})"))
+        return {"unobservable_directions": None, "identifiable_combinations": None,
+                "directions_at": {"rule": "centre of the domain", "point": None, "error": str(exc)}}
+    print(printable(rep.format_directions(summary), keep="\n"))
+    return {"unobservable_directions": summary["directions"],
+            "identifiable_combinations": summary["identifiable_combinations"],
+            "directions_at": {"rule": summary["rule"], "point": summary["point"]}}

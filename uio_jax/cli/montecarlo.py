@@ -120,9 +120,7 @@ def run(args) -> int:
         comparison = res.compare(analyze(exp.analysis_system()))
     print(res.summary(comparison))
     if args.json:
-        d = res.to_dict()
-        if comparison is not None:
-            d["comparison"] = comparison
+        d = res.to_dict(comparison)  # says what the text says: outcome, headline, filter
         write_output(args.json, json.dumps(d, indent=1))
         print(f"summary written to {args.json}")
     if args.plot:
