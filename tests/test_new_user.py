@@ -5,10 +5,12 @@ error, text from model files sanitised, JSON that says what the text says."""
 import json
 import os
 import stat
+import subprocess
+import sys
 import textwrap
 
 import pytest
-from helpers import one_line_error, zoo_path, zoo_report
+from helpers import ROOT, one_line_error, zoo_path, zoo_report
 
 import uio_jax as uj
 from uio_jax import cli
@@ -316,3 +318,26 @@ def test_montecarlo_json_has_the_verdict_line_and_the_filter(tmp_path, capsys, t
     assert d["headline"][0] == verdict_line and d["filter"] == "fast"
     assert d["outcome"] == d["comparison"]["verdict"] == "agrees", verdict_line
     assert d["comparison"]["agree"] is True
+
+
+# -- 8. smaller items ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("expr", ["0", "a - a"])
+def test_a_constant_output_gets_a_note(tmp_path, expr):
+    path = tmp_path / "c.toml"
+    path.write_text(textwrap.dedent(TOML).replace('y = "a"', f'y = "{expr}"\nz = "b"'))
+    rep = uj.analyze(uj.load_system(str(path)), samples=64)
+    assert any(n.startswith("output y adds no direction at m=0: constant") for n in rep.notes), rep.notes
+    assert not any("output z" in n for n in rep.notes)
+
+
+def test_a_reader_that_leaves_early_ends_the_command_quietly(tmp_path, toml_model):
+    """``uio-jax analyze m.toml | head -0``: no 'error: Broken pipe', exit code 141 (SIGPIPE's)."""
+    proc = subprocess.Popen([sys.executable, "-m", "uio_jax", "analyze", toml_model, "--samples", "64",
+                             "--no-progress", "--no-cache"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, PYTHONPATH=ROOT))
+    proc.stdout.close()  # the reader is gone before the report is printed
+    with proc.stderr:
+        err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert err == "", err

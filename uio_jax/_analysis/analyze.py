@@ -103,10 +103,29 @@ def analyze(
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
-    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs)
+    report = _with_idle_outputs_note(_run(system, method, samples, seed, rtol, max_order, k_max,
+                                          known_inputs), system)
     if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
         report = _with_symmetries(report, system, seed)
     return report
+
+
+def _with_idle_outputs_note(report, system):
+    """``report`` with a note naming the outputs that add no direction at step 0 (a
+    constant such as ``"0"``, ``"x - x"`` or a boolean, or a function of the outputs kept
+    before them), when the first step lists outputs by name."""
+    first = report.history[0] if report.history else None
+    names = list(system.outputs)
+    if first is None or first.m != 0 or not set(first.added) <= set(names):
+        return report
+    idle = [y for y in names if y not in first.added]
+    if not idle:
+        return report
+    many = len(idle) > 1
+    note = (f"output{'s' if many else ''} {', '.join(idle)} add{'' if many else 's'} no direction at "
+            "m=0: constant on the domain (a number, a boolean, x - x), or a function of the "
+            "outputs kept before")
+    return dataclasses.replace(report, notes=tuple(report.notes) + (note,))
 
 
 def _with_symmetries(report, system, seed):

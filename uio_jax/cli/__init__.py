@@ -12,6 +12,7 @@ Every option is checked before any work (:func:`uio_jax._analysis.options.check_
 the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is known).
 """
 
+import os
 import sys
 
 from .._analysis.memory import ENV as MEMORY_ENV
@@ -21,6 +22,9 @@ from .._errors import UioJaxError
 from .._printable import printable
 from . import analyze, batch, montecarlo
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
+
+#: Exit code when the reader of stdout left early (128 + SIGPIPE, as ``yes | head`` gives).
+EXIT_STDOUT_CLOSED = 141
 
 COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo}
 
@@ -75,6 +79,11 @@ def main(argv=None) -> int:
     except (UsageError, UioJaxError) as exc:
         print(f"uio-jax: error: {printable(exc)}", file=sys.stderr)  # one line, inert
         return EXIT_USAGE
+    except BrokenPipeError as exc:
+        if exc.filename is not None:  # an output file (a FIFO whose reader left): lost, an error
+            print(printable(f"uio-jax: error: {exc.strerror}: {exc.filename}"), file=sys.stderr)
+            return EXIT_USAGE
+        return _stdout_closed()
     except OSError as exc:
         print(printable(f"uio-jax: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")),
               file=sys.stderr)
@@ -82,6 +91,17 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("uio-jax: interrupted", file=sys.stderr)
         return 130
+
+
+def _stdout_closed() -> int:
+    """The reader of stdout left (``uio-jax ... | head``): end quietly, as a process killed by
+    SIGPIPE would (exit code 141), without a second error when Python flushes stdout at exit."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout without a file descriptor (captured): nothing to redirect
+        pass
+    return EXIT_STDOUT_CLOSED
 
 
 if __name__ == "__main__":  # pragma: no cover
