@@ -341,3 +341,16 @@ def test_a_reader_that_leaves_early_ends_the_command_quietly(tmp_path, toml_mode
         err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, err
     assert err == "", err
+
+
+@pytest.mark.parametrize("command", ["batch", "montecarlo"])
+def test_a_bad_pin_workers_setting_is_refused(monkeypatch, capsys, command):
+    from uio_jax._filter import cluster
+
+    monkeypatch.setenv("UIO_JAX_PIN_WORKERS", "maybe")
+    model = GOOD if command == "batch" else zoo_path("unicycle_polar") + ":range_known"
+    assert cli.main([command, model, "--scheduler", "tcp://127.0.0.1:1", "--no-progress"]) == 2
+    assert "UIO_JAX_PIN_WORKERS must be 0" in one_line_error(capsys)
+    monkeypatch.setattr(cluster, "_CLAIMED", [])
+    with pytest.raises(uj.OptionError, match="got 'maybe'"):  # on a worker host: its task's error
+        cluster.claim_one_cpu()

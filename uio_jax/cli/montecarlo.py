@@ -74,8 +74,9 @@ def check_options(args):
     check_writable(args.json, args.plot, names=("--json", "--plot"), 
                    inputs=[args.experiment] if getattr(args, "experiment", None) else ())
     if getattr(args, "scheduler", None) is not None:
-        from .._filter.cluster import check_scheduler
+        from .._filter.cluster import check_scheduler, pin_workers
 
+        pin_workers()
         check_scheduler(args.scheduler)
 
 
