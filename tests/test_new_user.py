@@ -354,3 +354,9 @@ def test_a_bad_pin_workers_setting_is_refused(monkeypatch, capsys, command):
     monkeypatch.setattr(cluster, "_CLAIMED", [])
     with pytest.raises(uj.OptionError, match="got 'maybe'"):  # on a worker host: its task's error
         cluster.claim_one_cpu()
+
+
+def test_k_max_on_an_orc_run_is_noted(capsys):
+    assert cli.main(["analyze", GOOD, "--samples", "64", "--no-progress", "--k-max", "40"]) == 0
+    out = capsys.readouterr().out
+    assert "note: k_max=40 applies to the EORC only: the orc analysis that ran does not use it" in out, out

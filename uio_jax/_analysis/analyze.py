@@ -67,7 +67,7 @@ def analyze(
         k_max: highest order k of the EORC (default n + 2, and the EORC stops earlier once
             every unknown input is observable and the states reach the rank they have with
             every input known: no later order changes a verdict); given, every order up to
-            it is run. Ignored by the other methods.
+            it is run. The other methods do not use it (their report notes it when given).
         known_inputs: what a known input is: ``"switchable"`` (default; it may be chosen
             freely and may jump, the meaning of Martinelli's single-input papers and of the
             classical ORC/EORC) or ``"smooth"`` (a generic smooth function of time, known
@@ -105,6 +105,10 @@ def analyze(
     system = system.autonomous()
     report = _with_idle_outputs_note(_run(system, method, samples, seed, rtol, max_order, k_max,
                                           known_inputs), system)
+    if k_max is not None and report.method != "eorc":  # given, but not used: said, not silent
+        report = dataclasses.replace(report, notes=tuple(report.notes) + (
+            f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
+            "not use it (max_order caps its steps)",))
     if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
         report = _with_symmetries(report, system, seed)
     return report

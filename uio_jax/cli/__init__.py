@@ -55,7 +55,8 @@ def _analysis_options(p):
     p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k), >= 0")
     p.add_argument("--k-max", type=int, default=d["k_max"],
                    help="highest order k of the EORC, >= 1 (default n + 2, or earlier where no "
-                        "higher order can change a verdict; given, every order up to it is run)")
+                        "higher order can change a verdict; given, every order up to it is run); "
+                        "the other methods do not use it (the report notes it)")
     p.add_argument("--known-inputs", default=d["known_inputs"], choices=KNOWN_INPUTS,
                    help="what a known input is: switchable (default: it may jump, the papers' "
                         "meaning) or smooth (a generic smooth function of time, TUIO6's)")
