@@ -360,3 +360,63 @@ def test_k_max_on_an_orc_run_is_noted(capsys):
     assert cli.main(["analyze", GOOD, "--samples", "64", "--no-progress", "--k-max", "40"]) == 0
     out = capsys.readouterr().out
     assert "note: k_max=40 applies to the EORC only: the orc analysis that ran does not use it" in out, out
+
+
+# -- 3 (continued). imports under a time limit ---------------------------------------------
+
+LISTED_ZOO = """
+# uio-jax: models
+import uio_jax as uj
+
+__all__ = ["fine", "CONST", "typed", "rig_experiment", "helper"]
+
+def fine():
+    return uj.System(("a",), {"y": lambda x: x[0]})
+
+def typed() -> int:
+    return 3
+
+def rig_experiment():
+    pass
+
+def helper(x):
+    return x
+
+def not_public():
+    return uj.System(("a",), {"y": lambda x: x[0]})
+
+CONST = uj.System(("a", "b"), {"y": lambda x: x[0]})
+raise RuntimeError("never imported here")
+"""
+
+
+def test_a_zoo_file_is_read_not_imported_under_a_time_limit(tmp_path):
+    from uio_jax._batch import discovery
+
+    path = tmp_path / "zoo.py"
+    path.write_text(textwrap.dedent(LISTED_ZOO))
+    entries, skipped = discovery.discover(str(tmp_path), build=False, import_here=False)
+    assert [(e.label.rpartition(":")[2], e.deferred) for e in entries] == [("fine", True), ("CONST", True)]
+    assert [(s.rpartition(":")[2], why) for s, why in skipped] == [
+        ("typed", "annotated to return int"), ("rig_experiment", "a Monte Carlo experiment (name ends in _experiment)")]
+    path.write_text("# uio-jax: models\ndef f(:\n")
+    (entry,), _ = discovery.discover(str(path), build=False, import_here=False)
+    assert "fails to load (line 2): SyntaxError" in entry.error
+
+
+@pytest.mark.slow
+def test_zoo_files_that_hang_or_end_the_process_at_import_are_rows_under_a_timeout(tmp_path, capsys,
+                                                                                  toml_model):
+    """Issue 40: with --timeout the zoo files are imported in the workers, under the limit:
+    ``os._exit(0)`` or ``while True: pass`` at import is that model's row, the TOML model
+    beside them is analysed."""
+    system = "def m():\n    return uj.System(('a',), {'y': lambda x: x[0]})\n"
+    (tmp_path / "exits.py").write_text(f"# uio-jax: models\nimport os\nimport uio_jax as uj\nos._exit(0)\n{system}")
+    (tmp_path / "hangs.py").write_text(f"# uio-jax: models\nimport uio_jax as uj\nwhile True:\n    pass\n{system}")
+    assert cli.main(["batch", str(tmp_path), "--timeout", "6", "--samples", "64", "--no-progress",
+                     "--no-cache"]) == 1
+    out = capsys.readouterr().out
+    rows = {ln.split()[0].rpartition("/")[2]: ln for ln in out.splitlines() if ln.startswith(str(tmp_path))}
+    assert "worker process died twice (exit code 0)" in rows["exits.py:m"], out
+    assert "timed out after 6 s" in rows["hangs.py:m"], out
+    assert rows["m.toml"].rstrip().endswith(" ok"), out

@@ -129,7 +129,9 @@ def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row,
            analyze_kwargs):
     """:func:`batch_analyze` once its options are checked (``slots``: models at once)."""
     # models that may run in worker processes are built there: not here first as well
+    # with a time limit, the zoo files are imported only in the workers, under it
     entries, skipped = discover(models, build=jobs == 1 and timeout is None and client is None,
+                                import_here=timeout is None,
                                 import_python=import_python)
     keys = [time_key(e, analyze_kwargs) for e in entries]
     recorded = recorded_seconds(keys)

@@ -33,8 +33,8 @@ def add_parser(subparsers, analysis_options):
     b.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     b.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
                    help="time limit per model: a model over it is stopped and reported as timed out, "
-                        "with the last order it reached (runs models in worker processes; default: "
-                        "no limit)")
+                        "with the last order it reached (runs models in worker processes, which also "
+                        "import the zoo files, under the limit; default: no limit)")
     b.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the models on the workers of a running Dask cluster (tcp://host:8786; "
                         "needs uio_jax[cluster]); the workers must see the model files and the cache "
