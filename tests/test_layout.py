@@ -2,7 +2,7 @@
 
 The rule (README, "Layout"): ``A <- B`` means B may import A, never the reverse.
 
-    _errors, _progress  (leaves: import nothing of the package)
+    _errors, _progress, _output  (leaves: import nothing of the package)
       <- _engine                expression graph, jaxpr interpreters, Taylor arithmetic, programs, caches
       <- _model                 System, sampling, experiments
       <- _calculus              Lie derivatives, the node graph, powers of a field
@@ -41,7 +41,7 @@ ALLOWED = {
 
 WINGS = {"_model": "model", "_engine": "engine", "_calculus": "calculus", "_analysis": "analysis",
          "_filter": "filter", "_io": "io", "_batch": "batch", "cli": "cli"}
-LEAVES = {"_errors", "_progress"}
+LEAVES = {"_errors", "_progress", "_output"}
 
 
 def layer_of(module: str) -> str:

@@ -8,7 +8,7 @@ import sys
 import threading
 import time
 
-from ._printable import printable
+from ._output import printable
 
 _STEP_LISTENER = contextvars.ContextVar("uio_jax_step_listener", default=None)
 

@@ -54,7 +54,7 @@ def plot_analysis(report, path=None, ax=None):
     name = report.system_name or "system"
     fig.suptitle(f"{name} ({report.method}): dim {report.dim} of {report.n}", fontsize=11)
     if path is not None:
-        from .._io.output import write_figure
+        from .._output import write_figure
 
         write_figure(fig, path, fmt, dpi=100, bbox_inches="tight")
     return fig

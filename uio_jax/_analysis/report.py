@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
-from .._printable import printable
+from .._output import printable
 from .evidence import Certificate, Step, jsonable
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).

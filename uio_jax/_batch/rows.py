@@ -7,7 +7,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
-from .._printable import printable
+from .._output import printable
 
 
 @dataclass(frozen=True)

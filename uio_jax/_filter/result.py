@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import OptionError
-from .._printable import printable
+from .._output import printable
 
 #: A quantity "converges" when its RMSE at the end and its RMS filter sigma at the end are
 #: both at most this fraction of the prior std (the expected RMSE at t = 0).

@@ -19,7 +19,7 @@ from .._analysis.memory import ENV as MEMORY_ENV
 from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError
-from .._printable import printable
+from .._output import printable
 from . import analyze, batch, montecarlo
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
 

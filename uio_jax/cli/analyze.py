@@ -3,7 +3,7 @@
 import json
 
 from .._errors import UioJaxError
-from .._printable import printable
+from .._output import printable
 from .common import add_cache_options, check_writable, write_output
 
 

@@ -4,7 +4,7 @@ import contextlib
 import signal
 import sys
 
-from .._printable import printable
+from .._output import printable
 from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, write_output
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.

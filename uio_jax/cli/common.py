@@ -6,7 +6,7 @@ import contextlib
 import os
 import sys
 
-from .._io.output import write_output  # noqa: F401  (the one writer of every output)
+from .._output import write_output  # noqa: F401  (the one writer of every output)
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1

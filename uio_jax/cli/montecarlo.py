@@ -9,8 +9,8 @@ import warnings
 from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
-from .._io.output import write_figure
 from .._model.experiment import TimeScaleWarning
+from .._output import write_figure
 from .common import check_writable, write_output
 
 #: Figures are saved at this resolution (raster formats; vector formats ignore it).
