@@ -114,6 +114,20 @@ def test_an_empty_output_name_is_refused_before_any_work(tmp_path, capsys, argv)
     assert "needs a file name" in line and "no_such_model" not in line, line
 
 
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc")
+@pytest.mark.parametrize("argv", [
+    ["batch", "{missing}", "--csv", "/proc/t.csv"],
+    ["analyze", "{missing}", "--json", "/proc/r.json"],
+    ["montecarlo", "{missing}:toy", "--plot", "/proc/mc.png"],
+])
+def test_an_output_where_no_file_can_be_made_is_refused_before_any_work(tmp_path, capsys, argv):
+    """/proc exists and, as root, passes the access check: the write is tried up front."""
+    missing = str(tmp_path / "no_such_model.toml")
+    assert cli.main([a.format(missing=missing) for a in argv]) == 2
+    line = one_line_error(capsys)
+    assert "cannot write" in line and "/proc/" in line and "no_such_model" not in line, line
+
+
 def test_a_device_output_is_written_in_place(tmp_path, capsys):
     """/dev/null stays /dev/null (an atomic replace would turn it into a file)."""
     null = _full_device(tmp_path, "null", minor=3)

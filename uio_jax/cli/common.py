@@ -100,6 +100,7 @@ def check_writable(*paths, names=None, inputs=()):
         if not os.access(parent, os.W_OK) or (os.path.exists(full) and not os.access(full, os.W_OK)):
             raise UsageError(f"cannot write {what}: {'it' if os.path.exists(full) else 'directory ' + parent}"
                              " is not writable")
+        _probe(full, what)
         same = next((src for src in read if _same_file(full, src)), None)
         if same is not None:
             raise UsageError(f"cannot write {what}: it is the input model file {same}, which it would "
@@ -109,6 +110,21 @@ def check_writable(*paths, names=None, inputs=()):
             raise UsageError(f"{seen[key] or 'two outputs'} and {name or 'another output'} name the same "
                              f"file {path}")
         seen[key] = name
+
+
+def _probe(full, what):
+    """Try the write without writing: open an existing regular file for appending (nothing
+    changes), or create and remove a file beside a new one (``/proc/x``, a read-only file
+    system: refused here, not after the work). A device or a FIFO is left to the write."""
+    try:
+        if os.path.isfile(full):
+            open(full, "ab").close()
+        elif not os.path.exists(full):
+            probe = f"{full}.{os.getpid()}.probe"
+            open(probe, "wb").close()
+            os.remove(probe)
+    except OSError as exc:
+        raise UsageError(f"cannot write {what}: {exc.strerror or exc}") from None
 
 
 def _input_files(inputs):
