@@ -184,6 +184,17 @@ def test_a_model_that_exits_is_a_one_line_error(tmp_path, capsys, name):
     assert "sys.exit(0)" in one_line_error(capsys)
 
 
+def test_an_experiment_function_that_exits_in_the_run_is_a_one_line_error(tmp_path, capsys):
+    """The measurement function runs only when JAX traces the filter, inside the run."""
+    path = tmp_path / "toy.py"
+    path.write_text(textwrap.dedent(TOY).replace('uj.Measurement("y", lambda x: x[0], 0.1, 1)',
+                                                 'uj.Measurement("y", _exits, 0.1, 1)')
+                    + "\n\ndef _exits(x):\n    raise SystemExit(0)\n")
+    assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-analysis",
+                     "--no-progress", "--no-cache"]) == 2
+    assert "called sys.exit(0) (SystemExit) during montecarlo" in one_line_error(capsys)
+
+
 def test_a_model_file_that_exits_at_import_is_a_one_line_error(tmp_path, capsys):
     path = tmp_path / "exits.py"
     path.write_text("import sys\nsys.exit(0)\n")

@@ -18,7 +18,7 @@ import sys
 from .._analysis.memory import ENV as MEMORY_ENV
 from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
-from .._errors import UioJaxError
+from .._errors import UioJaxError, exit_message
 from .._output import printable
 from . import analyze, batch, montecarlo
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
@@ -76,7 +76,11 @@ def main(argv=None) -> int:
         if args.command == "montecarlo":
             montecarlo.split_host_devices()  # before anything starts JAX's backend
         with compile_cache(args):
-            return COMMANDS[args.command].run(args)
+            try:
+                return COMMANDS[args.command].run(args)
+            except SystemExit as exc:  # a model or experiment function JAX traced in the run
+                raise UsageError(f"a model function {exit_message(exc)} during {args.command}; a "
+                                 "model must not end the program") from None
     except (UsageError, UioJaxError) as exc:
         print(f"uio-jax: error: {printable(exc)}", file=sys.stderr)  # one line, inert
         return EXIT_USAGE
