@@ -445,3 +445,20 @@ def test_zoo_files_that_hang_or_end_the_process_at_import_are_rows_under_a_timeo
     assert "worker process died twice (exit code 0)" in rows["exits.py:m"], out
     assert "timed out after 6 s" in rows["hangs.py:m"], out
     assert rows["m.toml"].rstrip().endswith(" ok"), out
+
+
+def test_a_model_file_with_a_byte_order_mark_loads(tmp_path):
+    for name, text in (("m.toml", 'states = ["a"]\n[outputs]\ny = "a"\n'),
+                       ("m.json", '{"states": ["a"], "outputs": {"y": "a"}}')):
+        path = tmp_path / name
+        path.write_bytes(b"\xef\xbb\xbf" + text.encode())
+        assert uj.load_system(str(path)).states == ("a",)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_a_directory_or_fifo_named_like_a_model_is_not_called_missing(tmp_path, capsys):
+    (tmp_path / "d.toml").mkdir()
+    os.mkfifo(tmp_path / "f.toml")
+    for name, words in (("d.toml", "is a directory"), ("f.toml", "is not a regular file")):
+        assert cli.main(["analyze", str(tmp_path / name)]) == 2
+        assert words in one_line_error(capsys)
