@@ -462,3 +462,16 @@ def test_a_directory_or_fifo_named_like_a_model_is_not_called_missing(tmp_path, 
     for name, words in (("d.toml", "is a directory"), ("f.toml", "is not a regular file")):
         assert cli.main(["analyze", str(tmp_path / name)]) == 2
         assert words in one_line_error(capsys)
+
+
+def test_what_a_model_prints_goes_to_stderr_not_into_the_report(tmp_path, capsys):
+    path = tmp_path / "chatty.py"
+    path.write_text("import uio_jax as uj\nprint('hello from the module')\n"
+                    "def f():\n    print('hello from f')\n    return uj.System(('a',), {'y': lambda x: x[0]})\n")
+    assert cli.main(["analyze", f"{path}:f", "--samples", "64", "--no-progress"]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("uio_jax report: ") and "hello" not in out, out
+    assert "hello from the module" in err and "hello from f" in err
+    assert cli.main(["batch", f"{path}:f", "--samples", "64", "--no-progress"]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("model ") and "hello" not in out, out

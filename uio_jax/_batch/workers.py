@@ -15,6 +15,7 @@ model stopped on timeout says how far it got; then the row's fields (a dict).
 import multiprocessing
 import os
 import signal
+import sys
 from multiprocessing.connection import wait
 
 from .._engine.compile_cache import cache_dir_in_use, enable_compile_cache
@@ -173,6 +174,7 @@ class _Worker:
 def _worker_main(conn, cache_dir, slot=None):
     """A worker process: set up the caches, say ready, then analyse models until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops this process
+    sys.stdout = sys.stderr  # what models print is not the parent's table (its stdout)
     pin_to_one_cpu(slot)
     if cache_dir:
         enable_compile_cache(cache_dir)

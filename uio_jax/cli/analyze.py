@@ -4,7 +4,7 @@ import json
 
 from .._errors import UioJaxError
 from .._output import printable
-from .common import add_cache_options, check_writable, write_output
+from .common import add_cache_options, check_writable, model_prints_on_stderr, write_output
 
 
 def add_parser(subparsers, analysis_options):
@@ -37,12 +37,12 @@ def run(args) -> int:
 
         check_figure_path(args.plot)
     check_writable(args.json, args.plot, names=("--json", "--plot"), inputs=[args.model])
-    system = load_system(args.model)
     printer = StepPrinter(enabled=False if args.no_progress else None)
-    with step_listener(printer):
+    with model_prints_on_stderr(), step_listener(printer):
+        system = load_system(args.model)
         rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                       rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                  known_inputs=args.known_inputs)
+                      known_inputs=args.known_inputs)
     print(rep)
     directions = _print_directions(rep)
     if args.json:

@@ -5,7 +5,7 @@ import signal
 import sys
 
 from .._output import printable
-from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, write_output
+from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
 EXIT_INTERRUPTED = 130
@@ -75,7 +75,7 @@ def run(args) -> int:
                                               (args.markdown, "markdown")) if path]
     code, terminated = None, []
     try:
-        with _sigterm_as_interrupt(terminated):
+        with _sigterm_as_interrupt(terminated), model_prints_on_stderr():
             result = batch_analyze(
                 args.paths, jobs=args.jobs, timeout=args.timeout, client=args.scheduler,
                 progress=False if args.no_progress else None, keep_reports=False,

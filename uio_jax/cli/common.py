@@ -23,6 +23,12 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
+def model_prints_on_stderr():
+    """While models load and run: what they ``print`` goes to stderr, so stdout carries the
+    report alone (``uio-jax analyze m.toml > report.txt``, ``| head``)."""
+    return contextlib.redirect_stdout(sys.stderr)
+
+
 def add_cache_options(p):
     """``--no-cache`` and ``--cache-dir`` on the sub-command parser ``p`` (the default
     directory's rule in the help is :data:`uio_jax._engine.compile_cache.DEFAULT_DIR_RULE`,

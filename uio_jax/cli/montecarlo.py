@@ -11,7 +11,7 @@ from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
 from .._model.experiment import TimeScaleWarning
 from .._output import write_figure
-from .common import check_writable, write_output
+from .common import check_writable, model_prints_on_stderr, write_output
 
 #: Figures are saved at this resolution (raster formats; vector formats ignore it).
 FIGURE_DPI = 150
@@ -109,16 +109,16 @@ def run(args) -> int:
     split_host_devices()
     from .._filter.montecarlo import run_montecarlo
 
-    with warnings_on_stderr():
+    comparison = None
+    with warnings_on_stderr(), model_prints_on_stderr():
         exp = load_experiment(args.experiment)
         res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep, filter=args.filter,
                              progress=False if args.no_progress else None,
                              client=getattr(args, "scheduler", None))
-    comparison = None
-    if not args.no_analysis:
-        from .._analysis.analyze import analyze
+        if not args.no_analysis:
+            from .._analysis.analyze import analyze
 
-        comparison = res.compare(analyze(exp.analysis_system()))
+            comparison = res.compare(analyze(exp.analysis_system()))
     print(res.summary(comparison))
     if args.json:
         d = res.to_dict(comparison)  # says what the text says: outcome, headline, filter
