@@ -475,3 +475,11 @@ def test_what_a_model_prints_goes_to_stderr_not_into_the_report(tmp_path, capsys
     assert cli.main(["batch", f"{path}:f", "--samples", "64", "--no-progress"]) == 0
     out, err = capsys.readouterr()
     assert out.startswith("model ") and "hello" not in out, out
+
+
+def test_a_name_that_shadows_a_built_in_of_expressions_is_noted(tmp_path):
+    path = tmp_path / "seir.toml"
+    path.write_text('states = ["E", "b"]\n[outputs]\ny = "E"\n[drift]\nE = "b"\nb = "0"\n')
+    system = uj.load_system(str(path))
+    assert "state 'E' shadows the built-in constant E of expressions: in this model's expressions 'E' " \
+           "is the state" in system.notes
