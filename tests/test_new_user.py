@@ -483,3 +483,11 @@ def test_a_name_that_shadows_a_built_in_of_expressions_is_noted(tmp_path):
     system = uj.load_system(str(path))
     assert "state 'E' shadows the built-in constant E of expressions: in this model's expressions 'E' " \
            "is the state" in system.notes
+
+
+def test_a_domain_too_wide_for_float64_is_blamed_not_the_model(tmp_path, capsys):
+    path = tmp_path / "wide.toml"
+    path.write_text(textwrap.dedent(TOML) + '[domain]\na = [-1e308, 1e308]\n')
+    assert cli.main(["analyze", str(path), "--samples", "64", "--no-progress"]) == 2
+    line = one_line_error(capsys)
+    assert "domain.a: box [-1e+308, 1e+308] too wide" in line and "NaN" not in line, line

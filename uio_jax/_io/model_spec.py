@@ -262,6 +262,9 @@ def _box(v, key, w) -> tuple:
     lo, hi = (_number(x, key, w) for x in v)
     if lo >= hi:
         raise w.error(key, f"empty box: lo={lo} >= hi={hi}")
+    if not math.isfinite(hi - lo):  # the samples lo + u (hi - lo) would be inf, and blame the model
+        raise w.error(key, f"box [{lo:g}, {hi:g}] too wide: its width overflows float64; give the range "
+                           "where the model is meant to be evaluated")
     return (lo, hi)
 
 
