@@ -491,3 +491,8 @@ def test_a_domain_too_wide_for_float64_is_blamed_not_the_model(tmp_path, capsys)
     assert cli.main(["analyze", str(path), "--samples", "64", "--no-progress"]) == 2
     line = one_line_error(capsys)
     assert "domain.a: box [-1e+308, 1e+308] too wide" in line and "NaN" not in line, line
+
+
+def test_a_compile_cache_on_a_file_says_it_is_not_a_directory(tmp_path, toml_model):
+    with pytest.raises(NotADirectoryError, match="not a directory"):
+        uj.enable_compile_cache(toml_model)
