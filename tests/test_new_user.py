@@ -496,3 +496,22 @@ def test_a_domain_too_wide_for_float64_is_blamed_not_the_model(tmp_path, capsys)
 def test_a_compile_cache_on_a_file_says_it_is_not_a_directory(tmp_path, toml_model):
     with pytest.raises(NotADirectoryError, match="not a directory"):
         uj.enable_compile_cache(toml_model)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('prior_std=(5.0,), units={"x": "m"})',
+     'prior_std=(5.0,), units={"x": "m"}, quantities=(uj.Quantity("v", lambda x: jnp.stack([x[0], x[0]])),))',
+     "quantity 'v' must return a scalar (), got shape (2,)"),
+    ("inputs=lambda s, z: (s, jnp.zeros(0), jnp.zeros(0))", "inputs=lambda s, z: (s, jnp.zeros(2), jnp.zeros(0))",
+     "inputs(istate, z) returns u of shape (2,), expected 0 known inputs"),
+    ("inputs=lambda s, z: (s, jnp.zeros(0), jnp.zeros(0))", "inputs=lambda s, z: (s, z[5], 0)",
+     "inputs(istate, z) fails on istate of shape (0,) and z of shape (0,)"),
+], ids=["vector_quantity", "input_law_shape", "input_law_fails"])
+def test_an_experiment_function_of_the_wrong_shape_is_one_line(tmp_path, capsys, old, new, words):
+    path = tmp_path / "toy.py"
+    source = textwrap.dedent(TOY)
+    assert old in source
+    path.write_text(source.replace(old, new))
+    assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-analysis",
+                     "--no-progress", "--no-cache"]) == 2
+    assert words in one_line_error(capsys)

@@ -43,6 +43,7 @@ from .._progress import Progress
 from . import reference_ekf
 from .ekf import mahalanobis_squared, make_model, output_mask, predict, update, wrap_angle
 from .result import MonteCarloResult
+from .shapes import check_shapes
 
 #: Trial-steps per chunk between two progress-bar updates (about 1-3 s on 2 CPU cores).
 CHUNK_TRIAL_STEPS = 1.5e7
@@ -256,6 +257,7 @@ def _check_model(exp):
     from the Jacobian this same program computes)."""
     cache = _CACHE.setdefault(exp, {})
     if "check" not in cache:  # one small program (the input law too): no op-by-op dispatch
+        check_shapes(exp)  # a wrong shape named here, not by JAX inside the filter
         model = make_model(exp)
         n, m, p = exp.n, len(exp.system.known), len(exp.system.unknown)
 
