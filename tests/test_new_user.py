@@ -515,3 +515,15 @@ def test_an_experiment_function_of_the_wrong_shape_is_one_line(tmp_path, capsys,
     assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-analysis",
                      "--no-progress", "--no-cache"]) == 2
     assert words in one_line_error(capsys)
+
+
+def test_two_batches_writing_one_file_the_second_is_refused(tmp_path, capsys):
+    """The last writer used to win silently; now the second batch stops before any work."""
+    from uio_jax.cli.common import hold_outputs
+
+    out = tmp_path / "t.json"
+    missing = str(tmp_path / "no_such_model.toml")
+    with hold_outputs([str(out)]):  # a first batch writing t.json
+        assert cli.main(["batch", missing, "--json", str(out)]) == 2
+        assert "being written by another uio-jax command" in one_line_error(capsys)
+    assert cli.main(["batch", GOOD, "--samples", "64", "--no-progress", "--json", str(out)]) == 0

@@ -5,7 +5,15 @@ import signal
 import sys
 
 from .._output import printable
-from .common import EXIT_FAILED, UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
+from .common import (
+    EXIT_FAILED,
+    UsageError,
+    add_cache_options,
+    check_writable,
+    hold_outputs,
+    model_prints_on_stderr,
+    write_output,
+)
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
 EXIT_INTERRUPTED = 130
@@ -59,7 +67,6 @@ def run(args) -> int:
     models") and the exit code is 130; SIGTERM does the same with exit code 143.
     """
     from .._analysis.options import check_options
-    from .._batch.run import BatchInterrupted, batch_analyze
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
                   max_order=args.max_order, k_max=args.k_max,
@@ -73,6 +80,14 @@ def run(args) -> int:
                          "run the models)")
     outputs = [(path, fmt) for path, fmt in ((args.json, "json"), (args.csv, "csv"),
                                               (args.markdown, "markdown")) if path]
+    with hold_outputs([path for path, _ in outputs]):  # no second batch writes them meanwhile
+        return _run(args, outputs)
+
+
+def _run(args, outputs) -> int:
+    """:func:`run` once its options are checked and its output files held."""
+    from .._batch.run import BatchInterrupted, batch_analyze
+
     code, terminated = None, []
     try:
         with _sigterm_as_interrupt(terminated), model_prints_on_stderr():

@@ -118,6 +118,39 @@ def check_writable(*paths, names=None, inputs=()):
         seen[key] = name
 
 
+@contextlib.contextmanager
+def hold_outputs(paths):
+    """Hold an exclusive lock per output file for the block: a second command writing one
+    of the same files meanwhile (two batches with one ``--json``: the last writer would win,
+    silently) is refused up front with a UsageError. The locks are files of
+    ``$TMPDIR/uio_jax-outputs-UID/`` (none beside the outputs), released when the block
+    ends or the process dies; devices and FIFOs are not locked; a platform without
+    ``fcntl`` locks nothing."""
+    try:
+        import fcntl
+        import hashlib
+        import tempfile
+
+        folder = os.path.join(tempfile.gettempdir(), f"uio_jax-outputs-{os.getuid()}")
+        os.makedirs(folder, exist_ok=True)
+    except (ImportError, OSError, AttributeError):  # no locks here: nothing is held
+        yield
+        return
+    with contextlib.ExitStack() as stack:
+        for path in paths:
+            real = os.path.realpath(path)
+            if os.path.exists(real) and not os.path.isfile(real):
+                continue
+            name = hashlib.sha1(real.encode("utf-8", "surrogateescape")).hexdigest() + ".lock"
+            fh = stack.enter_context(open(os.path.join(folder, name), "a"))
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                raise UsageError(f"{path} is being written by another uio-jax command; give another "
+                                 "file or wait for it to finish") from None
+        yield
+
+
 def _probe(full, what):
     """Try the write without writing: open an existing regular file for appending (nothing
     changes), or create and remove a file beside a new one (``/proc/x``, a read-only file
