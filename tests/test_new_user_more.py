@@ -199,3 +199,19 @@ def test_an_experiment_function_of_the_wrong_shape_is_one_line(tmp_path, capsys,
     assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-analysis",
                      "--no-progress", "--no-cache"]) == 2
     assert words in one_line_error(capsys)
+
+
+def test_from_dynamics_measures_use_and_affinity_on_the_input_box():
+    """sign(w) has no derivative anywhere yet f(w) is not f(0): not 'in no equation' but not
+    affine (promoted); abs(w) on [-1, 1] is not affine either; 0 * w is in no equation."""
+    import jax.numpy as jnp
+
+    def system(fn, domain=None):
+        return uj.System.from_dynamics(("x",), lambda x, u, w: jnp.array([fn(w[0]) + x[0]]),
+                                       {"y": lambda x, u, w: x[0]}, unknown=("w",), domain=domain)
+
+    for fn in (jnp.sign, jnp.abs):
+        s = system(fn, {"w": (-1.0, 1.0)})
+        assert s.states == ("x", "w") and any("is not affine between 0 and its box" in n for n in s.notes)
+    s = system(lambda w: 0.0 * w)
+    assert s.states == ("x",) and s.notes == ("unknown input 'w' appears in no equation: dropped",)
