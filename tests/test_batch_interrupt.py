@@ -62,9 +62,9 @@ def _write(path, source):
     return str(path)
 
 
-def _interrupt_after_first_row(argv, env=None, wait_for=None):
+def _interrupt_after_first_row(argv, env=None, wait_for=None, sig=signal.SIGINT):
     """Start ``python -m uio_jax batch ARGV``, wait for its first progress line (a finished
-    row) on stderr (and for the file ``wait_for`` to exist, if given), send SIGINT; returns
+    row) on stderr (and for the file ``wait_for`` to exist, if given), send ``sig``; returns
     (exit code, stdout, stderr)."""
     proc = subprocess.Popen([sys.executable, "-m", "uio_jax", "batch", *argv], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=env)
@@ -78,7 +78,7 @@ def _interrupt_after_first_row(argv, env=None, wait_for=None):
         deadline = time.monotonic() + 120
         while wait_for is not None and not os.path.exists(wait_for) and time.monotonic() < deadline:
             time.sleep(0.05)
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(sig)
         out, err = proc.communicate(timeout=120)
     finally:
         if proc.poll() is None:
@@ -124,6 +124,23 @@ def test_sigint_stops_the_workers(tmp_path):
         assert "Z" in state  # at most a zombie waiting for its reaper
     except FileNotFoundError:
         pass  # gone
+
+
+@pytest.mark.slow
+def test_sigterm_stops_the_workers_without_tracebacks(tmp_path):
+    """SIGTERM to ``batch --jobs 2`` (issue 40): stopped as by Ctrl-C, exit code 143, the
+    partial table kept, and no worker prints a BrokenPipeError traceback (their stderr is
+    this one: read to its end, after every worker is gone)."""
+    zoo = _write(tmp_path / "hanging_zoo.py", HANGING_ZOO)
+    pid_file = tmp_path / "worker.pid"
+    md = tmp_path / "t.md"
+    env = dict(os.environ, HANG_PID_FILE=str(pid_file))
+    code, out, err = _interrupt_after_first_row(
+        [zoo, "--samples", str(SAMPLES), "--no-cache", "--jobs", "2", "--markdown", str(md)], env,
+        wait_for=pid_file, sig=signal.SIGTERM)
+    assert code == 143, err
+    assert "Traceback" not in out + err and "BrokenPipeError" not in err, err
+    assert "hanging_zoo.py:quick" in md.read_text() and "interrupted after" in md.read_text()
 
 
 def test_outputs_are_rewritten_after_each_row(tmp_path):

@@ -2,7 +2,7 @@
 
 The rule (README, "Layout"): ``A <- B`` means B may import A, never the reverse.
 
-    _errors, _progress  (leaves: import nothing of the package)
+    _errors, _progress, _output  (leaves: import nothing of the package)
       <- _engine                the front end (jaxpr -> expression graph), the graph and its evaluators
       <- _model                 System, sampling, experiments
       <- _calculus              Lie derivatives as graph expressions, the node graph
@@ -42,7 +42,7 @@ ALLOWED = {
 
 WINGS = {"_model": "model", "_engine": "engine", "_calculus": "calculus", "_analysis": "analysis",
          "_filter": "filter", "_io": "io", "_batch": "batch", "cli": "cli"}
-LEAVES = {"_errors", "_progress"}
+LEAVES = {"_errors", "_progress", "_output"}
 
 
 def layer_of(module: str) -> str:

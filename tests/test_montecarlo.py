@@ -5,6 +5,8 @@ and the published simulation findings of 003 section 5 (fig. 3 and 5) and 002 se
 III-D (figs. 4-7), judged by ratios end/start along the named directions.
 """
 
+import json
+
 import numpy as np
 import pytest
 from conftest import zoo
@@ -394,3 +396,24 @@ def test_summary_starts_with_the_verdict_and_explains_it():
     assert res.headline(cmp)[0].startswith("verdict: Monte Carlo and the analysis (single_ui) "
                                            "disagree on bearing phi (observable, does not converge)")
     assert res.headline()[0] == "verdict: Monte Carlo only (no analysis compared)"
+
+
+def test_json_says_what_the_text_says():
+    """Issue 40: the states moved by an unobservable direction look converging, the named
+    quantities agree: the text says 'consistent'; ``comparison.agree`` and the JSON's
+    ``outcome`` say the same, and the JSON names the filter that ran."""
+    from types import SimpleNamespace
+
+    res = _fabricated([1.0] * 4)
+    res.stats[:, 1:, :2 * res.experiment.n_aug] = 1e-3  # every state converges; not the quantities
+    states = tuple(res.experiment.system.states)
+    report = SimpleNamespace(method="single_ui", states=states, observable=dict.fromkeys(states, False),
+                             is_observable=lambda fn: False)
+    cmp = res.compare(report)
+    line = res.summary(cmp).splitlines()[1]
+    assert line.startswith("verdict: consistent with the analysis (single_ui)"), line
+    assert cmp["agree"] is True and cmp["verdict"] == "consistent"
+    d = json.loads(json.dumps(res.to_dict(cmp)))
+    assert d["outcome"] == "consistent" and d["headline"][0] == line and d["filter"] == "fast"
+    assert d["comparison"]["agree"] is True
+    assert res.to_dict()["outcome"] == "monte_carlo_only" and "comparison" not in res.to_dict()

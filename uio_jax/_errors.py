@@ -24,3 +24,10 @@ class LoadError(UioJaxError):
 
 class ExpressionError(ModelError):
     """An expression of a model file is not valid or uses something outside the whitelist."""
+
+
+def exit_message(exc: SystemExit) -> str:
+    """What user code that raised ``exc`` did, for a one-line error:
+    ``called sys.exit(0)``."""
+    return f"called sys.exit({exc.code!r}) (SystemExit)"
+

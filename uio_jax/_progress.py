@@ -8,6 +8,8 @@ import sys
 import threading
 import time
 
+from ._output import printable
+
 _STEP_LISTENER = contextvars.ContextVar("uio_jax_step_listener", default=None)
 
 
@@ -107,7 +109,7 @@ class Progress:
         if not self.enabled or (not self.shown and elapsed < self.delay):
             return
         self.shown = True
-        line = self._line(elapsed, what)
+        line = printable(self._line(elapsed, what))  # model names from files: made inert
         if self.terminal:
             self.stream.write("\r" + line.ljust(self._width))
             self._width = len(line)

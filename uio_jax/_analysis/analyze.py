@@ -76,7 +76,7 @@ def analyze(
         k_max: highest order k of the EORC (default n + 2, and the EORC stops earlier once
             every unknown input is observable and the states reach the rank they have with
             every input known: no later order changes a verdict); given, every order up to
-            it is run. Ignored by the other methods.
+            it is run. The other methods do not use it (their report notes it when given).
         known_inputs: what a known input is: ``"switchable"`` (default; it may be chosen
             freely and may jump, the meaning of Martinelli's single-input papers and of the
             classical ORC/EORC) or ``"smooth"`` (a generic smooth function of time, known
@@ -113,10 +113,33 @@ def analyze(
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
-    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, opts["prob_threshold"])
+    report = _with_idle_outputs_note(_run(system, method, samples, seed, rtol, max_order, k_max,
+                                          known_inputs, opts["prob_threshold"]), system)
+    if k_max is not None and report.method != "eorc":  # given, but not used: said, not silent
+        report = dataclasses.replace(report, notes=tuple(report.notes) + (
+            f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
+            "not use it (max_order caps its steps)",))
     if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
         report = _with_symmetries(report, system, seed)
     return report
+
+
+def _with_idle_outputs_note(report, system):
+    """``report`` with a note naming the outputs that add no direction at step 0 (a
+    constant such as ``"0"``, ``"x - x"`` or a boolean, or a function of the outputs kept
+    before them), when the first step lists outputs by name."""
+    first = report.history[0] if report.history else None
+    names = list(system.outputs)
+    if first is None or first.m != 0 or not set(first.added) <= set(names):
+        return report
+    idle = [y for y in names if y not in first.added]
+    if not idle:
+        return report
+    many = len(idle) > 1
+    note = (f"output{'s' if many else ''} {', '.join(idle)} add{'' if many else 's'} no direction at "
+            "m=0: constant on the domain (a number, a boolean, x - x), or a function of the "
+            "outputs kept before")
+    return dataclasses.replace(report, notes=tuple(report.notes) + (note,))
 
 
 def _with_symmetries(report, system, seed):

@@ -40,17 +40,23 @@ def plot_analysis(report, path=None, ax=None):
         the matplotlib Figure.
 
     Raises:
+        TypeError: ``report`` is not a Report.
         OptionError: ``ax`` is not two Axes, or ``path`` has an unknown format.
     """
+    if not all(hasattr(report, a) for a in ("method", "dim", "n", "history", "certificate")):
+        raise TypeError(f"plot_analysis needs a uio_jax.Report (uio_jax.analyze(...)), got "
+                        f"{type(report).__name__}")
     if path is not None:
-        check_figure_path(path)
+        fmt = check_figure_path(path)
     fig, (ax_dim, ax_sv) = _axes(ax, standalone=path is not None)
     _plot_dims(report, ax_dim)
     _plot_singular_values(report, ax_sv)
     name = report.system_name or "system"
     fig.suptitle(f"{name} ({report.method}): dim {report.dim} of {report.n}", fontsize=11)
     if path is not None:
-        fig.savefig(path, dpi=100, bbox_inches="tight")
+        from .._output import write_figure
+
+        write_figure(fig, path, fmt, dpi=100, bbox_inches="tight")
     return fig
 
 

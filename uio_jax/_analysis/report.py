@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
+from .._output import printable
 from .evidence import Arithmetic, Certificate, Step, jsonable
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
@@ -379,6 +380,8 @@ class Report:
         if getattr(out, "shape", None) != ():
             raise ModelError(f"{what}: function must return a scalar (), got shape "
                              f"{getattr(out, 'shape', None)}")
+        if np.issubdtype(np.dtype(getattr(out, "dtype", np.float64)), np.complexfloating):
+            raise ModelError(f"{what}: function returns a complex value ({out.dtype}); it must be real")
         return of_z
 
     def to_dict(self) -> dict:
@@ -487,7 +490,7 @@ class Report:
         return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
-        title = f"uio_jax report: {self.system_name or 'system'} ({self.method})"
+        title = f"uio_jax report: {printable(self.system_name or 'system')} ({self.method})"
         lines = [title, "=" * len(title), f"answer: {self.answer_kind()}"]
         obs = [s for s in self.states if self.observable[s]]
         of = f"{self.n}" + (" (states and parameters)" if self.params else "")
@@ -523,7 +526,7 @@ class Report:
         lines.append(f"certificate: {self.certificate}")
         for note in self.notes:
             lines.append(f"note: {note}")
-        return "\n".join(lines)
+        return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
 
 
 _CENTRE = "centre of the sampling box of every state and parameter"

@@ -14,7 +14,13 @@ A path may be
   :func:`uio_jax.load_experiment`) or their return annotation names another type.
   A function that returns something else is skipped (listed in ``skipped``); one that
   raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are called
-  in the worker process that analyses their model, not in the caller first. A StrikePy
+  in the worker process that analyses their model, not in the caller first; with a
+  ``timeout`` the file is not even imported in the caller: it is read
+  (:func:`listed_entries`: its top-level ``def`` statements and ``NAME = ...System(...)``
+  assignments) and imported in the workers, under the limit, so that top-level code that
+  hangs or ends the process (``os._exit``) costs the rows of that file's models only.
+  Without a ``timeout``, a file is imported in the calling process: ``sys.exit`` at its
+  top level is an error row, but ``os._exit`` ends the batch and an endless loop hangs it. A StrikePy
   model module (recognised by :func:`uio_jax._io.strikepy_import.is_strikepy_module`) is
   one model;
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
@@ -46,7 +52,7 @@ import re
 import time
 from dataclasses import dataclass, field, replace
 
-from .._errors import OptionError, UioJaxError
+from .._errors import OptionError, UioJaxError, exit_message
 from .._io.loading import load_module, split_spec
 from .._io.strikepy_import import is_strikepy_module
 from .._model.system import System
@@ -96,7 +102,7 @@ class Skipped:
     why: str
 
 
-def discover(models, *, build: bool = True, import_python: bool = False):
+def discover(models, *, build: bool = True, import_python: bool = False, import_here: bool = True):
     """Expand paths, globs, directories and zoo files into models.
 
     Args:
@@ -109,6 +115,11 @@ def discover(models, *, build: bool = True, import_python: bool = False):
             no System then turns into a skipped function. A parallel batch would otherwise
             build every System twice, here and in its worker (timings in
             ``docs/benchmarks/batch.md``).
+        import_here: import the zoo files here to find their models (default). False
+            (with ``build`` False; a batch with a time limit): a zoo file is *read* here
+            (:func:`listed_entries`) and imported only in the worker that runs one of its
+            models, under the limit: top-level code that hangs, or ends the process
+            (``os._exit``), costs that model's row, not the batch.
 
     Returns:
         ``(entries, skipped)``: the :class:`Entry` of every model in order, and
@@ -131,7 +142,7 @@ def discover(models, *, build: bool = True, import_python: bool = False):
             item = os.fspath(item)
             named = _is_spec(item) or os.path.isfile(item)  # the user named this very file
             for path in expand(item):
-                e, s = _entries_of(path, build, named or import_python)
+                e, s = _entries_of(path, build, named or import_python, import_here)
                 entries += e
                 skipped += s
         else:
@@ -200,7 +211,7 @@ def has_zoo_marker(path) -> bool:
     return False
 
 
-def _entries_of(path: str, build: bool = True, may_import: bool = True):
+def _entries_of(path: str, build: bool = True, may_import: bool = True, import_here: bool = True):
     """Entries (and skipped functions or files) of one file or ``FILE.py:NAME`` spec;
     ``may_import``: an unmarked ``.py`` file that is no StrikePy module is imported (the
     user named it, or asked for every Python file) instead of skipped."""
@@ -210,8 +221,9 @@ def _entries_of(path: str, build: bool = True, may_import: bool = True):
         return [Entry(path, path, "file")], []
     if not path.endswith(".py"):
         return [Entry(path, error=f"not a model file (expected {', '.join(MODEL_SUFFIXES)}): {path}")], []
+    zoo_entries = _zoo_entries if import_here or build else listed_entries
     if has_zoo_marker(path):
-        return _zoo_entries(path, build)
+        return zoo_entries(path, build)
     try:
         if is_strikepy_module(path):  # read as text: parsed later, never executed
             return [Entry(path, path, "strikepy")], []
@@ -219,7 +231,7 @@ def _entries_of(path: str, build: bool = True, may_import: bool = True):
         return [Entry(path, error=one_line(exc))], []
     if not may_import:
         return [], [(path, NOT_IMPORTED)]
-    return _zoo_entries(path, build)
+    return zoo_entries(path, build)
 
 
 def _zoo_entries(path: str, build: bool = True):
@@ -280,6 +292,8 @@ def _call_zoo_function(spec, fn):
         return None, f"{spec}: {exc}", time.perf_counter() - t0
     except Exception as exc:
         return None, f"{spec} raised {one_line(exc)}", time.perf_counter() - t0
+    except SystemExit as exc:  # the batch goes on: an error row
+        return None, f"{spec} {exit_message(exc)}", time.perf_counter() - t0
 
 
 def _no_system(value) -> str:
@@ -291,9 +305,14 @@ def build_deferred(entry: Entry):
     error), or a :class:`Skipped` when the function gives no System."""
     path, name = split_spec(entry.spec)
     try:
-        fn = getattr(load_module(path), name)
+        module = load_module(path)
+        fn = getattr(module, name)
     except (UioJaxError, AttributeError) as exc:
         return replace(entry, error=one_line(exc, with_type=False), deferred=False)
+    if isinstance(fn, System):  # a module-level System named by listed_entries
+        return replace(entry, system=_named(fn, path, name), deferred=False)
+    if not _is_zoo_function(fn, module):
+        return Skipped(entry.spec, f"not a function without required arguments ({type(fn).__name__})")
     built, error, seconds = _call_zoo_function(entry.spec, fn)
     if error is not None:
         return replace(entry, error=error, build_s=seconds, deferred=False)
@@ -311,16 +330,19 @@ def _no_required_args(fn) -> bool:
                for p in sig.parameters.values())
 
 
-def _skip_without_calling(name, fn) -> str:
-    """Why a zoo function is known not to build a System without calling it ('' if unknown)."""
+def _skip_without_calling(name, fn, annotation=None) -> str:
+    """Why a zoo function is known not to build a System without calling it ('' if unknown);
+    ``annotation``: its return annotation as text, when ``fn`` is not at hand (read from
+    the file)."""
     if name.endswith("_experiment"):
         return "a Monte Carlo experiment (name ends in _experiment)"
-    ann = inspect.signature(fn).return_annotation
-    if ann is inspect.Signature.empty or ann is None:
-        return ""
-    text = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
-    if text and "System" not in text:
-        return f"annotated to return {text}"
+    if annotation is None:
+        ann = inspect.signature(fn).return_annotation
+        if ann is inspect.Signature.empty or ann is None:
+            return ""
+        annotation = ann if isinstance(ann, str) else getattr(ann, "__name__", "")
+    if annotation and annotation != "None" and "System" not in annotation:
+        return f"annotated to return {annotation}"
     return ""
 
 
@@ -328,3 +350,63 @@ def _named(system, path, name):
     if not system.name:
         object.__setattr__(system, "name", f"{os.path.basename(path)}:{name}")
     return system
+
+
+def listed_entries(path: str, build: bool = False):
+    """The models of a zoo file found by reading it, not importing it: a deferred entry per
+    public top-level ``def`` that takes no required argument and per public top-level
+    ``NAME = ...System(...)`` (``__all__`` respected when it is a literal list), in file
+    order; names ending in ``_experiment`` and functions annotated to return another type
+    are skipped as :func:`_zoo_entries` skips them. The worker that runs an entry imports
+    the file (:func:`build_deferred`). ``build`` is unused (always deferred)."""
+    import ast
+
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            tree = ast.parse(fh.read(), filename=path)
+    except SyntaxError as exc:
+        return [Entry(path, error=f"model file {path} fails to load (line {exc.lineno}): SyntaxError: "
+                                  f"{exc.msg}")], []
+    except (OSError, ValueError, RecursionError, MemoryError) as exc:
+        return [Entry(path, error=f"model file {path} fails to load: {one_line(exc)}")], []
+    public = _literal_all(tree)
+    found = {}
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            args = node.args
+            required = len(args.posonlyargs) + len(args.args) - len(args.defaults) + sum(
+                d is None for d in args.kw_defaults)
+            if required == 0:
+                returns = ast.unparse(node.returns) if node.returns is not None else ""
+                found[node.name] = _skip_without_calling(node.name, None, returns)
+        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) and \
+                "system" in ast.unparse(node.value.func).lower():
+            found.update((t.id, "") for t in node.targets if isinstance(t, ast.Name))
+    entries, skipped = [], []
+    for name, why in found.items():
+        if name.startswith("_") or (public is not None and name not in public):
+            continue
+        spec = f"{path}:{name}"
+        if why:
+            skipped.append((spec, why))
+        else:
+            entries.append(Entry(spec, spec, "spec", deferred=True))
+    if not entries and not skipped:
+        return [Entry(path, error=f"{path} defines no public top-level function without required "
+                                  "arguments (read, not imported: with a time limit the workers "
+                                  "import zoo files)")], []
+    return entries, skipped
+
+
+def _literal_all(tree):
+    """The names of a literal ``__all__ = [...]`` at the top of a module, else None."""
+    import ast
+
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__"
+                                                for t in node.targets):
+            try:
+                return set(ast.literal_eval(node.value))
+            except (ValueError, TypeError, SyntaxError, RecursionError):
+                return None
+    return None

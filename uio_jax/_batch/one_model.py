@@ -3,7 +3,7 @@
 import time
 
 from .._analysis.analyze import analyze
-from .._errors import UioJaxError
+from .._errors import UioJaxError, exit_message
 from .._io.loading import load_system
 from .._model.system import System
 from .discovery import Entry, Skipped, build_deferred
@@ -46,4 +46,7 @@ def run_entry(entry: Entry, analyze_kwargs, keep_report=True, on_system=None):
         return BatchRow(entry.label, error=one_line(exc, with_type=False), seconds=time.perf_counter() - t0)
     except Exception as exc:  # a bug or a model that breaks JAX: one row, the batch goes on
         return BatchRow(entry.label, error=one_line(exc), seconds=time.perf_counter() - t0)
+    except SystemExit as exc:  # a model function that calls sys.exit: its row, not the batch's end
+        return BatchRow(entry.label, error=f"{entry.label} {exit_message(exc)}",
+                        seconds=time.perf_counter() - t0)
     return row_from_report(entry.label, rep, time.perf_counter() - t0, rep if keep_report else None)

@@ -7,6 +7,8 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from .._output import printable
+
 
 @dataclass(frozen=True)
 class BatchRow:
@@ -162,7 +164,7 @@ class BatchResult:
     def to_markdown(self) -> str:
         """A Markdown table (failed models carry their error in the last column); a partial
         table ends with a line saying so."""
-        headers, body = self._cells(markdown=True)
+        headers, body = self._cells()
         lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
         if self.partial:
@@ -171,7 +173,7 @@ class BatchResult:
 
     def table(self) -> str:
         """The table for a terminal: aligned columns, then one line per failed model's error."""
-        headers, body = self._cells(markdown=False)
+        headers, body = self._cells()
         widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
                   for i, h in enumerate(headers)]
         right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
@@ -201,7 +203,7 @@ class BatchResult:
             text = f"{self.partial}: {text}"
         return text
 
-    def _cells(self, markdown):
+    def _cells(self):
         has_params = any(r.params for r in self.rows)
         headers = ["model", "method", "dim / n", "observable states"]
         if has_params:
@@ -220,8 +222,8 @@ class BatchResult:
                 status = {"undecided": "UNDECIDED: " + ", ".join(r.undecided) if r.undecided else "UNDECIDED",
                           "escalated": "escalated", "ok": "ok"}.get(r.status or "ok", r.status)
                 cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
-                          ("" if status == "ok" else status) if markdown else status]
-            body.append(cells)
+                          status]  # "ok" in Markdown too: an empty cell reads as missing
+            body.append([printable(c) for c in cells])  # names and errors from model files
         return headers, body
 
 

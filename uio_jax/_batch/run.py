@@ -103,9 +103,13 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
     Raises:
         OptionError: no model given, a path that matches nothing, impossible options, a
             cluster that cannot be reached or has no worker (checked before any model runs).
+        TypeError: ``on_row`` is not callable (before any model runs).
         BatchInterrupted: Ctrl-C (a KeyboardInterrupt carrying the partial result).
     """
     _check_batch_options(jobs, timeout, analyze_kwargs, client)
+    if on_row is not None and not callable(on_row):  # not after the first model ran
+        raise TypeError(f"on_row must be None or a function of the partial BatchResult, got "
+                        f"{type(on_row).__name__}")
     with contextlib.ExitStack() as stack:
         if client is not None:
             from .._filter.cluster import cluster_client, wait_for_workers
@@ -120,7 +124,9 @@ def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row,
            analyze_kwargs):
     """:func:`batch_analyze` once its options are checked (``slots``: models at once)."""
     # models that may run in worker processes are built there: not here first as well
+    # with a time limit, the zoo files are imported only in the workers, under it
     entries, skipped = discover(models, build=jobs == 1 and timeout is None and client is None,
+                                import_here=timeout is None,
                                 import_python=import_python)
     keys = [time_key(e, analyze_kwargs) for e in entries]
     recorded = recorded_seconds(keys)

@@ -13,7 +13,9 @@ model stopped on timeout says how far it got; then the row's fields (a dict).
 """
 
 import multiprocessing
+import os
 import signal
+import sys
 from multiprocessing.connection import wait
 
 from .._filter.compile_cache import cache_dir_in_use, enable_compile_cache
@@ -172,6 +174,7 @@ class _Worker:
 def _worker_main(conn, cache_dir, slot=None):
     """A worker process: set up the caches, say ready, then analyse models until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops this process
+    sys.stdout = sys.stderr  # what models print is not the parent's table (its stdout)
     pin_to_one_cpu(slot)
     if cache_dir:
         enable_compile_cache(cache_dir)
@@ -183,7 +186,10 @@ def _worker_main(conn, cache_dir, slot=None):
             return
         if task is None:
             return
-        conn.send(worker_run(*task, conn=conn))
+        try:
+            conn.send(worker_run(*task, conn=conn))
+        except OSError:  # the parent is gone (killed, SIGTERM): no one to report to, no traceback
+            return
 
 
 def step_text(step, n=None) -> str:
@@ -201,7 +207,10 @@ def worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> 
 
     def send_step(step):
         if conn is not None:
-            conn.send(("step", step_text(step, n[0] if n else None)))
+            try:
+                conn.send(("step", step_text(step, n[0] if n else None)))
+            except OSError:  # the parent is gone: stop the analysis it can no longer receive
+                os._exit(0)
 
     def loaded(system):
         n.append(len(system.states) + len(system.param_names))

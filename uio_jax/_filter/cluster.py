@@ -72,8 +72,10 @@ def cluster_client(client, *, timeout_s: float = CONNECT_TIMEOUT_S):
 
     Raises:
         OptionError: no ``distributed`` installed, an address of the wrong form, nothing
-            listening there, no Dask scheduler there, or ``client`` of another type.
+            listening there, no Dask scheduler there, ``client`` of another type, or a bad
+            ``$UIO_JAX_PIN_WORKERS`` here (:func:`pin_workers`; before any work).
     """
+    pin_workers()
     distributed = require_distributed()
     if isinstance(client, distributed.Client):
         yield client
@@ -210,6 +212,15 @@ PIN_ENV = "UIO_JAX_PIN_WORKERS"
 _CLAIMED: list = []  # [cpu or None] once this process has tried
 
 
+def pin_workers() -> bool:
+    """``$UIO_JAX_PIN_WORKERS``: unset, empty or ``1``: bind the workers; ``0``: leave them
+    unbound. Anything else is refused (OptionError) rather than read as one of them."""
+    value = os.environ.get(PIN_ENV, "").strip()
+    if value not in ("", "0", "1"):
+        raise OptionError(f"{PIN_ENV} must be 0 (workers unbound) or 1 (bound, the default), got {value!r}")
+    return value != "0"
+
+
 def claim_one_cpu():
     """Bind this process, a worker of a Dask cluster, to one CPU that no other worker
     process of this host holds (the first free one), as :func:`uio_jax._batch.pinning.pin_to_one_cpu`
@@ -229,11 +240,15 @@ def claim_one_cpu():
 
     Returns:
         the CPU bound to, or None.
+
+    Raises:
+        OptionError: ``$UIO_JAX_PIN_WORKERS`` neither 0 nor 1 on this host (:func:`pin_workers`).
     """
     if _CLAIMED:
         return _CLAIMED[0]
+    pin = pin_workers()  # a bad value is an error, here as on every call (nothing is claimed)
     _CLAIMED.append(None)
-    if os.environ.get(PIN_ENV, "1").strip() == "0" or not hasattr(os, "sched_setaffinity"):
+    if not pin or not hasattr(os, "sched_setaffinity"):
         return None
     try:
         import fcntl

@@ -19,6 +19,7 @@ As JAX warns, the cache is trusted input: do not point it at a directory others 
 """
 
 import contextlib
+import errno
 import os
 
 #: JAX options set by :func:`enable_compile_cache` (name -> value; the directory is added).
@@ -70,6 +71,8 @@ def enable_compile_cache(path: str | os.PathLike | None = None) -> str:
     import jax
 
     path = os.path.abspath(os.path.expanduser(os.fspath(path))) if path is not None else default_cache_dir()
+    if os.path.exists(path) and not os.path.isdir(path):  # makedirs would say only "File exists"
+        raise NotADirectoryError(errno.ENOTDIR, "not a directory (the compilation cache needs one)", path)
     os.makedirs(path, exist_ok=True)
     changed = jax.config.values.get(_DIR_KEY) != path
     for key, value in _SETTINGS.items():

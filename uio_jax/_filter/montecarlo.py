@@ -43,6 +43,7 @@ from .._progress import Progress
 from . import reference_ekf
 from .ekf import mahalanobis_squared, make_model, output_mask, predict, update, wrap_angle
 from .result import MonteCarloResult
+from .shapes import check_shapes
 
 #: Trial-steps per chunk between two progress-bar updates (about 1-3 s on 2 CPU cores).
 CHUNK_TRIAL_STEPS = 1.5e7
@@ -256,6 +257,7 @@ def _check_model(exp):
     from the Jacobian this same program computes)."""
     cache = _CACHE.setdefault(exp, {})
     if "check" not in cache:  # one small program (the input law too): no op-by-op dispatch
+        check_shapes(exp)  # a wrong shape named here, not by JAX inside the filter
         model = make_model(exp)
         n, m, p = exp.n, len(exp.system.known), len(exp.system.unknown)
 
@@ -373,7 +375,7 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
                     "trial_steps_per_s": B * exp.n_steps / max(timings["run_s"], 1e-12),
                     "loadavg": os.getloadavg()})
     t = np.arange(stats.shape[1]) * exp.record_every * exp.epoch_steps * exp.dt
-    return MonteCarloResult(exp, B, seed, t, stats, traj, timings)
+    return MonteCarloResult(exp, B, seed, t, stats, traj, timings, filter)
 
 
 def simulate_trials(exp: Experiment, first: int, count: int, *, seed: int, filter: str = "fast",

@@ -169,8 +169,17 @@ def plot_montecarlo(result, names=None):
 
     Returns:
         ``(fig, axes)`` with ``axes`` a flat list (trajectory first when present).
+
+    Raises:
+        TypeError: ``result`` is not a MonteCarloResult.
     """
     import matplotlib.pyplot as plt
+
+    from .result import MonteCarloResult
+
+    if not isinstance(result, MonteCarloResult):
+        raise TypeError(f"plot_montecarlo needs a uio_jax MonteCarloResult (uio_jax.run_montecarlo"
+                        f"(...)), got {type(result).__name__}")
 
     exp = result.experiment
     if names is None:

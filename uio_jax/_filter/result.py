@@ -1,11 +1,13 @@
 """Result of a Monte Carlo run: statistics over trials, verdict, comparison with analysis."""
 
+import enum
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._errors import OptionError
+from .._output import printable
 
 #: A quantity "converges" when its RMSE at the end and its RMS filter sigma at the end are
 #: both at most this fraction of the prior std (the expected RMSE at t = 0).
@@ -52,6 +54,7 @@ class MonteCarloResult:
         trajectories: full trajectories of the first ``keep`` trials (see
             :func:`~uio_jax.trajectories`) or ``None``.
         timings: compile and run seconds, trial-steps/s, devices, load average.
+        filter: the EKF that ran: ``"fast"`` or ``"reference"``.
     """
 
     experiment: object
@@ -61,6 +64,7 @@ class MonteCarloResult:
     stats: np.ndarray
     trajectories: dict | None
     timings: dict = field(default_factory=dict)
+    filter: str = "fast"
 
     # ------------------------------------------------------------------ slices
     @property
@@ -193,8 +197,11 @@ class MonteCarloResult:
             ``{"analysis": method | None, "note": str, "states": {name: row},
             "quantities": {name: row}, "agree": bool | None}`` with ``row = {"observable":
             bool | None, "converges": bool | None, "agree": bool | None}``; ``agree`` is
-            ``None`` when either side is undecided, and the overall ``agree`` is ``False``
-            if any row disagrees, else ``None`` if any row is undecided, else ``True``.
+            ``None`` when either side is undecided; the overall ``agree`` says what the
+            text's verdict line says (:meth:`headline`): ``False`` when they disagree,
+            else ``None`` if any row is undecided, else ``True`` (also for "consistent":
+            unobservable states that look converging while every named quantity agrees);
+            ``verdict``: the :class:`Outcome` value of that line.
         """
         states = tuple(self.experiment.system.states)
         if report is not None and tuple(report.states) != states:
@@ -212,15 +219,22 @@ class MonteCarloResult:
             obs = q.observable if report is None else bool(report.is_observable(q.fn))
             rows_q[q.name] = _row(obs, v["quantities"][q.name]["converges"])
         agrees = [r["agree"] for r in list(rows_s.values()) + list(rows_q.values())]
-        agree = False if False in agrees else (None if None in agrees else True)
+        kind = _outcome(rows_s, rows_q)[0]
+        agree = (False if kind is Outcome.DISAGREES else None if None in agrees
+                 else True)  # "consistent" agrees: the named quantities decide (headline)
         return {"analysis": None if report is None else report.method, "note": note,
-                "states": rows_s, "quantities": rows_q, "agree": agree}
+                "states": rows_s, "quantities": rows_q, "agree": agree, "verdict": kind.value}
 
     # ------------------------------------------------------------------ output
-    def to_dict(self) -> dict:
-        """JSON-ready summary: verdict, timings, times and RMSE / sigma curves."""
-        return {
+    def to_dict(self, comparison=None) -> dict:
+        """JSON-ready summary: what the text says (``outcome``, the :class:`Outcome` value of
+        the verdict line, and ``headline``, its lines), the ``filter`` that ran, the
+        per-row numbers (``verdict``), timings, times and RMSE / sigma curves, and the
+        ``comparison`` (:meth:`compare`) when given."""
+        out = {
             "experiment": self.experiment.name, "trials": self.trials, "seed": self.seed,
+            "filter": self.filter, "outcome": self.outcome(comparison).value,
+            "headline": self.headline(comparison),
             "verdict": self.verdict(), "timings": {k: _plain(v) for k, v in self.timings.items()},
             "t": self.t.tolist(), "states": list(self.state_names),
             "rmse": self.rmse().tolist(), "sigma": self.sigma_rms().tolist(),
@@ -231,6 +245,15 @@ class MonteCarloResult:
             "nees_median": np.median(self.nees, axis=0).tolist(),
             "notes": self.experiment.notes,
         }
+        if comparison is not None:
+            out["comparison"] = comparison
+        return out
+
+    def outcome(self, comparison=None) -> "Outcome":
+        """The kind of the verdict line of :meth:`headline` (an :class:`Outcome`)."""
+        if comparison is None:
+            return Outcome.MONTE_CARLO_ONLY
+        return _outcome(comparison["states"], comparison["quantities"])[0]
 
     def headline(self, comparison=None) -> list[str]:
         """The verdict first: one line ``verdict: ...``, then the lines that explain it.
@@ -267,12 +290,10 @@ class MonteCarloResult:
             return f"{obs}, {conv}"
 
         rows_s, rows_q = comparison["states"], comparison["quantities"]
-        bad_q = [k for k, r in rows_q.items() if r["agree"] is False]
-        bad_obs = [k for k, r in rows_s.items() if r["agree"] is False and r["observable"]]
-        bad_unobs = [k for k, r in rows_s.items() if r["agree"] is False and not r["observable"]]
+        kind, bad_q, bad_obs, bad_unobs = _outcome(rows_s, rows_q)
         undecided = [k for k, r in {**rows_s, **rows_q}.items() if r["agree"] is None]
         lines = []
-        if bad_q or bad_obs or (bad_unobs and not rows_q):
+        if kind is Outcome.DISAGREES:
             names = bad_q + bad_obs + bad_unobs
             lines.append(f"verdict: Monte Carlo and {source} disagree on "
                          + ", ".join(f"{k} ({word({**rows_s, **rows_q}[k])})" for k in names))
@@ -280,7 +301,7 @@ class MonteCarloResult:
                 lines.append(f"  {', '.join(bad_unobs)}: a state moved together with others by "
                              "an unobservable direction can look converging (its error drops to "
                              "the prior spread along it); no named quantity to check it along")
-        elif bad_unobs:
+        elif kind is Outcome.CONSISTENT:
             agree_q = [k for k, r in rows_q.items() if r["agree"] is True]
             lines.append(f"verdict: consistent with {source} on the named quantities"
                          + (": " + ", ".join(f"{k} ({word(rows_q[k])})" for k in agree_q)
@@ -340,7 +361,7 @@ class MonteCarloResult:
                          f"{tm['devices']} {tm['device_kind']} device(s); compile "
                          f"{tm['compile_s']:.2f} s, run {tm['run_s']:.2f} s; load average "
                          f"{tm['loadavg'][0]:.2f}")
-        return "\n".join(lines)
+        return "\n".join(map(printable, lines))  # names and units from a model file, made inert
 
     def __str__(self) -> str:
         return self.summary()
@@ -376,7 +397,7 @@ def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:
     k = len(header)
     if len(align) != k or set(align) - set("lr"):
         raise OptionError(f"align needs one of 'l', 'r' per column ({k}), got {align!r}")
-    cells = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    cells = [list(map(printable, header))] + [list(map(printable, r)) for r in rows]
     for r in cells:
         if len(r) != k:
             raise OptionError(f"a table row has {len(r)} cells, the header {k}")
@@ -384,6 +405,29 @@ def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:
     sep = " " * max(int(gap), 1)
     return [(indent + sep.join(c.ljust(w) if a == "l" else c.rjust(w)
                                for c, w, a in zip(r, widths, align))).rstrip() for r in cells]
+
+
+class Outcome(str, enum.Enum):
+    """The kind of a Monte Carlo verdict line (:meth:`MonteCarloResult.headline`), as the
+    JSON's ``outcome`` says it."""
+
+    MONTE_CARLO_ONLY = "monte_carlo_only"  # no analysis compared
+    AGREES = "agrees"  # every row agrees (or is undecided)
+    CONSISTENT = "consistent"  # only unobservable states look converging; quantities agree
+    DISAGREES = "disagrees"  # a quantity, or an observable state, contradicts the analysis
+
+
+def _outcome(rows_s, rows_q):
+    """``(Outcome, bad quantities, bad observable states, bad unobservable states)`` of a
+    comparison's rows (see :meth:`MonteCarloResult.headline`)."""
+    bad_q = [k for k, r in rows_q.items() if r["agree"] is False]
+    bad_obs = [k for k, r in rows_s.items() if r["agree"] is False and r["observable"]]
+    bad_unobs = [k for k, r in rows_s.items() if r["agree"] is False and not r["observable"]]
+    if bad_q or bad_obs or (bad_unobs and not rows_q):
+        kind = Outcome.DISAGREES
+    else:
+        kind = Outcome.CONSISTENT if bad_unobs else Outcome.AGREES
+    return kind, bad_q, bad_obs, bad_unobs
 
 
 def _row(obs, conv):

@@ -72,8 +72,9 @@ def split_callable(states, dynamics, outputs, known_inputs, unknown_inputs, para
                           for a in range(m) if np.any(np.nan_to_num(g[:, a]) != 0)}
             kinked = {inputs[a] for a in range(m)
                       if np.any(finite & ((~finite0[a]) | (gaps[a] > AFFINE_RTOL)))}
-        dropped = [v for a, v in enumerate(inputs) if not used[a] and v not in in_outputs]
-        for v in dropped:
+        # sign(w): no derivative anywhere, yet f(w) is not f(0): used (kinked), not dropped
+        dropped = [v for a, v in enumerate(inputs) if not used[a] and v not in in_outputs and v not in kinked]
+        for v in dropped:  # the same note as the expression route's (tests/test_general_form.py)
             kind = "known" if v in known_inputs else "unknown"
             notes.append(f"{kind} input {v!r} appears in no equation: dropped")
         keep = [a for a, v in enumerate(inputs) if v not in dropped]

@@ -1,6 +1,6 @@
 """Load a Monte Carlo :class:`~uio_jax.Experiment` from ``FILE.py:NAME``."""
 
-from .._errors import LoadError, UioJaxError
+from .._errors import LoadError, UioJaxError, exit_message
 from .._model.experiment import Experiment
 from .loading import load_module, split_spec
 
@@ -31,6 +31,8 @@ def load_experiment(spec: str):
             raise LoadError(f"{spec} raised {type(exc).__name__}: "
                             f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
                             ) from None
+        except SystemExit as exc:
+            raise LoadError(f"{spec} {exit_message(exc)}") from None
     if not isinstance(obj, Experiment):
         raise LoadError(f"{spec} did not give a uio_jax Experiment (got {type(obj).__name__})")
     return obj

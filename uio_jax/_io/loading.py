@@ -15,7 +15,7 @@ import os
 import sys
 import traceback
 
-from .._errors import LoadError, UioJaxError
+from .._errors import LoadError, UioJaxError, exit_message
 from .._model.system import System
 
 
@@ -76,6 +76,8 @@ def load_system(spec, *args, **kwargs) -> System:
             raise type(exc)(f"{spec}: {exc}") from None
         except Exception as exc:
             raise LoadError(f"{spec} raised {type(exc).__name__}: {_first_line(exc)}") from None
+        except SystemExit as exc:
+            raise LoadError(f"{spec} {exit_message(exc)}") from None
     if not isinstance(obj, System):
         raise LoadError(f"{spec} did not give a uio_jax.System (got {type(obj).__name__})")
     if not obj.name:
@@ -135,7 +137,7 @@ def load_module(path: str):
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:  # a model file that calls sys.exit: an error too
         tb = traceback.extract_tb(exc.__traceback__)
         where = next((f" (line {f.lineno})" for f in reversed(tb) if f.filename == abspath), "")
         raise LoadError(

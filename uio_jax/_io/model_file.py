@@ -127,11 +127,12 @@ def read_model_file(path) -> ModelSpec:
     if suffix not in _SUFFIXES:
         raise LoadError(f"{path}: a model file must end in .toml or .json")
     if not os.path.isfile(path):
-        raise LoadError(f"model file not found: {path}")
+        what = "a directory" if os.path.isdir(path) else "not a regular file" if os.path.exists(path) else ""
+        raise LoadError(f"model file {path} is {what}" if what else f"model file not found: {path}")
     try:
         with open(path, "rb") as fh:
             raw = fh.read()
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark (some editors write one) is not text
     except OSError as exc:
         raise LoadError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
@@ -142,12 +143,16 @@ def read_model_file(path) -> ModelSpec:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise LoadError(f"{path}: TOML syntax error: {exc}") from None
+        except RecursionError:
+            raise LoadError(f"{path}: TOML nested too deeply (arrays or tables in one another)") from None
     else:
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise LoadError(f"{path}: JSON syntax error: {exc.msg} (at line {exc.lineno}, "
                             f"column {exc.colno})") from None
+        except RecursionError:
+            raise LoadError(f"{path}: JSON nested too deeply (arrays or objects in one another)") from None
     return spec_from_dict(data, path)
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from .._errors import ExpressionError, ModelError
-from .expressions import parse_expression
+from .expressions import ALIASES, CONSTANTS, FUNCTIONS, parse_expression
 
 _TOP_KEYS = ("name", "description", "notes", "states", "angles", "time", "params", "constants", "domain",
              "outputs", "drift", "known", "unknown", "inputs", "dynamics")
@@ -187,8 +187,9 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
                 _claim(inp, "input", taken, kind, w)
                 out[inp] = _exprs(fld, f"{kind}.{inp}", w, base_names, rows=states)
     ro = MappingProxyType
+    notes = tuple(notes) + _shadow_notes(taken)
     return ModelSpec(
-        states=states, outputs=ro(outputs), name=name, description=description, notes=tuple(notes),
+        states=states, outputs=ro(outputs), name=name, description=description, notes=notes,
         angles=angles, params=ro(params), constants=ro(constants), domain=ro(domain), drift=ro(drift),
         known=ro({k: ro(v) for k, v in known.items()}), unknown=ro({k: ro(v) for k, v in unknown.items()}),
         dynamics=None if dynamics is None else ro(dynamics), inputs_known=ik, inputs_unknown=iu, time=time,
@@ -210,6 +211,15 @@ def _table(v, key, w) -> Mapping:
 def _kind(v) -> str:
     return {list: "a list", str: "a string", bool: "a boolean", int: "a number", float: "a number",
             dict: "a table"}.get(type(v), type(v).__name__)
+
+
+def _shadow_notes(taken) -> tuple:
+    """A note per model name that is also a built-in constant or function of expressions
+    (``pi``, ``E``, ``sin``): in the model's expressions the name means the model's own
+    (a state ``E`` of an SEIR model), said rather than silent."""
+    return tuple(f"{what} {nm!r} shadows the built-in {'constant' if nm in CONSTANTS else 'function'} "
+                 f"{nm} of expressions: in this model's expressions {nm!r} is the {what}"
+                 for nm, what in taken.items() if nm in CONSTANTS or nm in FUNCTIONS or nm in ALIASES)
 
 
 def _identifier(nm, key, w):
@@ -252,6 +262,9 @@ def _box(v, key, w) -> tuple:
     lo, hi = (_number(x, key, w) for x in v)
     if lo >= hi:
         raise w.error(key, f"empty box: lo={lo} >= hi={hi}")
+    if not math.isfinite(hi - lo):  # the samples lo + u (hi - lo) would be inf, and blame the model
+        raise w.error(key, f"box [{lo:g}, {hi:g}] too wide: its width overflows float64; give the range "
+                           "where the model is meant to be evaluated")
     return (lo, hi)
 
 

@@ -12,14 +12,19 @@ Every option is checked before any work (:func:`uio_jax._analysis.options.check_
 the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is known).
 """
 
+import os
 import sys
 
 from .._analysis.memory import ENV as MEMORY_ENV
 from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
-from .._errors import UioJaxError
+from .._errors import UioJaxError, exit_message
+from .._output import printable
 from . import analyze, batch, montecarlo
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
+
+#: Exit code when the reader of stdout left early (128 + SIGPIPE, as ``yes | head`` gives).
+EXIT_STDOUT_CLOSED = 141
 
 COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo}
 
@@ -50,7 +55,8 @@ def _analysis_options(p):
     p.add_argument("--max-order", type=int, default=d["max_order"], help="cap on the steps m (order k), >= 0")
     p.add_argument("--k-max", type=int, default=d["k_max"],
                    help="highest order k of the EORC, >= 1 (default n + 2, or earlier where no "
-                        "higher order can change a verdict; given, every order up to it is run)")
+                        "higher order can change a verdict; given, every order up to it is run); "
+                        "the other methods do not use it (the report notes it)")
     p.add_argument("--prob-threshold", type=float, default=d["prob_threshold"],
                    help="probability of correctness of the exact decisions, in (0, 1) "
                         f"(default {d['prob_threshold']}; the report states the bound reached)")
@@ -73,17 +79,37 @@ def main(argv=None) -> int:
         if args.command == "montecarlo":
             montecarlo.split_host_devices()  # before anything starts JAX's backend
         with compile_cache(args):
-            return COMMANDS[args.command].run(args)
+            try:
+                return COMMANDS[args.command].run(args)
+            except SystemExit as exc:  # a model or experiment function JAX traced in the run
+                raise UsageError(f"a model function {exit_message(exc)} during {args.command}; a "
+                                 "model must not end the program") from None
     except (UsageError, UioJaxError) as exc:
-        print(f"uio-jax: error: {exc}", file=sys.stderr)
+        print(f"uio-jax: error: {printable(exc)}", file=sys.stderr)  # one line, inert
         return EXIT_USAGE
+    except BrokenPipeError as exc:
+        if exc.filename is not None:  # an output file (a FIFO whose reader left): lost, an error
+            print(printable(f"uio-jax: error: {exc.strerror}: {exc.filename}"), file=sys.stderr)
+            return EXIT_USAGE
+        return _stdout_closed()
     except OSError as exc:
-        print(f"uio-jax: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
+        print(printable(f"uio-jax: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")),
               file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("uio-jax: interrupted", file=sys.stderr)
         return 130
+
+
+def _stdout_closed() -> int:
+    """The reader of stdout left (``uio-jax ... | head``): end quietly, as a process killed by
+    SIGPIPE would (exit code 141), without a second error when Python flushes stdout at exit."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout without a file descriptor (captured): nothing to redirect
+        pass
+    return EXIT_STDOUT_CLOSED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -3,7 +3,8 @@
 import json
 
 from .._errors import UioJaxError
-from .common import add_cache_options, check_writable
+from .._output import printable
+from .common import add_cache_options, check_writable, model_prints_on_stderr, write_output
 
 
 def add_parser(subparsers, analysis_options):
@@ -35,23 +36,20 @@ def run(args) -> int:
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot, names=("--json", "--plot"))
-    system = load_system(args.model)
+    check_writable(args.json, args.plot, names=("--json", "--plot"), inputs=[args.model])
     printer = StepPrinter(enabled=False if args.no_progress else None)
-    with step_listener(printer):
+    with model_prints_on_stderr(), step_listener(printer):
+        system = load_system(args.model)
         rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                       rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
                       known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
     print(rep)
-    if rep.dim < rep.n:  # n: states plus parameters (rep.variables)
-        try:
-            print(rep.format_directions())
-        except UioJaxError as exc:
-            print(f"unobservable directions: not computed at the centre of the domain ({exc})")
+    directions = _print_directions(rep)
     if args.json:
         d = rep.to_dict()
-        with open(args.json, "w") as fh:
-            json.dump(d, fh, indent=2)
+        for key, value in directions.items():  # what the text printed, parameters or not
+            d.setdefault(key, value)
+        write_output(args.json, json.dumps(d, indent=2))
         print(f"report written to {args.json}")
     if args.plot:
         from .._analysis.plots import plot_analysis
@@ -59,3 +57,22 @@ def run(args) -> int:
         plot_analysis(rep, args.plot)
         print(f"figure written to {args.plot}")
     return 0
+
+
+def _print_directions(rep) -> dict:
+    """Print the unobservable directions of a report that has some (at the centre of the
+    domain); returns them as the JSON keys :meth:`Report.to_dict` gives a model with
+    parameters (``unobservable_directions``, ``identifiable_combinations``,
+    ``directions_at``), empty when there are none."""
+    if rep.dim >= rep.n:  # n: states plus parameters (rep.variables)
+        return {}
+    try:
+        summary = rep.direction_summary()
+    except UioJaxError as exc:
+        print(printable(f"unobservable directions: not computed at the centre of the domain ({exc})"))
+        return {"unobservable_directions": None, "identifiable_combinations": None,
+                "directions_at": {"rule": "centre of the domain", "point": None, "error": str(exc)}}
+    print(printable(rep.format_directions(summary), keep="\n"))
+    return {"unobservable_directions": summary["directions"],
+            "identifiable_combinations": summary["identifiable_combinations"],
+            "directions_at": {"rule": summary["rule"], "point": summary["point"]}}

@@ -10,7 +10,8 @@ from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
 from .._model.experiment import TimeScaleWarning
-from .common import check_writable
+from .._output import write_figure
+from .common import check_writable, model_prints_on_stderr, write_output
 
 #: Figures are saved at this resolution (raster formats; vector formats ignore it).
 FIGURE_DPI = 150
@@ -70,10 +71,12 @@ def check_options(args):
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
-    check_writable(args.json, args.plot, names=("--json", "--plot"))
+    check_writable(args.json, args.plot, names=("--json", "--plot"), 
+                   inputs=[args.experiment] if getattr(args, "experiment", None) else ())
     if getattr(args, "scheduler", None) is not None:
-        from .._filter.cluster import check_scheduler
+        from .._filter.cluster import check_scheduler, pin_workers
 
+        pin_workers()
         check_scheduler(args.scheduler)
 
 
@@ -106,31 +109,31 @@ def run(args) -> int:
     split_host_devices()
     from .._filter.montecarlo import run_montecarlo
 
-    with warnings_on_stderr():
+    comparison = None
+    with warnings_on_stderr(), model_prints_on_stderr():
         exp = load_experiment(args.experiment)
         res = run_montecarlo(exp, args.trials, seed=args.seed, keep=args.keep, filter=args.filter,
                              progress=False if args.no_progress else None,
                              client=getattr(args, "scheduler", None))
-    comparison = None
-    if not args.no_analysis:
-        from .._analysis.analyze import analyze
+        if not args.no_analysis:
+            from .._analysis.analyze import analyze
 
-        comparison = res.compare(analyze(exp.analysis_system()))
+            comparison = res.compare(analyze(exp.analysis_system()))
     print(res.summary(comparison))
     if args.json:
-        d = res.to_dict()
-        if comparison is not None:
-            d["comparison"] = comparison
-        with open(args.json, "w") as fh:
-            json.dump(d, fh, indent=1)
+        d = res.to_dict(comparison)  # says what the text says: outcome, headline, filter
+        write_output(args.json, json.dumps(d, indent=1))
         print(f"summary written to {args.json}")
     if args.plot:
+        from .._analysis.plots import check_figure_path
         from .._filter.plots import plot_montecarlo
 
         fig, _ = plot_montecarlo(res)
-        fig.savefig(args.plot, dpi=FIGURE_DPI)
-        import matplotlib.pyplot as plt
+        try:
+            write_figure(fig, args.plot, check_figure_path(args.plot), dpi=FIGURE_DPI)
+        finally:
+            import matplotlib.pyplot as plt
 
-        plt.close(fig)
+            plt.close(fig)
         print(f"figure written to {args.plot}")
     return 0
