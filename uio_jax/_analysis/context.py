@@ -19,7 +19,7 @@ from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
 from .evidence import Certificate, Step
-from .memory import CERTIFY_BYTES, certify_samples, decision_count
+from .memory import CERTIFY_BYTES, DECISION_SAMPLES, certify_samples, decision_count, screen_samples
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Report
 from .settle import DEFAULT_PROB_THRESHOLD, Escalation, Settler
@@ -57,7 +57,10 @@ class Context:
         self.prob_threshold = prob_threshold
         with jax.enable_x64(True):
             xs_all = sample_states(system, samples, seed)
-            self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n))
+            nodes = [*self.output_nodes(), *(self.field_node(f) for f in system.fields())]
+            exprs = [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr)]
+            wanted = screen_samples(system.n) if self.settler.exact_capable(exprs) else DECISION_SAMPLES
+            self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n, wanted))
 
     def _defined(self, xs_all):
         """``(S,)``: whether the outputs and fields are finite at each sample."""

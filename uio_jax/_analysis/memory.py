@@ -66,6 +66,13 @@ _FLOAT = 8  # bytes per float64 entry
 #: (``docs/benchmarks/engine.md``).
 DECISION_SAMPLES = 128
 
+#: The float64 screen of a model decided exactly keeps ``S N^2`` near this (a vote costs
+#: ``S r N``): 128 samples up to 128 coordinates, 16 at 362 and beyond (:func:`screen_samples`).
+SCREEN_BUDGET = 2**21
+
+#: The fewest defined samples of a float64 screen.
+SCREEN_MIN = 16
+
 #: The final span is certified on all the samples while its per-sample arrays fit in this
 #: many bytes: on ``N`` coordinates they are at most ``N x N`` float64 per sample (the kept
 #: rows and their basis, ``r <= N`` rows of ``N``; the unit-covector test of up to ``N``
@@ -89,22 +96,31 @@ def certify_samples(samples: int, coords: int) -> int:
     return int(min(samples, max(DECISION_SAMPLES, fit)))
 
 
-def decision_count(defined, samples: int, coords: int) -> int:
-    """How many of the first samples decide: the fewest holding :data:`DECISION_SAMPLES`
-    states where the model is defined, at most :func:`certify_samples` (all of those when
-    fewer are defined).
+def screen_samples(coords: int) -> int:
+    """The float64 screen's defined samples for a model whose every decision is made
+    exactly: :data:`DECISION_SAMPLES`, fewer on a large model (a vote costs ``S r N`` per
+    candidate: ``S N^2`` is kept near :data:`SCREEN_BUDGET`), never under :data:`SCREEN_MIN`.
+    The votes only order the exact decisions; a wrong one is corrected modulo p."""
+    return int(max(SCREEN_MIN, min(DECISION_SAMPLES, SCREEN_BUDGET // max(int(coords), 1) ** 2)))
+
+
+def decision_count(defined, samples: int, coords: int, wanted: int = DECISION_SAMPLES) -> int:
+    """How many of the first samples decide: the fewest holding ``wanted`` (default
+    :data:`DECISION_SAMPLES`) states where the model is defined, at most
+    :func:`certify_samples` (all of those when fewer are defined).
 
     Args:
         defined: ``(S,)`` booleans, the model defined at each sample (None: unknown, taken
             as defined everywhere).
         samples: ``S``.
         coords: the analysis' coordinates ``N``.
+        wanted: defined samples wanted (:func:`screen_samples` where every decision is exact).
     """
     cap = certify_samples(samples, coords)
     if defined is None:
-        return min(samples, DECISION_SAMPLES)
+        return min(samples, wanted)
     at = np.flatnonzero(np.asarray(defined, dtype=bool)[:cap])
-    return cap if len(at) < DECISION_SAMPLES else int(at[DECISION_SAMPLES - 1]) + 1
+    return cap if len(at) < wanted else int(at[wanted - 1]) + 1
 
 
 def rank_samples(samples: int, coords: int) -> int:

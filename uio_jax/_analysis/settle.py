@@ -192,6 +192,11 @@ class Settler:
         self._answers[tuple(exprs)] = answer
         return answer
 
+    def exact_capable(self, exprs) -> bool:
+        """Whether decisions on the graph nodes ``exprs`` (and on what is built from them: every
+        derivative of a node made rational is made rational) are made modulo p."""
+        return self._rational([e for e in exprs if e is not None])
+
     def vanishes(self, exprs) -> tuple[bool, str]:
         """Whether the graph nodes ``exprs`` all vanish identically (a zero test of the general
         solution), decided beyond float64: ``(zero, how)``.
