@@ -29,7 +29,7 @@ from ._analysis.plots import plot_analysis as plot_analysis
 
 # Monte Carlo filtering
 from ._filter.montecarlo import run_montecarlo as run_montecarlo
-from ._filter.montecarlo import trajectories as trajectories
+from ._filter.trials import trajectories as trajectories
 from ._filter.result import MonteCarloResult as MonteCarloResult
 from ._filter.plots import plot_montecarlo as plot_montecarlo
 from ._filter.plots import plot_trajectories as plot_trajectories
