@@ -1,5 +1,6 @@
-"""Systems from Python callables in the general form: :func:`system_from_dynamics`
-(also ``System.from_dynamics``).
+"""Systems from Python callables in the general form: :func:`system_from_dynamics` (public as
+``uj.system_from_dynamics``; ``uj.System.from_dynamics`` is the same function, attached by the
+API layer, ``uio_jax/__init__.py``).
 
 A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i(x) u_i +
 sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
@@ -191,15 +192,3 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
     if np.issubdtype(dtype, np.complexfloating):
         raise ModelError(f"{_SOURCE}: {what} returns a complex value ({dtype}); the dynamics and outputs "
                          "must be real")
-
-
-def _from_dynamics(cls, *args, **kwargs) -> System:
-    """A System from ``x' = f(x, u, w)`` and outputs ``h(x, u, w)``; see
-    :func:`system_from_dynamics` for the arguments (the split into the control-affine form
-    and the promotions are those of model files in the general form)."""
-    return system_from_dynamics(*args, **kwargs)
-
-
-# ``System.from_dynamics`` is installed here, by the importers' layer, so that the model
-# layer never imports the importers (the dependency rule of the package's layout).
-System.from_dynamics = classmethod(_from_dynamics)

@@ -1,4 +1,5 @@
-"""Systems from sympy expressions: :func:`system_from_sympy` (also ``System.from_sympy``).
+"""Systems from sympy expressions: :func:`system_from_sympy` (public as ``uj.system_from_sympy``;
+``uj.System.from_sympy`` is the same function, attached by the API layer, ``uio_jax/__init__.py``).
 
 Each expression is printed with sympy's ``str`` and read back by the whitelisted parser of
 :mod:`uio_jax._io.expressions`, so the functions accepted here are exactly those of model
@@ -12,7 +13,6 @@ sympy is not a dependency of uio_jax; it is imported only when this function is 
 from collections.abc import Mapping
 
 from .._errors import ModelError
-from .._model.system import System
 
 _SOURCE = "from_sympy"
 
@@ -21,7 +21,7 @@ def _sympy():
     try:
         import sympy
     except ImportError:
-        raise ModelError("System.from_sympy needs sympy: pip install sympy") from None
+        raise ModelError("system_from_sympy needs sympy: pip install sympy") from None
     return sympy
 
 
@@ -209,18 +209,3 @@ def _is_zero(e) -> bool:
     if isinstance(e, (int, float)):
         return e == 0
     return getattr(e, "is_zero", False) is True and getattr(e, "is_number", False) is True
-
-
-def _from_sympy(cls, *args, **kwargs) -> System:
-    """A System from sympy expressions; see :func:`system_from_sympy` for the arguments.
-
-    Needs sympy (``pip install sympy``). The expressions are converted through the same
-    whitelisted parser as model files, and kept so that the System can be saved.
-    """
-    return system_from_sympy(*args, **kwargs)
-
-
-# ``System.from_sympy`` is installed here, by the importers' layer, so that the model
-# layer never imports the importers (the dependency rule of the package's layout).
-System.from_sympy = classmethod(_from_sympy)
-
