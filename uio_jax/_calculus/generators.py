@@ -20,8 +20,8 @@ import numpy as np
 
 from .._engine import graph_numpy as _graph_numpy
 from .._engine.graph import Graph
-from .._engine.graph_rules import IndexOutOfRange
 from .._engine.graph_trace import translate_or_refuse
+from .._engine.graph_values import IndexOutOfRange
 from .._errors import ModelError
 
 

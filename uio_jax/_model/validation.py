@@ -13,8 +13,8 @@ import numpy as np
 
 from .._engine.graph import Graph
 from .._engine.graph_numpy import evaluate
-from .._engine.graph_rules import IndexOutOfRange
 from .._engine.graph_trace import translate_or_refuse
+from .._engine.graph_values import IndexOutOfRange
 from .._errors import ModelError
 
 #: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
