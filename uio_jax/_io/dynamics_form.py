@@ -72,6 +72,46 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
     from .affine import system_callables
     from .affine_callable import split_callable
 
+    states, known, unknown, pnames, boxes, domain = _arguments(states, known, unknown, params, time, dynamics,
+                                                               outputs, domain)
+    n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
+    with_p, with_t = bool(pnames), time is not None
+    # the split sees the time as one more parameter, last: q = [p; t]
+    extra = {}
+    if with_t:
+        from .._model.system import DEFAULT_TIME_BOX
+
+        extra = {time: tuple(domain.pop(time, DEFAULT_TIME_BOX))}
+
+    def full(fn):  # always (x, q, u, w), q = [p; t]
+        if with_t:
+            if with_p:
+                return lambda x, q, u, w: fn(x, q[:P], u, w, q[P])
+            return lambda x, q, u, w: fn(x, u, w, q[0])
+        return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
+
+    args, lengths = _signature(with_p, time, n, P, nk, nw)
+    dyn = full(dynamics)
+    outs = {k: full(h) for k, h in outputs.items()}
+    Q = P + len(extra)
+    _check("dynamics", dyn, (n,), args, lengths, n, Q, nk, nw)
+    for k, h in outs.items():
+        _check(f"output {k!r}", h, (), args, lengths, n, Q, nk, nw)
+    parts = split_callable(states, dyn, outs, known, unknown, {**boxes, **extra}, domain, tuple(angles))
+    wrap = system_callables(with_p, with_t)
+    notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
+    return parts.to_system(wrap, name=name, params=boxes, notes=notes, time=time,
+                           time_box=extra.get(time))
+
+
+def _arguments(states, known, unknown, params, time, dynamics, outputs, domain):
+    """The arguments of :func:`system_from_dynamics`, checked: ``(states, known, unknown,
+    parameter names, parameter boxes, domain)``.
+
+    Raises:
+        ModelError: a bad or clashing name, a dynamics or output that is not callable, a
+            domain entry for something that is neither a state, an input nor the time.
+    """
     states = _names(states, "states")
     known = _names(known, "known")
     unknown = _names(unknown, "unknown")
@@ -110,38 +150,18 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
         if k not in taken or taken[k] == "parameter":
             raise ModelError(f"{_SOURCE}: domain given for {k!r}, which is neither a state nor an input"
                              + (" nor the time" if time is not None else ""))
-    n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
-    with_p, with_t = bool(pnames), time is not None
-    # the split sees the time as one more parameter, last: q = [p; t]
-    extra = {}
-    if with_t:
-        from .._model.system import DEFAULT_TIME_BOX
+    return states, known, unknown, pnames, boxes, domain
 
-        extra = {time: tuple(domain.pop(time, DEFAULT_TIME_BOX))}
 
-    def full(fn):  # always (x, q, u, w), q = [p; t]
-        if with_t:
-            if with_p:
-                return lambda x, q, u, w: fn(x, q[:P], u, w, q[P])
-            return lambda x, q, u, w: fn(x, u, w, q[0])
-        return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
-
+def _signature(with_p, time, n, P, nk, nw):
+    """``("(x, p, u, w, t)", "x (n), p (P), ...")``: the arguments of the user's callables and
+    their lengths, as the error messages name them."""
     args = "(x, p, u, w" if with_p else "(x, u, w"
-    args += f", {time})" if with_t else ")"
+    args += f", {time})" if time is not None else ")"
     lengths = f"x ({n}), p ({P}), u ({nk}), w ({nw})" if with_p else f"x ({n}), u ({nk}), w ({nw})"
-    if with_t:
+    if time is not None:
         lengths += f", {time} (a scalar)"
-    dyn = full(dynamics)
-    outs = {k: full(h) for k, h in outputs.items()}
-    Q = P + len(extra)
-    _check("dynamics", dyn, (n,), args, lengths, n, Q, nk, nw)
-    for k, h in outs.items():
-        _check(f"output {k!r}", h, (), args, lengths, n, Q, nk, nw)
-    parts = split_callable(states, dyn, outs, known, unknown, {**boxes, **extra}, domain, tuple(angles))
-    wrap = system_callables(with_p, with_t)
-    notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
-    return parts.to_system(wrap, name=name, params=boxes, notes=notes, time=time,
-                           time_box=extra.get(time))
+    return args, lengths
 
 
 def _a(kind: str) -> str:
