@@ -30,7 +30,7 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
 
     Example::
 
-        sys = uj.System.from_dynamics(
+        sys = uj.system_from_dynamics(
             states=("px", "py", "th"),
             dynamics=lambda x, u, w: jnp.array([w[0] * jnp.cos(x[2]), w[0] * jnp.sin(x[2]), u[0]]),
             outputs={"px": lambda x, u, w: x[0], "py": lambda x, u, w: x[1]},
