@@ -371,7 +371,6 @@ def test_nothing_is_attached_to_an_imported_class_but_the_documented_constructor
     assert uj.System.from_dynamics is uj.system_from_dynamics
 
 
-@pytest.mark.xfail(strict=True, reason="the splits of issue 36 item 5 are in progress")
 def test_no_module_or_function_is_too_long():
     bad = oversized(PACKAGE, "uio_jax")
     assert not bad, "\n".join(bad)
