@@ -376,6 +376,26 @@ def test_no_module_or_function_is_too_long():
     assert not bad, "\n".join(bad)
 
 
+def test_the_listed_exceptions_are_still_needed(monkeypatch):
+    """Each pending private name and each long function listed is still there: an entry
+    fixed by the change that owns its file must leave the list (else it would hide a new
+    break)."""
+    pending = dict(PENDING_PRIVATE)
+    monkeypatch.setitem(globals(), "PENDING_PRIVATE", {})  # what the rule finds without the list
+    touched = "\n".join(private_accesses(PACKAGE, "uio_jax"))
+    assert touched, "the pending list hides nothing any more"
+    for path, names in pending.items():
+        for name in names:
+            assert f"{path}:" in touched and f"attribute {name} " in touched, f"{path}: {name} no longer touched"
+    lengths = {}
+    for path in {p for p, _ in LONG_FUNCTIONS}:
+        for node in ast.walk(ast.parse((PACKAGE.parent / path).read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lengths[(path, node.name)] = node.end_lineno - node.lineno + 1
+    for key in LONG_FUNCTIONS:
+        assert lengths.get(key, 0) > MAX_FUNCTION_LINES, f"{key} is no longer over the limit: remove it"
+
+
 def test_every_module_is_in_a_layer():
     for mod in modules(PACKAGE, "uio_jax"):
         assert layer_of(mod) in ALLOWED, mod
