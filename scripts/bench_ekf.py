@@ -42,14 +42,16 @@ def one(case, trials, repeats, floor=False):
     import jax
 
     from uio_jax._filter import montecarlo as mc
+    from uio_jax._filter import trial
+    from uio_jax._filter.trials import chunk_records
 
     if floor:  # the ceiling: truth, readings and RNG only (the EKF predict/update skipped)
-        mc.predict = lambda model, xa, P, u: (xa, P)
-        mc.update = lambda model, xa, P, y, mask=None: (xa, P)
+        trial.predict = lambda model, xa, P, u: (xa, P)
+        trial.update = lambda model, xa, P, y, mask=None: (xa, P)
     exp = getattr(zoo, CASES[case])()
     if repeats == 0:  # compile only: the same programs, one chunk of run
         n_dev = len(jax.devices())
-        per_chunk, _ = mc._chunk_records(exp, -(-trials // n_dev) * n_dev)
+        per_chunk, _ = chunk_records(exp, -(-trials // n_dev) * n_dev)
         exp = exp.with_(n_steps=per_chunk * exp.record_every * exp.epoch_steps)
         res = mc.run_montecarlo(exp, trials, seed=0, keep=0, progress=False)
         print("RESULT " + json.dumps({"compile_s": res.timings["compile_s"],

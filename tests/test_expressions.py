@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._io.affine import nonaffine_pattern
+from uio_jax._io.affinity import nonaffine_pattern
 from uio_jax._io.expression_functions import compile_raw, to_function
 from uio_jax._io.expressions import (
     FUNCTIONS,

@@ -6,8 +6,19 @@ Public API (the names below are a contract; everything under ``uio_jax._*`` is p
     sys = uj.System(states=..., outputs=..., known=..., unknown=..., drift=..., domain=...)
     rep = uj.analyze(sys, method="auto", samples=4096, seed=0)
 
-The implementation lives in private layers (README, "Layout"): ``_model`` <- ``_engine`` <-
+The implementation lives in private layers (README, "Layout"): ``_engine`` <- ``_model`` <-
 ``_calculus`` <- ``_analysis``; ``_filter``; ``_io``; ``_batch``; ``cli``.
+
+``System.from_sympy`` and ``System.from_dynamics`` (the one exception to the layout rule,
+named in ``tests/test_layout.py``): the constructors from sympy expressions and from
+``x' = f(x, u, w)`` are plain functions of the importers' layer, public as
+:func:`system_from_sympy` and :func:`system_from_dynamics`. ``System`` lives in the model
+layer, which may not import the importers (``_io`` imports ``_model``, never the reverse), so
+no module below this one can define them on the class. They have been public names since the
+first release and users call them, so this module, the API layer (which imports every layer),
+attaches the two functions to ``System`` as static methods, once, below: ``System.from_sympy``
+IS ``system_from_sympy``. Nothing else in the package assigns an attribute onto a class or
+module it imports; the layout test fails on any other such assignment.
 """
 
 from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
@@ -29,7 +40,7 @@ from ._analysis.plots import plot_analysis as plot_analysis
 
 # Monte Carlo filtering
 from ._filter.montecarlo import run_montecarlo as run_montecarlo
-from ._filter.montecarlo import trajectories as trajectories
+from ._filter.trials import trajectories as trajectories
 from ._filter.result import MonteCarloResult as MonteCarloResult
 from ._filter.plots import plot_montecarlo as plot_montecarlo
 from ._filter.plots import plot_trajectories as plot_trajectories
@@ -40,8 +51,8 @@ from ._filter.plots import plot_nees as plot_nees
 from ._io.loading import load_system as load_system
 from ._io.model_file import save_model as save_model
 from ._io.experiment_loading import load_experiment as load_experiment
-from ._io import sympy_import as _sympy_import  # noqa: F401  (installs System.from_sympy)
-from ._io import dynamics_form as _dynamics_form  # noqa: F401  (installs System.from_dynamics)
+from ._io.sympy_import import system_from_sympy as system_from_sympy
+from ._io.dynamics_form import system_from_dynamics as system_from_dynamics
 
 # many models at once
 from ._batch.run import batch_analyze as batch_analyze
@@ -63,12 +74,16 @@ __all__ = [
     "analyze", "Report", "Step", "Certificate", "plot_analysis",
     "run_montecarlo", "trajectories", "MonteCarloResult",
     "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
-    "load_system", "save_model", "load_experiment",
+    "load_system", "save_model", "load_experiment", "system_from_sympy", "system_from_dynamics",
     "batch_analyze", "BatchResult", "BatchRow",
     "enable_compile_cache",
     "UioJaxError", "ModelError", "OptionError", "LoadError", "ExpressionError",
     "TimeScaleWarning",
 ]
+
+# the documented exception to the layout rule (see the module docstring)
+System.from_sympy = staticmethod(system_from_sympy)
+System.from_dynamics = staticmethod(system_from_dynamics)
 
 try:
     __version__ = _version("uio_jax")

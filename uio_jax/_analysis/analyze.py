@@ -1,5 +1,18 @@
-"""``analyze``: choice of the analysis and the float64 context (the options are checked by
-:mod:`uio_jax._analysis.options`)."""
+"""``analyze``: choice of the analysis and its context (the options are checked by
+:mod:`uio_jax._analysis.options`).
+
+How ``method="auto"`` chooses, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
+``"general_ui"``'s closure along the drift when the known inputs are smooth); one unknown
+input, no drift, and no known input or switchable ones -> ``"single_ui"`` (Martinelli's
+analytic solution); known inputs that are switchable with a drift or several unknown inputs
+-> ``"eorc"`` (extended observability rank criterion, sufficient only: no exact solution is
+known for that meaning); otherwise ``"general_ui"`` (Martinelli's general solution: any
+number of unknown inputs, drift, smooth known inputs; exact). ``"series"`` (every input
+known): rank of the output Taylor coefficients along a generic known input (STRIKE-GOLDD's
+test, :mod:`uio_jax._analysis.series`): the ORC's final verdict without nested brackets,
+much faster on large models, but per-order dims that are not the ORC's steps. ``"fast"``:
+like ``"auto"`` with ``"series"`` in place of ``"orc"``.
+"""
 
 import dataclasses
 
@@ -40,21 +53,8 @@ def analyze(
 
     Other arguments:
         method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"general_ui"``,
-            ``"eorc"``, ``"series"`` or ``"fast"``.
-            ``"auto"`` picks, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
-            ``"general_ui"``'s closure along the drift when the known inputs are smooth);
-            one unknown input, no drift, and no known input or switchable ones ->
-            ``"single_ui"`` (Martinelli's analytic solution); known inputs that are
-            switchable with a drift or several unknown inputs -> ``"eorc"`` (extended
-            observability rank criterion, sufficient only: no exact solution is known for
-            that meaning); otherwise ``"general_ui"`` (Martinelli's general solution: any
-            number of unknown inputs, drift, smooth known inputs; exact). ``"series"``
-            (every input known): rank of the output Taylor coefficients along a generic
-            known input (STRIKE-GOLDD's test, see :mod:`uio_jax._analysis.series`): the
-            ORC's final verdict without nested brackets, much faster on large models, but
-            per-order dims that are not the ORC's steps.
-            ``"fast"``: like ``"auto"`` with ``"series"`` in place of ``"orc"``.
-            ``Report.method`` records the choice.
+            ``"eorc"``, ``"series"`` or ``"fast"``: how ``"auto"`` and ``"fast"`` choose is in
+            the module docstring; ``Report.method`` records the choice.
         samples: number S of random states of the domain drawn for the float64 screen:
             the recursion's votes are taken at the first decision samples where the model
             is defined (:func:`~uio_jax._analysis.memory.decision_count`, 128 for most

@@ -329,6 +329,71 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analys
     return run, out.history, out.stop.message, out.m
 
 
+def _notes(run, last, notes, reason, dropped, k, k_used, dim_all, states, observable, smooth, K):
+    """The notes of the EORC's Report: orders whose decisions could not be settled, the
+    certifying samples' dimension, smooth known inputs, the stop at the known-input bound or
+    at the bound of the verified symmetries, what a sufficient condition leaves open, the
+    extended coordinates' box. ``last``: the Step of order ``k_used`` (the verdicts').
+    Returns ``(notes, at_bound, symmetry bound, at_symmetry)``."""
+    ctx = run.ctx
+    notes = list(notes)
+    if k_used < k:
+        notes.append(
+            f"orders k={k_used + 1}..{k}: {sum(e.result == 'undecided' for e in dropped)} rank decisions could "
+            "not be settled (float64 round-off in derivatives of that order; exact arithmetic found the "
+            f"span inconsistent or could not decide); the verdicts are those of order k={k_used}, whose "
+            "decisions are all certified (the EORC's answer only grows with k)")
+    if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
+        notes.append(f"order k={k_used} decided on the first {ctx.decisions} samples gave "
+                     f"dim {last.dim}; the {len(ctx.xs)} certifying samples give dim {dim_all}: the report "
+                     "gives the latter")
+    if smooth:
+        notes.append(
+            "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
+            f"their derivatives up to order {K - 1} are known coordinates of the drift")
+    stopped = StopReason.KNOWN_BOUND.matches(reason)
+    at_bound = stopped and k_used == k and dim_all == run.bound.dim
+    hidden = [s for s, v in observable.items() if not v]
+    if stopped:
+        notes.append(stop_note(run.bound, k, last.dim, dim_all, hidden, at_bound))
+    sym = run.symmetry_bound()
+    at_symmetry = False
+    if sym is not None:
+        sym_notes, at_symmetry = symmetry_notes(sym, observable, f"k={k_used}", dim_all)
+        notes.extend(sym_notes)
+    if hidden and not (at_bound or at_symmetry):
+        notes.append(
+            f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
+            f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
+        )
+    notes.append(
+        "extended coordinates (unknown inputs and their derivatives) sampled in "
+        f"{DEFAULT_BOX}; unobservable_directions(x) sets them to one generic point of that box (seeded)"
+    )
+    return notes, at_bound, sym, at_symmetry
+
+
+def _details(run, history, k, k_used, first_seen, at_bound, sym, at_symmetry) -> dict:
+    """``Report.details`` of the EORC (see :func:`eorc_report`)."""
+    return {
+        "k": k,
+        "k_verdict": k_used,
+        "k_max": run.K,
+        "extended_state": list(run.ext.states[: run.N + max(k, 1) * run.mw]),
+        "augmented_ranks": [st.extra["augmented_rank"] for st in history],
+        "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
+        "inputs_observable_at": first_seen,
+        # the rank with every input known (None: not needed, or no sound bound), and the
+        # order at which the states reached it with every unknown input observable
+        "known_input_bound": None if run.bound is None else {
+            "dim": run.bound.dim, "series_order": run.bound.order,
+            "settled_beyond_float64": run.bound.settled, "reached_at": k if at_bound else None},
+        # the verified symmetries (None: none declared) and the order at which the states
+        # reached their bound
+        "symmetries": None if sym is None else {**sym.to_dict(), "reached_at": k_used if at_symmetry else None},
+    }
+
+
 def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
                 known_inputs="switchable", prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
     """The EORC of ``system`` as a :class:`~uio_jax.Report` (called by ``analyze``).
@@ -366,7 +431,6 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
                                            k_max=K, early_stop=k_max is None, analysed=system,
                                            prob_threshold=prob_threshold)
         ctx = run.ctx
-        last = history[-1]
         # the EORC is monotone in k: the answer is the one of the last order whose
         # decisions are all certified (float64 or beyond); later orders are reported, not used
         uncertain = [st.m for st in history if st.extra["undecided"]]
@@ -387,57 +451,9 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         for st in history:
             for nm in st.extra["observable_inputs"]:
                 first_seen.setdefault(nm, st.m)
-    notes = list(notes)
-    if k_used < k:
-        notes.append(
-            f"orders k={k_used + 1}..{k}: {sum(e.result == 'undecided' for e in dropped)} rank decisions could "
-            "not be settled (float64 round-off in derivatives of that order; exact arithmetic found the "
-            f"span inconsistent or could not decide); the verdicts are those of order k={k_used}, whose "
-            "decisions are all certified (the EORC's answer only grows with k)")
-    if dim_all != last.dim or set(states) != set(last.extra["observable_states"]):
-        notes.append(f"order k={k_used} decided on the first {ctx.decisions} samples gave "
-                     f"dim {last.dim}; the {len(ctx.xs)} certifying samples give dim {dim_all}: the report "
-                     "gives the latter")
-    if smooth:
-        notes.append(
-            "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
-            f"their derivatives up to order {K - 1} are known coordinates of the drift")
-    stopped = StopReason.KNOWN_BOUND.matches(reason)
-    at_bound = stopped and k_used == k and dim_all == run.bound.dim
-    hidden = [s for s, v in observable.items() if not v]
-    if stopped:
-        notes.append(stop_note(run.bound, k, last.dim, dim_all, hidden, at_bound))
-    sym = run.symmetry_bound()
-    at_symmetry = False
-    if sym is not None:
-        sym_notes, at_symmetry = symmetry_notes(sym, observable, f"k={k_used}", dim_all)
-        notes.extend(sym_notes)
-    if hidden and not (at_bound or at_symmetry):
-        notes.append(
-            f"the EORC is a sufficient condition only: {', '.join(hidden)} not shown "
-            f"observable up to order k={k} (k_max={run.K}); a higher order may show more"
-        )
-    notes.append(
-        "extended coordinates (unknown inputs and their derivatives) sampled in "
-        f"{DEFAULT_BOX}; unobservable_directions(x) sets them to one generic point of that box (seeded)"
-    )
-    details = {
-        "k": k,
-        "k_verdict": k_used,
-        "k_max": run.K,
-        "extended_state": list(run.ext.states[: run.N + max(k, 1) * run.mw]),
-        "augmented_ranks": [st.extra["augmented_rank"] for st in history],
-        "observable_inputs": {st.m: list(st.extra["observable_inputs"]) for st in history},
-        "inputs_observable_at": first_seen,
-        # the rank with every input known (None: not needed, or no sound bound), and the
-        # order at which the states reached it with every unknown input observable
-        "known_input_bound": None if run.bound is None else {
-            "dim": run.bound.dim, "series_order": run.bound.order,
-            "settled_beyond_float64": run.bound.settled, "reached_at": k if at_bound else None},
-        # the verified symmetries (None: none declared) and the order at which the states
-        # reached their bound
-        "symmetries": None if sym is None else {**sym.to_dict(), "reached_at": k_used if at_symmetry else None},
-    }
+    notes, at_bound, sym, at_symmetry = _notes(run, last, notes, reason, dropped, k, k_used, dim_all, states,
+                                               observable, smooth, K)
+    details = _details(run, history, k, k_used, first_seen, at_bound, sym, at_symmetry)
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
     space = SampledSpace(ctx, n=run.n, dim=dim_all)

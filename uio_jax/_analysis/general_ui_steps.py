@@ -106,9 +106,7 @@ def _working_system(states, outputs, drift, unknown, domain, angles, name, known
         with derived_system():
             system = System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
                             domain=domain, angles=angles, name=name)
-    object.__setattr__(system, "_known_coordinates", known_count)
-    object.__setattr__(system, "_as_params", params)
-    return system
+    return system.mark_derived(known_coordinates=known_count)
 
 
 def start_working(system, jet_order, samples, seed, rtol, prob_threshold) -> Working:

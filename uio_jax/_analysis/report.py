@@ -1,19 +1,22 @@
-"""The result of an analysis: dimensions per step, verdicts, evidence, symmetries."""
+"""The result of an analysis: dimensions per step, verdicts, evidence, symmetries.
 
-import inspect
+:class:`Report` holds the answer; its unobservable directions are computed by
+:mod:`uio_jax._analysis.directions`, the functions handed to :meth:`Report.is_observable`
+checked by :mod:`uio_jax._analysis.functions_of_z`, its text written by
+:mod:`uio_jax._analysis.report_text`.
+"""
+
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
-from .._output import printable
+from . import directions
 from .evidence import Arithmetic, Certificate, Step, jsonable
+from .functions_of_z import function_of_z
+from .report_text import report_text
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
 SEMANTICS = (
@@ -148,11 +151,7 @@ class Report:
         Raises:
             ModelError: the report does not know the sampling box (built by hand).
         """
-        domain = _domain_of(self._space)
-        if domain is None or any(v not in domain for v in self.variables):
-            raise ModelError("this report does not know the sampling box of its variables")
-        return np.array([0.5 * (float(domain[v][0]) + float(domain[v][1]))
-                         for v in self.variables])
+        return directions.domain_centre(self, self._space)
 
     def unobservable_directions(self, x=None, p=None) -> np.ndarray:
         """Basis of the unobservable directions (null space of the codistribution) at a point.
@@ -175,7 +174,7 @@ class Report:
             ModelError: a point of the wrong shape or with NaN/inf, or a point where the
                 codistribution is not defined.
         """
-        return self._space.unobservable_directions(self._point(x, p, "unobservable_directions"))
+        return self._space.unobservable_directions(directions.point(self, self._space, x, p, "unobservable_directions"))
 
     def direction_summary(self, x=None, p=None) -> dict:
         """The unobservable directions at a point, labelled by the variables' names.
@@ -199,28 +198,7 @@ class Report:
             "identifiable_combinations": [{param: coefficient}, ...]}`` (combination
             coefficients scaled so that the largest magnitude is 1).
         """
-        if x is None and p is None:
-            z, rule = self.representative_point()
-        else:
-            z, rule = self._point(x, p, "direction_summary"), "the given point"
-        names = self.variables
-        if self.dim >= self.n:
-            dirs = np.zeros((self.n, 0))
-        else:
-            ratio = _rank_ratio_at(self._space, z)
-            if ratio is not None and not ratio > self.certificate.rtol:
-                raise ModelError(f"the codistribution drops rank at {_point_text(names, z)} "
-                                 f"(s_r/s_1 = {ratio:.1e} <= rtol {self.certificate.rtol:.0e}):"
-                                 " its directions there are not the generic ones")
-            dirs = np.asarray(self._space.unobservable_directions(z), dtype=float)
-        out = []
-        for j in range(dirs.shape[1]):
-            v = np.where(np.abs(dirs[:, j]) < 1e-12, 0.0, dirs[:, j])
-            lead = int(np.argmax(np.round(np.abs(v), 9)))
-            v = -v if v[lead] < 0 else v
-            out.append({nm: float(c) + 0.0 for nm, c in zip(names, v)})
-        return {"point": {nm: float(c) for nm, c in zip(names, z)}, "rule": rule,
-                "directions": out, "identifiable_combinations": self._combinations(dirs)}
+        return directions.direction_summary(self, self._space, x, p)
 
     def representative_point(self) -> tuple[np.ndarray, str]:
         """Where the report's directions are given: the centre of the sampling box if the
@@ -235,36 +213,7 @@ class Report:
         Raises:
             ModelError: the sampling box is unknown, or the rank drops at every candidate.
         """
-        centre = self.domain_centre()
-        domain, rtol = _domain_of(self._space), self.certificate.rtol
-        if self.dim >= self.n:
-            return centre, _CENTRE
-        width = np.array([float(domain[v][1]) - float(domain[v][0]) for v in self.variables])
-        for j in range(4):
-            t = 2.0 * np.modf((np.arange(self.n) + 1.0) * (0.6180339887 + 0.1 * j))[0] - 1.0
-            z = centre if j == 0 else centre + 0.3 * width * t
-            ratio = _rank_ratio_at(self._space, z)
-            if ratio is None or ratio > rtol:
-                return z, (_CENTRE if j == 0 else _OFF_CENTRE)
-        raise ModelError("the codistribution drops rank at the centre of the sampling box and "
-                         "at the points tried around it; give a point to unobservable_directions")
-
-    def _combinations(self, dirs) -> list:
-        """Identifiable parameter combinations (by differential) orthogonal to ``dirs``."""
-        ns = len(self.states)
-        hidden = [j for j, nm in enumerate(self.params) if not self.identifiable.get(nm, False)]
-        if len(hidden) < 2 or dirs.shape[1] == 0:
-            return []
-        m = dirs[ns:][hidden]  # (len(hidden), k)
-        u, s, _ = np.linalg.svd(m, full_matrices=True)
-        rank = int(np.sum(s > 1e-8 * max(1.0, float(s[0]) if s.size else 1.0)))
-        combos = []
-        for c in u[:, rank:].T:
-            c = np.where(np.abs(c) < 1e-12, 0.0, c)
-            lead = int(np.argmax(np.round(np.abs(c), 9)))
-            c = c / c[lead]
-            combos.append({self.params[j]: float(v) + 0.0 for j, v in zip(hidden, c) if v != 0.0})
-        return combos
+        return directions.representative_point(self, self._space)
 
     def format_directions(self, summary=None) -> str:
         """Text of :meth:`direction_summary` (default: at the centre of the sampling box).
@@ -273,45 +222,7 @@ class Report:
         zero at 3 decimals omitted), and for a model with parameters one line per
         identifiable combination of parameters that are not identifiable one by one.
         """
-        summary = self.direction_summary() if summary is None else summary
-        at = ", ".join(f"{k}={v:.3g}" for k, v in summary["point"].items())
-        where = {_CENTRE: "the centre of the domain",
-                 _OFF_CENTRE: "the centre of the domain: the rank drops there; instead at"}
-        lines = [f"unobservable directions at {where.get(summary.get('rule'), 'the point')} "
-                 f"({at}):"]
-        if not summary["directions"]:
-            lines.append("  none")
-        for d in summary["directions"]:
-            terms = [f"{c:+.3f} {k}" for k, c in d.items() if abs(c) >= 5e-4]
-            lines.append("  " + "  ".join(terms))
-        for c in summary["identifiable_combinations"]:
-            lines.append("identifiable combination (its differential at this point): "
-                         + _linear_text({f"d{k}": v for k, v in c.items()}))
-        return "\n".join(lines)
-
-    def _point(self, x, p, what) -> np.ndarray:
-        """``z = [x; p]`` from ``z`` or ``(x, p)`` (shapes checked, ModelError otherwise)."""
-        ns, npar = len(self.states), len(self.params)
-        forms = (f"a state of shape ({self.n},)" if not npar else
-                 f"z = [x; p] of shape ({self.n},) or (x, p) with x ({ns},), p ({npar},)")
-        if x is None:
-            if p is not None:
-                raise ModelError(f"{what} needs {forms}; got p without x")
-            return self.domain_centre()
-        try:
-            x = np.asarray(x, dtype=np.float64)
-            p = None if p is None else np.asarray(p, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ModelError(f"{what} needs {forms}; got a non-numeric point") from None
-        if p is None:
-            if x.shape != (self.n,):
-                raise ModelError(f"{what} needs {forms}; got shape {x.shape}")
-            return x
-        if not npar:
-            raise ModelError(f"{what}: this model has no parameters; give {forms}")
-        if x.shape != (ns,) or p.shape != (npar,):
-            raise ModelError(f"{what} needs {forms}; got x {x.shape}, p {p.shape}")
-        return np.concatenate([x, p])
+        return directions.format_directions(self, self._space, summary)
 
     def sample_singular_values(self) -> np.ndarray:
         """How sure the rank is: per-sample singular values of the final generators.
@@ -342,47 +253,7 @@ class Report:
             ModelError: not a callable, a signature of neither form, a function that
                 fails on those shapes or does not return a scalar.
         """
-        return self._space.is_observable(self._function_of_z(fn, "is_observable"))
-
-    def _function_of_z(self, fn, what):
-        """``fn`` as a function of ``z (n,)``, checked on shapes (one-line ModelError)."""
-        ns, npar = len(self.states), len(self.params)
-        forms = (f"fn(x) with x ({self.n},)" if not npar else
-                 f"fn(z) with z = [x; p] ({self.n},) or fn(x, p) with x ({ns},), p ({npar},)")
-        if not callable(fn):
-            raise ModelError(f"{what} needs a callable {forms}, got {type(fn).__name__}")
-        nargs = _positional_arity(fn)
-        if nargs == 2 and npar:
-            def of_z(z):
-                return fn(z[:ns], z[ns:])
-            of_z.__name__ = getattr(fn, "__name__", "fn")
-            form = f"fn(x, p) with x ({ns},), p ({npar},)"
-        elif nargs in (None, 1):
-            of_z = fn
-            form = f"fn(z) with z ({self.n},)" if npar else f"fn(x) with x ({self.n},)"
-        else:
-            has = "no parameters" if not npar else f"{npar} parameters"
-            raise ModelError(f"{what} needs {forms} (this model has {has}); got a function "
-                             f"of {nargs} required positional arguments")
-        try:  # JAX clamps an index past the end (p[5] of 2): plain numpy raises instead
-            of_z(np.full(self.n, 0.75))
-        except IndexError as exc:
-            raise ModelError(f"{what}: {form} indexes outside its arguments ({exc})") from None
-        except Exception:  # numpy input not supported by this function: the trace decides
-            pass
-        with jax.enable_x64(True):
-            try:
-                out = jax.eval_shape(of_z, jax.ShapeDtypeStruct((self.n,), jnp.float64))
-            except Exception as exc:  # the user's function: any failure is a bad function
-                msg = (str(exc).strip().splitlines() or [""])[0][:160]
-                raise ModelError(f"{what}: {form} fails ({type(exc).__name__}"
-                                 f"{': ' + msg if msg else ''}); expected {forms}") from None
-        if getattr(out, "shape", None) != ():
-            raise ModelError(f"{what}: function must return a scalar (), got shape "
-                             f"{getattr(out, 'shape', None)}")
-        if np.issubdtype(np.dtype(getattr(out, "dtype", np.float64)), np.complexfloating):
-            raise ModelError(f"{what}: function returns a complex value ({out.dtype}); it must be real")
-        return of_z
+        return self._space.is_observable(function_of_z(self, fn, "is_observable"))
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary (no callables).
@@ -415,23 +286,8 @@ class Report:
             "semantics": self.semantics,
             "exact": self.exact,
             "known_inputs": self.known_inputs,
-            **(self._directions_dict() if self.params else {}),
+            **(directions.directions_dict(self, self._space) if self.params else {}),
         })
-
-    def _directions_dict(self) -> dict:
-        """The direction keys of :meth:`to_dict` (at the centre of the sampling box)."""
-        try:
-            summary = self.direction_summary()
-        except ModelError as exc:
-            try:
-                point = dict(zip(self.variables, self.domain_centre().tolist()))
-            except ModelError:
-                point = None
-            return {"unobservable_directions": None, "identifiable_combinations": None,
-                    "directions_at": {"rule": _CENTRE, "point": point, "error": str(exc)}}
-        return {"unobservable_directions": summary["directions"],
-                "identifiable_combinations": summary["identifiable_combinations"],
-                "directions_at": {"rule": summary["rule"], "point": summary["point"]}}
 
     def answer_kind(self) -> str:
         """Which question the verdicts answer: exact, or a sufficient condition only.
@@ -490,90 +346,4 @@ class Report:
         return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
-        title = f"uio_jax report: {printable(self.system_name or 'system')} ({self.method})"
-        lines = [title, "=" * len(title), f"answer: {self.answer_kind()}"]
-        obs = [s for s in self.states if self.observable[s]]
-        of = f"{self.n}" + (" (states and parameters)" if self.params else "")
-        lines.append(f"observable codistribution: dim {self.dim} of {of}"
-                     + ("  (fully observable)" if self.fully_observable else ""))
-        label = "k" if self.method in ("eorc", "series") else "m"
-        lines.append("steps:")
-        for st in self.history:
-            extra = "".join(f", {k}={v}" for k, v in st.extra.items())
-            added = ", ".join(st.added) if st.added else "-"
-            lines.append(f"  {label}={st.m}: dim {st.dim}  (+ {added}{extra})")
-        lines.append(f"stopped: {self.stop_reason}")
-        for k, v in self.details.items():
-            lines.append(f"{k}: {v}")
-        lines.append("states:")
-        width = max(len(s) for s in self.states)
-        undecided = set(self.undecided)
-        for s in self.states:
-            verdict = "observable" if self.observable[s] else "not observable"
-            if s in undecided:
-                verdict = f"UNDECIDED (float64: {verdict})"
-            lines.append(f"  {s:<{width}}  {verdict}")
-        if not obs:
-            lines.append("  (no single state component is observable)")
-        if self.params:
-            lines.append("parameters:")
-            width = max(len(p) for p in self.params)
-            for p in self.params:
-                verdict = "identifiable" if self.identifiable[p] else "not identifiable"
-                if p in undecided:
-                    verdict = f"UNDECIDED (float64: {verdict})"
-                lines.append(f"  {p:<{width}}  {verdict}")
-        lines.append(f"certificate: {self.certificate}")
-        for note in self.notes:
-            lines.append(f"note: {note}")
-        return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
-
-
-_CENTRE = "centre of the sampling box of every state and parameter"
-_OFF_CENTRE = ("a fixed point off the centre of the sampling box (the codistribution drops "
-               "rank at the centre)")
-
-
-def _point_text(names, z) -> str:
-    return "(" + ", ".join(f"{k}={v:.3g}" for k, v in zip(names, z)) + ")"
-
-
-def _rank_ratio_at(space, z):
-    """``s_r / s_1`` of the space's generators at ``z`` (:meth:`Space.rank_ratio_at`), or
-    None for a space that cannot evaluate them."""
-    at = getattr(space, "rank_ratio_at", None)
-    return None if at is None else at(z)
-
-
-def _domain_of(space):
-    """The sampling box ``name -> (lo, hi)`` behind a Report's space, or None."""
-    domain = getattr(space, "domain", None)
-    return domain if isinstance(domain, Mapping) else None
-
-
-def _positional_arity(fn):
-    """Required positional parameters of ``fn``; None when it takes ``*args`` or is opaque."""
-    try:
-        sig = inspect.signature(fn)
-    except (TypeError, ValueError):
-        return None
-    kinds = [q.kind for q in sig.parameters.values()]
-    if inspect.Parameter.VAR_POSITIONAL in kinds:
-        return None
-    positional = [q for q in sig.parameters.values()
-                  if q.kind in (q.POSITIONAL_ONLY, q.POSITIONAL_OR_KEYWORD)]
-    required = sum(1 for q in positional if q.default is q.empty)
-    return required if required or not positional else 1
-
-
-def _linear_text(coefs) -> str:
-    """``{"da": 1.0, "db": -0.5}`` -> ``"da - 0.5 db"`` (3 significant digits)."""
-    out = ""
-    for name, c in coefs.items():
-        mag = abs(c)
-        term = name if math.isclose(mag, 1.0, rel_tol=1e-6) else f"{mag:.3g} {name}"
-        if not out:
-            out = ("-" if c < 0 else "") + term
-        else:
-            out += (" - " if c < 0 else " + ") + term
-    return out
+        return report_text(self)

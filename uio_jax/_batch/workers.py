@@ -12,6 +12,7 @@ analysis decides (``"k=5, dim 4/7"``, from :func:`uio_jax._progress.step_listene
 model stopped on timeout says how far it got; then the row's fields (a dict).
 """
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -174,10 +175,16 @@ class _Worker:
 def _worker_main(conn, cache_dir, slot=None):
     """A worker process: set up the caches, say ready, then analyse models until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops this process
-    sys.stdout = sys.stderr  # what models print is not the parent's table (its stdout)
     pin_to_one_cpu(slot)
     if cache_dir:
         enable_compile_cache(cache_dir)
+    # what models print is not the parent's table (its stdout)
+    with contextlib.redirect_stdout(sys.stderr):
+        _serve(conn)
+
+
+def _serve(conn):
+    """Say ready, then analyse the models the parent sends until told to stop."""
     conn.send("ready")
     while True:
         try:

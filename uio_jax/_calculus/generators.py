@@ -20,8 +20,8 @@ import numpy as np
 
 from .._engine import graph_numpy as _graph_numpy
 from .._engine.graph import Graph
-from .._engine.graph_rules import IndexOutOfRange
 from .._engine.graph_trace import translate_or_refuse
+from .._engine.graph_values import IndexOutOfRange
 from .._errors import ModelError
 
 
@@ -54,7 +54,8 @@ class Builder:
         n = system.n if system is not None else n
         #: the System's expression graph (None without a state dimension): the one its
         #: validation built, or a new one
-        self.graph = getattr(system, "_graph", None) or (Graph(n) if n is not None else None)
+        self.graph = (system.expression_graph if system is not None else None) or (
+            Graph(n) if n is not None else None)
         self._nodes: dict[tuple, Node] = {}
         self._gradient_cache: dict = {}  # states key -> {expr: (S, n)}
         self._gradient_bytes = 0
@@ -100,7 +101,7 @@ class Builder:
                 not return ``shape`` (one line naming the function and the primitive).
         """
         system = self._system()
-        if system is not None and getattr(system, "_graph", None) is self.graph:
+        if system is not None and system.expression_graph is self.graph:
             return system.expression(fn, shape)
         try:
             return translate_or_refuse(self.graph, fn, shape, label)

@@ -18,9 +18,9 @@ without a computer algebra system's simplifier:
   derivative is a few nodes per node of the function it differentiates.
 * **Symbolic directional derivatives** (:meth:`Graph.jvp`): ``d phi . v`` for a tangent
   ``v`` given as one node per coordinate, by the chain rule node by node, memoized per
-  tangent: ``L_v phi`` and ``L_v psi`` share the derivative of every subexpression of
-  ``phi`` and ``psi`` that they share. A Lie derivative of order ``k`` costs ``O(size)``
-  new nodes per order.
+  tangent (the rules: :mod:`.graph_derivatives`): ``L_v phi`` and ``L_v psi`` share the
+  derivative of every subexpression of ``phi`` and ``psi`` that they share. A Lie
+  derivative of order ``k`` costs ``O(size)`` new nodes per order.
 
 Evaluation is elsewhere: :mod:`.graph_numpy` (float64 values and gradients over many
 states, numpy), :mod:`.graph_exact` (exact arithmetic modulo a prime, and mpmath at
@@ -33,21 +33,11 @@ from fractions import Fraction
 
 import numpy as np
 
-#: operations whose value is a rational function of their operands (exact modulo a prime)
-RATIONAL_OPS = frozenset({"x", "c", "add", "mul", "div", "neg", "ipow"})
-
-#: piecewise constant operations: derivative zero (comparisons, logic, rounding)
-PIECEWISE_CONSTANT = frozenset({"lt", "le", "gt", "ge", "eq", "ne", "and", "or", "not",
-                                "sign", "floor", "ceil", "round"})
-
-#: elementary functions of one operand (``log`` is the natural logarithm)
-UNARY = frozenset({"neg", "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "atan", "asin",
-                   "acos", "sinh", "cosh", "asinh", "acosh", "atanh", "abs", "log1p", "expm1",
-                   "logistic", "erf", "cbrt", "sign", "floor", "ceil", "round", "not"})
-
-#: operations of two operands
-BINARY = frozenset({"add", "mul", "div", "pow", "atan2", "lt", "le", "gt", "ge", "eq", "ne",
-                    "and", "or"})
+from .graph_derivatives import derivative
+from .graph_ops import BINARY as BINARY  # the operation sets, imported from here too
+from .graph_ops import PIECEWISE_CONSTANT as PIECEWISE_CONSTANT
+from .graph_ops import RATIONAL_OPS as RATIONAL_OPS
+from .graph_ops import UNARY as UNARY
 
 _FOLD = {
     "neg": lambda a: -a, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp,
@@ -417,92 +407,8 @@ class Graph:
             todo.append(i)
             stack.extend(args[i])
         for i in sorted(todo):
-            memo[i] = self._derivative(i, memo, tangent)
+            memo[i] = derivative(self, i, memo, tangent)
         return [memo[r] for r in roots]
-
-    def _derivative(self, i, memo, tangent):
-        op, a = self.op[i], self.args[i]
-        if op == "c" or op in PIECEWISE_CONSTANT:
-            return self.zero
-        if op == "x":
-            return tangent[self.param[i]]
-        ta = memo[a[0]]
-        if op == "add":
-            return self.add(ta, memo[a[1]])
-        if op == "mul":
-            return self.add(self.mul(ta, a[1]), self.mul(a[0], memo[a[1]]))
-        if op == "select":
-            return self.select(a[0], memo[a[1]], memo[a[2]])
-        if len(a) == 2:
-            tb = memo[a[1]]
-            if ta == self.zero and tb == self.zero:
-                return self.zero
-            return self._binary_derivative(op, i, a[0], a[1], ta, tb)
-        if ta == self.zero:
-            return self.zero
-        return self.mul(self._unary_slope(op, i, a[0]), ta) if op != "neg" else self.neg(ta)
-
-    def _unary_slope(self, op, i, a):
-        """``d op(a) / d a`` as a node (``i`` is the node ``op(a)`` itself)."""
-        one = self.one
-        if op == "ipow":
-            k = self.param[i]
-            return self.mul(self.const(k), self.ipow(a, k - 1))
-        if op == "sin":
-            return self.unary("cos", a)
-        if op == "cos":
-            return self.neg(self.unary("sin", a))
-        if op == "tan":
-            return self.add(one, self.ipow(i, 2))
-        if op == "exp":
-            return i
-        if op == "log":
-            return self.div(one, a)
-        if op == "sqrt":
-            return self.div(self.const(0.5), i)
-        if op == "tanh":
-            return self.sub(one, self.ipow(i, 2))
-        if op == "atan":
-            return self.div(one, self.add(one, self.ipow(a, 2)))
-        if op == "asin":
-            return self.div(one, self.unary("sqrt", self.sub(one, self.ipow(a, 2))))
-        if op == "acos":
-            return self.neg(self.div(one, self.unary("sqrt", self.sub(one, self.ipow(a, 2)))))
-        if op == "sinh":
-            return self.unary("cosh", a)
-        if op == "cosh":
-            return self.unary("sinh", a)
-        if op == "asinh":
-            return self.div(one, self.unary("sqrt", self.add(self.ipow(a, 2), one)))
-        if op == "acosh":
-            return self.div(one, self.unary("sqrt", self.sub(self.ipow(a, 2), one)))
-        if op == "atanh":
-            return self.div(one, self.sub(one, self.ipow(a, 2)))
-        if op == "abs":
-            return self.unary("sign", a)
-        if op == "log1p":
-            return self.div(one, self.add(one, a))
-        if op == "expm1":
-            return self.add(i, one)
-        if op == "logistic":
-            return self.mul(i, self.sub(one, i))
-        if op == "erf":
-            return self.mul(self.inexact_const(2.0 / math.sqrt(math.pi)),
-                            self.unary("exp", self.neg(self.ipow(a, 2))))
-        if op == "cbrt":
-            return self.div(self.const(Fraction(1, 3)), self.ipow(i, 2))
-        raise NotImplementedError(f"no derivative for {op}")
-
-    def _binary_derivative(self, op, i, a, b, ta, tb):
-        if op == "div":  # (ta - (a/b) tb) / b
-            return self.div(self.sub(ta, self.mul(i, tb)), b)
-        if op == "pow":  # a^b (tb log a + b ta / a)
-            return self.mul(i, self.add(self.mul(tb, self.unary("log", a)),
-                                        self.div(self.mul(b, ta), a)))
-        if op == "atan2":  # (b ta - a tb) / (a^2 + b^2)
-            return self.div(self.sub(self.mul(b, ta), self.mul(a, tb)),
-                            self.add(self.ipow(a, 2), self.ipow(b, 2)))
-        raise NotImplementedError(f"no derivative for {op}")
 
 
 __all__ = ["Graph", "RATIONAL_OPS", "PIECEWISE_CONSTANT", "UNARY", "BINARY"]

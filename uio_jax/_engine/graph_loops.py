@@ -11,16 +11,16 @@ no loops of its own).
 
 import numpy as np
 
+from .graph_values import Untranslatable, as_nodes, is_symbolic
 from .interpreter import interpret
 
 #: Most iterations a loop is unrolled to (its body walked this many times at most).
 MAX_ITERATIONS = 10_000
 
 
-def loop_rules(rules, as_nodes, is_symbolic, untranslatable):
-    """``{"scan": rule, "while": rule}`` for the rule table ``rules`` (:class:`Rules`,
-    which walks the bodies), with the table's helpers ``as_nodes(graph, v)``,
-    ``is_symbolic(v)`` and its error class ``untranslatable(primitive, detail)``."""
+def loop_rules(rules):
+    """``{"scan": rule, "while": rule}`` for the rule table ``rules`` (:class:`Rules`, which
+    walks the bodies: the table these rules are added to)."""
 
     def stack(graph, values):
         if any(is_symbolic(v) for v in values):
@@ -31,7 +31,7 @@ def loop_rules(rules, as_nodes, is_symbolic, untranslatable):
         p = eqn.params
         length, n_consts, n_carry = int(p["length"]), p["num_consts"], p["num_carry"]
         if length > MAX_ITERATIONS:
-            raise untranslatable("scan", f"{length} iterations (at most {MAX_ITERATIONS} are unrolled)")
+            raise Untranslatable("scan", f"{length} iterations (at most {MAX_ITERATIONS} are unrolled)")
         body = p["jaxpr"]
         consts, carry, xs = ins[:n_consts], list(ins[n_consts:n_consts + n_carry]), ins[n_consts + n_carry:]
         xs = [np.asarray(x) if not is_symbolic(x) else x for x in xs]
@@ -57,11 +57,11 @@ def loop_rules(rules, as_nodes, is_symbolic, untranslatable):
         for _ in range(MAX_ITERATIONS + 1):
             (go,) = interpret(cond.jaxpr, cond.consts, [*cond_consts, *carry], rules, graph)
             if is_symbolic(go):
-                raise untranslatable("while", "a loop condition that depends on the state")
+                raise Untranslatable("while", "a loop condition that depends on the state")
             if not bool(np.asarray(go)):
                 return carry
             carry = interpret(body.jaxpr, body.consts, [*body_consts, *carry], rules, graph)
-        raise untranslatable("while", f"more than {MAX_ITERATIONS} iterations")
+        raise Untranslatable("while", f"more than {MAX_ITERATIONS} iterations")
 
     return {"scan": scan, "while": while_}
 

@@ -297,31 +297,39 @@ def evaluate(graph, roots, xs, gradients: bool = True, memo: WalkMemo | None = N
     return (values, grads) if gradients else values
 
 
-def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None):
-    """Values ``{node: (S,)}`` and gradients ``{node: (rows, S) or None}`` of the nodes of
-    ``order``; ``cols``/``where`` (:func:`columns`): sparse gradients, rows = the node's
-    coordinates; None: dense, rows = every coordinate. ``given``: ``(values, gradients)``
-    of nodes outside ``order`` that it reads (from a :class:`WalkMemo`)."""
-    S, n = xs.shape
-    ops, args, params = graph.op, graph.args, graph.param
-    V, G = (dict(given[0]), dict(given[1])) if given is not None else ({}, {})
-    sparse = cols is not None
+class _Rows:
+    """How a node's gradient is assembled from its operands' gradients ``G`` (node ->
+    ``(rows, S)`` or None): dense (rows = every coordinate) or, with ``cols``/``where``
+    (:func:`columns`), sparse (rows = the node's coordinates)."""
 
-    def term(k, a, factor=None):
+    def __init__(self, G, cols, where, S, n):
+        self.G, self.cols, self.where, self.S, self.n = G, cols, where, S, n
+        self.sparse = cols is not None
+
+    def unit(self, i):
+        """The gradient of coordinate ``x_i``."""
+        if self.sparse:
+            return np.ones((1, self.S))
+        g = np.zeros((self.n, self.S))
+        g[i] = 1.0
+        return g
+
+    def term(self, k, a, factor=None):
         """The operand's gradient (times ``factor``) in the node's rows."""
-        if not sparse:
-            return place_rows(G[a], factor, None, n)
-        return place_rows(G[a], factor, where.get((k, a)), len(cols[k]))
+        if not self.sparse:
+            return place_rows(self.G[a], factor, None, self.n)
+        return place_rows(self.G[a], factor, self.where.get((k, a)), len(self.cols[k]))
 
-    def combine(k, a0, f0, a1, f1):
+    def combine(self, k, a0, f0, a1, f1):
         """``f0 d a0 + f1 d a1`` in the node's rows (a factor None is 1), accumulated in
         one new array: the operand covering every row of the node (if one does) is its
         start, the other is added into its rows in place."""
+        G, where = self.G, self.where
         if G[a0] is None:
-            return term(k, a1, f1)
+            return self.term(k, a1, f1)
         if G[a1] is None:
-            return term(k, a0, f0)
-        i0, i1 = (where.get((k, a0)), where.get((k, a1))) if sparse else (None, None)
+            return self.term(k, a0, f0)
+        i0, i1 = (where.get((k, a0)), where.get((k, a1))) if self.sparse else (None, None)
         if i0 is not None and i1 is None:
             a0, f0, i0, a1, f1, i1 = a1, f1, i1, a0, f0, i0
         g0, g1 = G[a0], G[a1]
@@ -335,7 +343,7 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
         if i0 is None:
             out = g0 * f0 if f0 is not None else g0.copy()
         else:
-            out = np.zeros((len(cols[k]), S))
+            out = np.zeros((len(self.cols[k]), self.S))
             out[i0] = g0 if f0 is None else g0 * f0
         if i1 is None:
             out += g1 if f1 is None else g1 * f1
@@ -343,19 +351,32 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
             out[i1] += g1 if f1 is None else g1 * f1
         return out
 
+    def select(self, k, a, pred):
+        """The gradient of ``select(pred, a[1], a[2])`` (None when neither branch has one)."""
+        gf, gt = self.term(k, a[1]), self.term(k, a[2])
+        if gf is None and gt is None:
+            return None
+        return np.where(pred, 0.0 if gt is None else gt, 0.0 if gf is None else gf)
+
+
+def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None):
+    """Values ``{node: (S,)}`` and gradients ``{node: (rows, S) or None}`` of the nodes of
+    ``order``; ``cols``/``where`` (:func:`columns`): sparse gradients, rows = the node's
+    coordinates; None: dense, rows = every coordinate (:class:`_Rows`). ``given``:
+    ``(values, gradients)`` of nodes outside ``order`` that it reads (from a :class:`WalkMemo`)."""
+    S, n = xs.shape
+    ops, args, params = graph.op, graph.args, graph.param
+    V, G = (dict(given[0]), dict(given[1])) if given is not None else ({}, {})
+    rows = _Rows(G, cols, where, S, n)
+    combine = rows.combine
     with np.errstate(all="ignore"):
         for p, k in enumerate(order):
             op, a = ops[k], args[k]
             g = None
             if op == "x":
-                i = params[k]
-                v = xs[:, i]
+                v = xs[:, params[k]]
                 if gradients:
-                    if sparse:
-                        g = np.ones((1, S))
-                    else:
-                        g = np.zeros((n, S))
-                        g[i] = 1.0
+                    g = rows.unit(params[k])
             elif op == "c":
                 v = np.full(S, graph.value_of(k))
             elif op == "add":
@@ -387,9 +408,7 @@ def _walk(graph, order, frees, xs, gradients, cols=None, where=None, given=None)
                 pred = V[a[0]] != 0
                 v = np.where(pred, V[a[2]], V[a[1]])
                 if gradients:
-                    gf, gt = term(k, a[1]), term(k, a[2])
-                    if gf is not None or gt is not None:
-                        g = np.where(pred, 0.0 if gt is None else gt, 0.0 if gf is None else gf)
+                    g = rows.select(k, a, pred)
             elif op in _COMPARE:
                 v = _COMPARE[op](V[a[0]], V[a[1]]).astype(np.float64)
             elif op == "pow":

@@ -4,7 +4,7 @@ The function is traced once to a jaxpr (``jax.make_jaxpr``: a fraction of a mill
 for a model function) and the jaxpr is walked by the one interpreter
 (:func:`uio_jax._engine.interpreter.interpret`) with the rule table of
 :mod:`.graph_rules`. A primitive without a rule, or one that would need the value of a
-state, raises :class:`~uio_jax._engine.graph_rules.Untranslatable`: the graph is the
+state, raises :class:`~uio_jax._engine.graph_values.Untranslatable`: the graph is the
 only evaluator of the analyses, so such a model is refused where it is built
 (:func:`untranslatable_message` says which primitive). A :class:`GraphFunction` is a
 function of the state given by its expression: the Systems the analyses derive (extended
@@ -17,7 +17,8 @@ import numpy as np
 
 from .._errors import ModelError
 from .graph import Graph
-from .graph_rules import RULES, Untranslatable, as_nodes
+from .graph_rules import RULES
+from .graph_values import Untranslatable, as_nodes
 from .interpreter import interpret
 
 
@@ -49,7 +50,7 @@ class GraphFunction:
 
 def untranslatable_message(what, exc) -> str:
     """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
-    :class:`~uio_jax._engine.graph_rules.Untranslatable`)."""
+    :class:`~uio_jax._engine.graph_values.Untranslatable`)."""
     detail = str(exc).removeprefix(exc.primitive).removeprefix(": ")
     supported = ", ".join(sorted(RULES))
     return (f"{what}: the expression graph has no rule for the JAX primitive '{exc.primitive}'"

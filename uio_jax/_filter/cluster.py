@@ -11,7 +11,7 @@ something listens there, that it is a Dask scheduler; each failure is one
 cut into one contiguous shard per worker thread of the cluster, all of the same size
 ``S = ceil(B / shards)`` (the last one padded past ``B`` and its extra trials dropped, as
 the devices of one process are padded), so every worker compiles one program. A shard
-runs :func:`uio_jax._filter.montecarlo.simulate_trials` on the worker's own JAX devices:
+runs :func:`uio_jax._filter.trials.simulate_trials` on the worker's own JAX devices:
 trial ``i`` uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are
 those of a one-process run with the same seed, bit for bit (a trial's numbers depend on
 ``(seed, i)`` only, not on the batch it is computed in; ``tests/test_cluster_montecarlo.py``).
@@ -302,12 +302,15 @@ def _experiment(blob):
     return _EXPERIMENTS[digest]
 
 
-def _shard_task(blob, first, count, seed, filter, keep, topic, shard, simulate_trials, trajectories):
+def _shard_task(blob, first, count, seed, filter, keep, topic, shard):
     """One shard, in a worker: records of trials ``first..first+count-1`` (and the
     trajectories of trials ``0..keep-1`` when ``keep``); progress as events on ``topic``.
-    ``simulate_trials`` and ``trajectories`` are those of :mod:`uio_jax._filter.montecarlo`
-    (passed in, pickled by name: this module does not import the one that imports it)."""
+    The trials run by :func:`uio_jax._filter.trials.simulate_trials` and
+    :func:`~uio_jax._filter.trials.trajectories`, imported here, in the worker (this module
+    is imported by the command line, which does not load JAX for it)."""
     from distributed import get_worker
+
+    from .trials import simulate_trials, trajectories
 
     worker = get_worker()
     if worker.state.nthreads == 1:
@@ -323,16 +326,13 @@ def _shard_task(blob, first, count, seed, filter, keep, topic, shard, simulate_t
     return stats, traj, timing
 
 
-def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, simulate_trials, trajectories,
-                          progress=None):
+def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, progress=None):
     """Trials ``0..trials-1`` of ``exp`` over the workers of ``client`` (see the module doc).
 
     Args:
         exp: the :class:`~uio_jax.Experiment`.
         trials: B. seed, keep, filter: as :func:`uio_jax.run_montecarlo`.
         client: a ``distributed.Client`` or a scheduler address.
-        simulate_trials, trajectories: the functions of :mod:`uio_jax._filter.montecarlo`
-            that a shard runs.
         progress: as :func:`uio_jax.run_montecarlo`: one bar of the ``B * n_steps``
             trial-steps of all workers (``NAME [2 workers]``; padding trials excluded).
 
@@ -357,7 +357,7 @@ def run_trials_on_cluster(exp, trials, *, seed, keep, filter, client, simulate_t
         c.subscribe_topic(topic, lambda event: done.put(tuple(event[1])))
         t0 = time.perf_counter()
         futures = [c.submit(_shard_task, blob, a, size, seed, filter, keep if a == 0 else 0, topic, k,
-                            simulate_trials, trajectories, key=f"uio_jax-mc-{topic[-12:]}-{k}", pure=False)
+                            key=f"uio_jax-mc-{topic[-12:]}-{k}", pure=False)
                    for k, a in enumerate(starts)]
         try:
             pending = set(range(len(futures)))

@@ -117,11 +117,8 @@ def cache_dir_in_use() -> str | None:
 
 
 def _reset_jax_cache():
-    """Make JAX re-read the cache settings at its next compile (it reads them once)."""
-    try:
-        from jax._src import compilation_cache
-    except ImportError:  # pragma: no cover - private module moved: settings apply to a fresh process
-        return
-    reset = getattr(compilation_cache, "reset_cache", None)
-    if reset is not None:
-        reset()
+    """Make JAX re-read the cache settings at its next compile (it reads them once), through
+    JAX's public ``jax.experimental.compilation_cache.compilation_cache.reset_cache``."""
+    from jax.experimental.compilation_cache import compilation_cache
+
+    compilation_cache.reset_cache()

@@ -8,13 +8,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
-from .affine import (
+from .affine import Parts, build_parts
+from .affinity import (
     AFFINE_RTOL,
     AFFINE_SAMPLES,
     TINY,
-    Parts,
     affine_points,
-    build_parts,
     pattern_from_derivatives,
     promotion_reasons,
     sample_boxes,

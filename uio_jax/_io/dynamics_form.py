@@ -1,5 +1,6 @@
-"""Systems from Python callables in the general form: :func:`system_from_dynamics`
-(also ``System.from_dynamics``).
+"""Systems from Python callables in the general form: :func:`system_from_dynamics` (public as
+``uj.system_from_dynamics``; ``uj.System.from_dynamics`` is the same function, attached by the
+API layer, ``uio_jax/__init__.py``).
 
 A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i(x) u_i +
 sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
@@ -29,7 +30,7 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
 
     Example::
 
-        sys = uj.System.from_dynamics(
+        sys = uj.system_from_dynamics(
             states=("px", "py", "th"),
             dynamics=lambda x, u, w: jnp.array([w[0] * jnp.cos(x[2]), w[0] * jnp.sin(x[2]), u[0]]),
             outputs={"px": lambda x, u, w: x[0], "py": lambda x, u, w: x[1]},
@@ -71,6 +72,46 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
     from .affine import system_callables
     from .affine_callable import split_callable
 
+    states, known, unknown, pnames, boxes, domain = _arguments(states, known, unknown, params, time, dynamics,
+                                                               outputs, domain)
+    n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
+    with_p, with_t = bool(pnames), time is not None
+    # the split sees the time as one more parameter, last: q = [p; t]
+    extra = {}
+    if with_t:
+        from .._model.system import DEFAULT_TIME_BOX
+
+        extra = {time: tuple(domain.pop(time, DEFAULT_TIME_BOX))}
+
+    def full(fn):  # always (x, q, u, w), q = [p; t]
+        if with_t:
+            if with_p:
+                return lambda x, q, u, w: fn(x, q[:P], u, w, q[P])
+            return lambda x, q, u, w: fn(x, u, w, q[0])
+        return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
+
+    args, lengths = _signature(with_p, time, n, P, nk, nw)
+    dyn = full(dynamics)
+    outs = {k: full(h) for k, h in outputs.items()}
+    Q = P + len(extra)
+    _check("dynamics", dyn, (n,), args, lengths, n, Q, nk, nw)
+    for k, h in outs.items():
+        _check(f"output {k!r}", h, (), args, lengths, n, Q, nk, nw)
+    parts = split_callable(states, dyn, outs, known, unknown, {**boxes, **extra}, domain, tuple(angles))
+    wrap = system_callables(with_p, with_t)
+    notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
+    return parts.to_system(wrap, name=name, params=boxes, notes=notes, time=time,
+                           time_box=extra.get(time))
+
+
+def _arguments(states, known, unknown, params, time, dynamics, outputs, domain):
+    """The arguments of :func:`system_from_dynamics`, checked: ``(states, known, unknown,
+    parameter names, parameter boxes, domain)``.
+
+    Raises:
+        ModelError: a bad or clashing name, a dynamics or output that is not callable, a
+            domain entry for something that is neither a state, an input nor the time.
+    """
     states = _names(states, "states")
     known = _names(known, "known")
     unknown = _names(unknown, "unknown")
@@ -109,38 +150,18 @@ def system_from_dynamics(states, dynamics, outputs, *, known=(), unknown=(), par
         if k not in taken or taken[k] == "parameter":
             raise ModelError(f"{_SOURCE}: domain given for {k!r}, which is neither a state nor an input"
                              + (" nor the time" if time is not None else ""))
-    n, P, nk, nw = len(states), len(pnames), len(known), len(unknown)
-    with_p, with_t = bool(pnames), time is not None
-    # the split sees the time as one more parameter, last: q = [p; t]
-    extra = {}
-    if with_t:
-        from .._model.system import DEFAULT_TIME_BOX
+    return states, known, unknown, pnames, boxes, domain
 
-        extra = {time: tuple(domain.pop(time, DEFAULT_TIME_BOX))}
 
-    def full(fn):  # always (x, q, u, w), q = [p; t]
-        if with_t:
-            if with_p:
-                return lambda x, q, u, w: fn(x, q[:P], u, w, q[P])
-            return lambda x, q, u, w: fn(x, u, w, q[0])
-        return fn if with_p else (lambda x, p, u, w: fn(x, u, w))
-
+def _signature(with_p, time, n, P, nk, nw):
+    """``("(x, p, u, w, t)", "x (n), p (P), ...")``: the arguments of the user's callables and
+    their lengths, as the error messages name them."""
     args = "(x, p, u, w" if with_p else "(x, u, w"
-    args += f", {time})" if with_t else ")"
+    args += f", {time})" if time is not None else ")"
     lengths = f"x ({n}), p ({P}), u ({nk}), w ({nw})" if with_p else f"x ({n}), u ({nk}), w ({nw})"
-    if with_t:
+    if time is not None:
         lengths += f", {time} (a scalar)"
-    dyn = full(dynamics)
-    outs = {k: full(h) for k, h in outputs.items()}
-    Q = P + len(extra)
-    _check("dynamics", dyn, (n,), args, lengths, n, Q, nk, nw)
-    for k, h in outs.items():
-        _check(f"output {k!r}", h, (), args, lengths, n, Q, nk, nw)
-    parts = split_callable(states, dyn, outs, known, unknown, {**boxes, **extra}, domain, tuple(angles))
-    wrap = system_callables(with_p, with_t)
-    notes = (notes,) if isinstance(notes, str) else tuple(notes or ())
-    return parts.to_system(wrap, name=name, params=boxes, notes=notes, time=time,
-                           time_box=extra.get(time))
+    return args, lengths
 
 
 def _a(kind: str) -> str:
@@ -191,15 +212,3 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
     if np.issubdtype(dtype, np.complexfloating):
         raise ModelError(f"{_SOURCE}: {what} returns a complex value ({dtype}); the dynamics and outputs "
                          "must be real")
-
-
-def _from_dynamics(cls, *args, **kwargs) -> System:
-    """A System from ``x' = f(x, u, w)`` and outputs ``h(x, u, w)``; see
-    :func:`system_from_dynamics` for the arguments (the split into the control-affine form
-    and the promotions are those of model files in the general form)."""
-    return system_from_dynamics(*args, **kwargs)
-
-
-# ``System.from_dynamics`` is installed here, by the importers' layer, so that the model
-# layer never imports the importers (the dependency rule of the package's layout).
-System.from_dynamics = classmethod(_from_dynamics)

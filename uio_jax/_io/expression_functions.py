@@ -4,7 +4,7 @@ The tree is compiled to a JAX function by walking it once into nested closures o
 operations (:func:`to_function`); integer powers use ``lax.integer_pow`` (exact, and
 clean derivatives for negative bases). The closures take their operations as an argument
 (:class:`Ops`), so the same compiled tree also runs on numpy arrays (no JAX dispatch for
-one-off evaluations) and on the second-order jets of :mod:`uio_jax._io.affine`.
+one-off evaluations) and on the second-order jets of :mod:`uio_jax._io.affinity`.
 """
 
 from collections.abc import Mapping, Sequence
@@ -24,7 +24,7 @@ class Ops:
     to a unary or binary function; ``ipow(a, k)`` is an integer power, ``power(a, b)`` a
     general one, ``minimum``/``maximum`` binary. Backends: :data:`JAX_OPS`,
     :data:`NUMPY_OPS` (used when a compiled function is called on a numpy array: no JAX
-    dispatch), and the second-order jets of :mod:`uio_jax._io.affine`.
+    dispatch), and the second-order jets of the affinity test (:mod:`uio_jax._io.affinity`).
     """
 
     def __init__(self, funcs, ipow, power, minimum, maximum, asarray):

@@ -144,25 +144,7 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
         time = _string(data["time"], "time", w)
         _identifier(time, "time", w)
         _claim(time, "time variable", taken, "time", w)
-    general = "dynamics" in data
-    if general:
-        mixed = [k for k in ("drift", "known", "unknown") if k in data]
-        if mixed:
-            raise w.error(mixed[0], "use either [dynamics] with [inputs] (general form) or "
-                                    "[drift]/[known]/[unknown] (control-affine form), not both")
-        inputs = _table(data.get("inputs", {}), "inputs", w)
-        bad = [k for k in inputs if k not in ("known", "unknown")]
-        if bad:
-            raise w.error("inputs", f"unknown key {bad[0]!r} (allowed: known, unknown)")
-        ik = _names(inputs.get("known", []), "inputs.known", w)
-        iu = _names(inputs.get("unknown", []), "inputs.unknown", w)
-        for nm in ik + iu:
-            _claim(nm, "input", taken, "inputs", w)
-    else:
-        if "inputs" in data:
-            raise w.error("inputs", "only used with [dynamics] (general form); the control-affine "
-                                    "form names its inputs by its [known.NAME]/[unknown.NAME] tables")
-        ik, iu = (), ()
+    general, ik, iu = _general_form_inputs(data, w, taken)
     domain = _boxes(_table(data.get("domain", {}), "domain", w), "domain", w)
     for k in domain:
         if k not in states and k not in ik + iu and k != time:
@@ -194,6 +176,32 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
         known=ro({k: ro(v) for k, v in known.items()}), unknown=ro({k: ro(v) for k, v in unknown.items()}),
         dynamics=None if dynamics is None else ro(dynamics), inputs_known=ik, inputs_unknown=iu, time=time,
     )
+
+
+def _general_form_inputs(data, w, taken):
+    """``(general, known inputs, unknown inputs)``: whether the model is in the general form
+    (``[dynamics]``) and the inputs its ``[inputs]`` table names (claimed in ``taken``); the
+    control-affine form names its inputs by its tables (empty here)."""
+    general = "dynamics" in data
+    if general:
+        mixed = [k for k in ("drift", "known", "unknown") if k in data]
+        if mixed:
+            raise w.error(mixed[0], "use either [dynamics] with [inputs] (general form) or "
+                                    "[drift]/[known]/[unknown] (control-affine form), not both")
+        inputs = _table(data.get("inputs", {}), "inputs", w)
+        bad = [k for k in inputs if k not in ("known", "unknown")]
+        if bad:
+            raise w.error("inputs", f"unknown key {bad[0]!r} (allowed: known, unknown)")
+        ik = _names(inputs.get("known", []), "inputs.known", w)
+        iu = _names(inputs.get("unknown", []), "inputs.unknown", w)
+        for nm in ik + iu:
+            _claim(nm, "input", taken, "inputs", w)
+    else:
+        if "inputs" in data:
+            raise w.error("inputs", "only used with [dynamics] (general form); the control-affine "
+                                    "form names its inputs by its [known.NAME]/[unknown.NAME] tables")
+        ik, iu = (), ()
+    return general, ik, iu
 
 
 def _string(v, key, w):

@@ -84,6 +84,24 @@ def is_strikepy_module(path) -> bool:
     return all(re.search(rf"^{v}\s*=", text, re.M) for v in ("x", "f", "h"))
 
 
+def _source(path) -> str:
+    """The text of the module at ``path`` (at most ``_MAX_SOURCE`` characters).
+
+    Raises:
+        LoadError: missing, unreadable or too large.
+    """
+    if not os.path.isfile(path):
+        raise LoadError(f"StrikePy model not found: {path}")
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read(_MAX_SOURCE + 1)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LoadError(f"{path}: cannot read: {exc}") from None
+    if len(text) > _MAX_SOURCE:
+        raise LoadError(f"{path}: larger than {_MAX_SOURCE} characters")
+    return text
+
+
 def read_strikepy(path):
     """Parse a StrikePy model module into a :class:`uio_jax._io.model_spec.ModelSpec` (general form).
 
@@ -96,16 +114,7 @@ def read_strikepy(path):
     from .model_spec import spec_from_dict
 
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise LoadError(f"StrikePy model not found: {path}")
-    try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read(_MAX_SOURCE + 1)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise LoadError(f"{path}: cannot read: {exc}") from None
-    if len(text) > _MAX_SOURCE:
-        raise LoadError(f"{path}: larger than {_MAX_SOURCE} characters")
-    reader = _Reader(path, text)
+    reader = _Reader(path, _source(path))
     env = reader.run()
     missing = [v for v in ("x", "f", "h") if v not in env]
     if missing:

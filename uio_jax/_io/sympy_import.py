@@ -1,4 +1,5 @@
-"""Systems from sympy expressions: :func:`system_from_sympy` (also ``System.from_sympy``).
+"""Systems from sympy expressions: :func:`system_from_sympy` (public as ``uj.system_from_sympy``;
+``uj.System.from_sympy`` is the same function, attached by the API layer, ``uio_jax/__init__.py``).
 
 Each expression is printed with sympy's ``str`` and read back by the whitelisted parser of
 :mod:`uio_jax._io.expressions`, so the functions accepted here are exactly those of model
@@ -12,7 +13,6 @@ sympy is not a dependency of uio_jax; it is imported only when this function is 
 from collections.abc import Mapping
 
 from .._errors import ModelError
-from .._model.system import System
 
 _SOURCE = "from_sympy"
 
@@ -21,7 +21,7 @@ def _sympy():
     try:
         import sympy
     except ImportError:
-        raise ModelError("System.from_sympy needs sympy: pip install sympy") from None
+        raise ModelError("system_from_sympy needs sympy: pip install sympy") from None
     return sympy
 
 
@@ -32,14 +32,14 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
     Control-affine form ``x' = f0(x, p) + sum_i f_i(x, p) u_i + sum_j g_j(x, p) w_j``::
 
         x, y, th, v = sympy.symbols("x y th v")
-        sys = uj.System.from_sympy([x, y, th], {"x": x, "y": y},
+        sys = uj.system_from_sympy([x, y, th], {"x": x, "y": y},
                                    known={"omega": [0, 0, 1]},
                                    unknown={"v": [sympy.cos(th), sympy.sin(th), 0]})
 
     General form ``x' = f(x, p, u, w)`` (split by :mod:`uio_jax._io.affine`; inputs entering
     non-affinely become states, with a note)::
 
-        sys = uj.System.from_sympy([x, y, th], [x, y],
+        sys = uj.system_from_sympy([x, y, th], [x, y],
                                    dynamics=[v*sympy.cos(th), v*sympy.sin(th), om],
                                    known=[om], unknown=[v])
 
@@ -97,32 +97,45 @@ def system_from_sympy(states, outputs, *, known=None, unknown=None, drift=None, 
                              for k, v in _mapping(constants, "constants").items()}
     if domain:
         data["domain"] = {conv.name(k, "domain"): list(v) for k, v in _mapping(domain, "domain").items()}
+    data["outputs"] = _output_texts(conv, sympy, outputs, st)
+    data.update(_right_hand_side(conv, st, drift, dynamics, known, unknown))
+    spec = spec_from_dict(data, _SOURCE)
+    return build_system(spec)
+
+
+def _output_texts(conv, sympy, outputs, st) -> dict:
+    """The ``outputs`` table of the spec: name -> text; a sequence of outputs is named after
+    the state when an output is a state symbol, ``y1, y2, ...`` otherwise."""
     if isinstance(outputs, Mapping):
-        data["outputs"] = {conv.name(k, "outputs", identifier=False): conv.text(e, f"outputs.{k}")
-                           for k, e in outputs.items()}
-    else:
-        outs = {}
-        for i, e in enumerate(_seq(outputs, "outputs"), start=1):
-            key = str(e.name) if isinstance(e, sympy.Symbol) and e.name in st else f"y{i}"
-            while key in outs:
-                key += "_"
-            outs[key] = conv.text(e, f"outputs[{i - 1}]")
-        data["outputs"] = outs
+        return {conv.name(k, "outputs", identifier=False): conv.text(e, f"outputs.{k}")
+                for k, e in outputs.items()}
+    outs = {}
+    for i, e in enumerate(_seq(outputs, "outputs"), start=1):
+        key = str(e.name) if isinstance(e, sympy.Symbol) and e.name in st else f"y{i}"
+        while key in outs:
+            key += "_"
+        outs[key] = conv.text(e, f"outputs[{i - 1}]")
+    return outs
+
+
+def _right_hand_side(conv, st, drift, dynamics, known, unknown) -> dict:
+    """The spec's right-hand side: ``dynamics`` and ``inputs`` (general form), or ``drift``,
+    ``known`` and ``unknown`` (control-affine form)."""
+    data = {}
     if dynamics is not None:
         if drift is not None:
             raise ModelError(f"{_SOURCE}: give either dynamics= (general form) or drift= (control-affine form)")
         data["dynamics"] = conv.rows(dynamics, st, "dynamics")
         data["inputs"] = {"known": [conv.name(v, "known") for v in _seq(known or [], "known")],
                           "unknown": [conv.name(v, "unknown") for v in _seq(unknown or [], "unknown")]}
-    else:
-        if drift is not None:
-            data["drift"] = conv.rows(drift, st, "drift")
-        for kind, table in (("known", known), ("unknown", unknown)):
-            if table:
-                data[kind] = {conv.name(k, kind): conv.rows(f, st, f"{kind}.{k}")
-                              for k, f in _mapping(table, kind).items()}
-    spec = spec_from_dict(data, _SOURCE)
-    return build_system(spec)
+        return data
+    if drift is not None:
+        data["drift"] = conv.rows(drift, st, "drift")
+    for kind, table in (("known", known), ("unknown", unknown)):
+        if table:
+            data[kind] = {conv.name(k, kind): conv.rows(f, st, f"{kind}.{k}")
+                          for k, f in _mapping(table, kind).items()}
+    return data
 
 
 def _seq(v, what):
@@ -209,18 +222,3 @@ def _is_zero(e) -> bool:
     if isinstance(e, (int, float)):
         return e == 0
     return getattr(e, "is_zero", False) is True and getattr(e, "is_number", False) is True
-
-
-def _from_sympy(cls, *args, **kwargs) -> System:
-    """A System from sympy expressions; see :func:`system_from_sympy` for the arguments.
-
-    Needs sympy (``pip install sympy``). The expressions are converted through the same
-    whitelisted parser as model files, and kept so that the System can be saved.
-    """
-    return system_from_sympy(*args, **kwargs)
-
-
-# ``System.from_sympy`` is installed here, by the importers' layer, so that the model
-# layer never imports the importers (the dependency rule of the package's layout).
-System.from_sympy = classmethod(_from_sympy)
-

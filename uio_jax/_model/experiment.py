@@ -34,7 +34,6 @@ the records of all trials within memory. Against the dynamics' time scale
 
 import math
 import numbers
-import os
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -42,20 +41,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import ModelError, OptionError
+from . import experiment_checks as checks
+from .experiment_checks import BYTES_PER_RECORD_NUMBER as BYTES_PER_RECORD_NUMBER  # the thresholds,
+from .experiment_checks import MAX_RATE_DT as MAX_RATE_DT  # imported from here too
+from .experiment_checks import MEMORY_FRACTION as MEMORY_FRACTION
+from .experiment_checks import MIN_RATE_HORIZON as MIN_RATE_HORIZON
+from .experiment_checks import MIN_STEPS as MIN_STEPS
 from .system import System
-
-#: Warn when the shortest time scale of the dynamics is shorter than this many Euler steps
-#: (``rate * dt`` above it; see :meth:`Experiment.time_scale`).
-MAX_RATE_DT = 1.0
-#: Warn when the whole trial lasts less than this fraction of that time scale.
-MIN_RATE_HORIZON = 1e-2
-#: Warn when a trial has fewer Euler steps (``dt`` above a tenth of the horizon).
-MIN_STEPS = 10
-#: A run may use at most this fraction of the memory available (:meth:`Experiment.check_memory`).
-MEMORY_FRACTION = 0.8
-#: Bytes per recorded number at the peak of a run: the float32 records, their concatenation
-#: and the float64 copies the statistics make (4 + 4 + 8).
-BYTES_PER_RECORD_NUMBER = 16
 
 
 class TimeScaleWarning(UserWarning):
@@ -236,11 +228,11 @@ class Experiment:
                              f"a multiple of record_every={self.record_every} (the last epochs "
                              "would not be recorded)")
         object.__setattr__(self, "units", self._check_units(self.units))
-        need, have = self.memory_bytes(1), _memory_available()
+        need, have = self.memory_bytes(1), checks.memory_available()
         if have is not None and need > MEMORY_FRACTION * have:
             raise ModelError(f"experiment {self.name!r}: one trial of {self.n_steps} steps records "
-                             f"{self.n_records + 1} times and needs about {_gib(need)} of memory, "
-                             f"more than the {_gib(have)} available: raise record_every or "
+                             f"{self.n_records + 1} times and needs about {checks.gib(need)} of memory, "
+                             f"more than the {checks.gib(have)} available: raise record_every or "
                              "lower n_steps")
 
     def _check_units(self, units):
@@ -333,14 +325,7 @@ class Experiment:
         :func:`~uio_jax.trajectories` (``(n_epochs + 1) (2 n + 2 N [+ N^2 when keep <= 4])``
         and ``n_steps * m`` readings), three copies (device, host, concatenated).
         """
-        N, n = self.n_aug, self.n
-        d, m = len(self.quantities), len(self.system.known)
-        E = self.n_epochs
-        records = trials * (self.n_records + 1) * (2 * N + 2 * d + 1) * BYTES_PER_RECORD_NUMBER
-        carry = trials * (N * N + 4 * N + len(self.istate0)) * 8 * 2
-        per_traj = (E + 1) * (2 * n + 2 * N + (N * N if keep <= 4 else 0)) \
-            + E * len(self.measurements) + self.n_steps * m
-        return int(records + carry + keep * per_traj * 8 * 3)
+        return checks.memory_bytes(self, trials, keep)
 
     def check_memory(self, trials: int, keep: int = 0) -> int:
         """Refuse, before any work, a run whose :meth:`memory_bytes` exceeds
@@ -349,13 +334,7 @@ class Experiment:
         Raises:
             OptionError: one line with the estimate, the memory available and what to lower.
         """
-        need, have = self.memory_bytes(trials, keep), _memory_available()
-        if have is not None and need > MEMORY_FRACTION * have:
-            raise OptionError(f"experiment {self.name!r}: {trials} trials of {self.n_steps} steps "
-                              f"({self.n_records + 1} records each, {keep} kept) need about "
-                              f"{_gib(need)} of memory, more than the {_gib(have)} available: "
-                              "fewer trials, a larger record_every or fewer n_steps")
-        return need
+        return checks.check_memory(self, trials, keep)
 
     def time_scale(self, values=None) -> dict:
         """The shortest time scale of the filter's dynamics at the true start.
@@ -386,83 +365,15 @@ class Experiment:
         """
         if values is None and "time_scale" in self._derived:
             return self._derived["time_scale"]
-        s = self.system
-        n, p = s.n, len(s.unknown)
-        if values is None:
-            values = self._start_jacobian()
-        f, D = values
-        f, D = np.asarray(f, np.float64), np.asarray(D, np.float64)
-        N = self.n_aug
-        A = np.zeros((N, N))
-        A[:n, :n + p] = D
-        for k in range(self.order - 1):  # w^(k)' = w^(k+1)
-            A[n + k * p:n + (k + 1) * p, n + (k + 1) * p:n + (k + 2) * p] = np.eye(p)
-        F = np.concatenate([f, np.zeros(N - n)])  # the derivatives of w start at 0
-        prior = np.asarray(self.prior_std, np.float64)
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(F))):
-            eig = coupling = motion = math.nan
-        else:
-            eig = float(np.max(np.abs(np.linalg.eigvals(A)))) if N else 0.0
-            keep = prior > 0
-            Sk = prior[keep]
-            scaled = A[np.ix_(keep, keep)] * Sk[None, :] / Sk[:, None]
-            coupling = float(np.linalg.norm(scaled, 2)) if keep.any() else 0.0
-            motion = float(np.max(np.abs(F[keep]) / Sk)) if keep.any() else 0.0
-        rate = max(eig, coupling, motion)
-        out = {"rate": rate, "time_scale_s": (1.0 / rate if rate > 0 else math.inf),
-               "eigen_rate": eig, "coupling_rate": coupling, "motion_rate": motion,
-               "rate_dt": rate * self.dt, "rate_horizon": rate * self.duration}
+        out = checks.time_scale(self, values)
         self._derived["time_scale"] = out
         return out
-
-    def _start_jacobian(self):
-        """``(f, D)``: the vector field at ``(x0, u0, w0)`` and ``d f / d(x, w)`` there,
-        ``u0`` the input law's known inputs at ``z = 0``."""
-        import jax
-        import jax.numpy as jnp
-
-        s = self.system
-        n, m = s.n, len(s.known)
-        drift, known, unknown = s.drift, tuple(s.known.values()), tuple(s.unknown.values())
-
-        def flow(xw, u):
-            x = xw[:n]
-            dx = drift(x) if drift is not None else jnp.zeros(n, x.dtype)
-            for i, f in enumerate(known):
-                dx = dx + f(x) * u[i]
-            for j, g in enumerate(unknown):
-                dx = dx + g(x) * xw[n + j]
-            return dx
-
-        def values(xw, istate0):
-            _, u, _ = self.inputs(istate0, jnp.zeros(self.n_input_normals))
-            u = jnp.asarray(u, jnp.float64).reshape(m)
-            return flow(xw, u), jax.jacfwd(flow)(xw, u)
-
-        xw = np.concatenate([np.asarray(self.x0, np.float64), np.asarray(self.w0, np.float64)])
-        with jax.enable_x64(True):
-            return jax.jit(values)(xw, np.asarray(self.istate0, np.float64))
 
     def check_time_scale(self, values=None) -> list[str]:
         """Warn (:class:`TimeScaleWarning`) when ``dt`` or the horizon is far from
         :meth:`time_scale` (criteria: module doc); returns the messages (empty: none).
         ``values``: as in :meth:`time_scale`."""
-        ts = self.time_scale(values)
-        msgs = []
-        what = f"experiment {self.name!r}: dt={self.dt:.4g} s"
-        if math.isfinite(ts["rate"]) and ts["rate"] > 0:
-            tau = ts["time_scale_s"]
-            if ts["rate_dt"] > MAX_RATE_DT:
-                msgs.append(f"{what} is {ts['rate_dt']:.3g} times the dynamics' shortest time "
-                            f"scale {tau:.3g} s at the start (an Euler step moves the state by "
-                            "more than its prior std or outruns the fastest mode): lower dt")
-            if ts["rate_horizon"] < MIN_RATE_HORIZON:
-                msgs.append(f"{what}: the trial ({self.n_steps} steps, {self.duration:.3g} s) "
-                            f"lasts {ts['rate_horizon']:.3g} of the dynamics' time scale "
-                            f"{tau:.3g} s: nothing moves; raise dt or n_steps")
-        if self.n_steps < MIN_STEPS:
-            msgs.append(f"{what} is more than a tenth of the horizon ({self.n_steps} Euler steps "
-                        f"of {self.duration:.3g} s): raise n_steps")
+        msgs = checks.time_scale_messages(self, self.time_scale(values))
         for msg in msgs:
             warnings.warn(msg, TimeScaleWarning, stacklevel=2)
         return msgs
@@ -520,23 +431,3 @@ def _per_second(unit: str, k: int) -> str:
     base, power = (m.group(1), int(m.group(2) or 1)) if m else (unit, 0)
     power += k
     return f"{base}/s" if power == 1 else f"{base}/s^{power}"
-
-
-def _memory_available():
-    """Bytes of memory available (``MemAvailable`` of /proc/meminfo, else the physical
-    memory), or ``None`` when unknown."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def _gib(nbytes) -> str:
-    return f"{nbytes / 2**30:.3g} GiB"

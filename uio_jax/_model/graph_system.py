@@ -33,8 +33,7 @@ def graph_system(graph, states, outputs, *, known=None, unknown=None, drift=None
                         unknown={k: field(f) for k, f in (unknown or {}).items()},
                         drift=None if drift is None else field(drift), domain=domain or {}, angles=angles,
                         name=name)
-    object.__setattr__(system, "_graph", graph)  # the System's expressions are the graph's nodes
-    return system
+    return system.mark_derived(graph=graph)  # the System's expressions are the graph's nodes
 
 
 __all__ = ["graph_system"]

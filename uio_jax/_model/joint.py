@@ -34,9 +34,9 @@ def build_joint(self):
         notes=self.notes,
         time=self.time,
     )
-    object.__setattr__(joint, "as_params", tuple(self.params))
+    joint.mark_derived(joint_params=tuple(self.params))
     if self.time is not None:  # built before the joint knew its parameters: mark it too
-        object.__setattr__(joint._autonomous, "as_params", tuple(self.params))
+        joint.autonomous().mark_derived(joint_params=tuple(self.params))
     object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
     return joint
 

@@ -107,9 +107,8 @@ def with_input_jets(system: System, order: int) -> System:
             name=system.name,
             notes=system.notes,
         )
-    object.__setattr__(out, "_known_coordinates", known_coordinates(system) + mu * (R + 1))
-    object.__setattr__(out, "_as_params", system.joint_param_names)
-    object.__setattr__(out, "_known_outputs", known_outputs(system) + tuple(jet_outputs))
+    out.mark_derived(known_coordinates=known_coordinates(system) + mu * (R + 1),
+                     known_outputs=known_outputs(system) + tuple(jet_outputs))
     _WITH_JETS[system][R] = out
     return out
 
@@ -123,8 +122,4 @@ def known_coordinates(system: System) -> int:
 def known_outputs(system: System) -> tuple[str, ...]:
     """Names of the outputs of ``system`` that measure its known coordinates (the time
     of :meth:`System.autonomous`, the jets of :func:`with_input_jets`)."""
-    own = getattr(system, "_known_outputs", None)
-    if own is not None:
-        return tuple(own)
-    name = getattr(system, "time_name", None)
-    return (name,) if known_coordinates(system) and name in system.outputs else ()
+    return system.known_outputs

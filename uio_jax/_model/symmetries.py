@@ -69,7 +69,7 @@ def attach(system) -> None:
         lifted = dict(system.symmetries)
     else:
         lifted = {k: _lift(fn, n, P, timed) for k, fn in system.symmetries.items()}
-    object.__setattr__(target, "_symmetry_fields", MappingProxyType(lifted))
+    target.mark_derived(symmetry_fields=MappingProxyType(lifted))
 
 
 def _lift(fn, n, P, timed):
@@ -85,4 +85,4 @@ def _lift(fn, n, P, timed):
 def symmetry_fields(analysed) -> "MappingProxyType":
     """The declared symmetries of an analysed System (:meth:`~uio_jax.System.autonomous`) as
     fields of its coordinates, name -> ``z (N,) -> (N,)``; empty when none was declared."""
-    return getattr(analysed, "_symmetry_fields", MappingProxyType({}))
+    return analysed.symmetry_fields

@@ -25,12 +25,9 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._engine.graph import Graph
-from .._engine.graph_numpy import evaluate
-from .._engine.graph_rules import IndexOutOfRange
 from .._engine.graph_trace import translate_or_refuse
 from .._errors import ModelError
 from .arguments import ANGLE_BOX as ANGLE_BOX  # the sampling boxes, imported from here too
@@ -45,19 +42,10 @@ from .arguments import (
     check_input_names,
 )
 from .symmetries import as_symmetries, attach, check_symmetry_shapes
+from .validation import as_float, check_shapes, finite_notes
 
 Field = Callable[[jax.Array], jax.Array]
 Scalar = Callable[[jax.Array], jax.Array]
-
-#: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
-_CHECK_SAMPLES = 64
-#: A function finite at fewer than this fraction of the ``_CHECK_SAMPLES`` states is
-#: evaluated at ``_MORE_SAMPLES`` more states to estimate where it is defined: 64 states
-#: miss a set covering 5 % of the box with probability 0.95**64 = 4 %, 4096 states with
-#: probability below 1e-90 (and a set of 0.1 % with probability 2 %).
-_SPARSE_FRACTION = 0.125
-#: States drawn (one vmapped evaluation) before a function is declared NaN/inf everywhere.
-_MORE_SAMPLES = 4096
 
 #: True while a System is built from the functions of an already validated one (the EORC's
 #: extended system): the traced checks (shapes, NaN at sampled states) are skipped.
@@ -185,7 +173,9 @@ class System:
         object.__setattr__(self, "notes", notes)
         object.__setattr__(self, "symmetries", as_symmetries(self.symmetries))
         if not _DERIVED.get():
-            self._check_shapes()
+            promote = check_shapes(self)
+            if promote:
+                self._promote_to_float(promote)
             check_symmetry_shapes(self)
         if params:
             from .joint import build_joint
@@ -196,7 +186,7 @@ class System:
 
             object.__setattr__(self, "_autonomous", build_autonomous(self))  # validated there
         elif not _DERIVED.get():
-            self._check_finite()
+            object.__setattr__(self, "notes", finite_notes(self))
         attach(self)
 
     # ------------------------------------------------------------------ accessors
@@ -229,7 +219,7 @@ class System:
     def time_name(self) -> str | None:
         """Name of the time variable: ``time`` of a time-varying System, the name of the last
         state of the System returned by :meth:`autonomous` (time made a state), else ``None``."""
-        return self.time if self.time is not None else getattr(self, "_time_name", None)
+        return self.time if self.time is not None else self.__dict__.get("_time_name")
 
     @property
     def known_coordinates(self) -> int:
@@ -239,7 +229,7 @@ class System:
         coordinate ``t``, with ``t' = 1``); 0 otherwise. The analyses keep the differentials
         of these coordinates in the codistribution and leave them out of the verdicts.
         """
-        return getattr(self, "_known_coordinates", 0)
+        return self.__dict__.get("_known_coordinates", 0)
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -250,9 +240,61 @@ class System:
     def joint_param_names(self) -> tuple[str, ...]:
         """Coordinates of this System's state that are parameters of the user's model.
 
-        Empty for a user's System; set on the System returned by :meth:`joint`.
+        Empty for a user's System; set on the System returned by :meth:`joint` (and on its
+        :meth:`autonomous`).
         """
-        return getattr(self, "as_params", ())
+        return self.__dict__.get("_joint_params", ())
+
+    @property
+    def known_outputs(self) -> tuple[str, ...]:
+        """Names of the outputs that measure this System's known coordinates: the time output
+        of :meth:`autonomous`, the jets of the known inputs of
+        :func:`uio_jax._model.smooth_inputs.with_input_jets`; empty for a user's System."""
+        own = self.__dict__.get("_known_outputs")
+        if own is not None:
+            return tuple(own)
+        name = self.time_name
+        return (name,) if self.known_coordinates and name in self.outputs else ()
+
+    @property
+    def expression_graph(self) -> Graph | None:
+        """The expression graph (:class:`~uio_jax._engine.graph.Graph`) of this System's
+        functions: the one :meth:`expression` translates them into (None before the first
+        translation), or the graph a System built of graph nodes is made of
+        (:func:`uio_jax._model.graph_system.graph_system`)."""
+        return self.__dict__.get("_graph")
+
+    @property
+    def symmetry_fields(self) -> Mapping[str, Field]:
+        """The declared symmetries as fields of this System's coordinates, on the System the
+        analyses run on (:meth:`autonomous`): name -> ``z (N,) -> (N,)``; empty elsewhere
+        (:func:`uio_jax._model.symmetries.attach`)."""
+        return self.__dict__.get("_symmetry_fields", MappingProxyType({}))
+
+    def mark_derived(self, *, known_coordinates: int | None = None, time_name: str | None = None,
+                     joint_params: tuple | None = None, known_outputs: tuple | None = None,
+                     graph: Graph | None = None, symmetry_fields: Mapping | None = None) -> "System":
+        """Record what a System the package derives from another one is; returns ``self``.
+
+        Called by the module that builds it, right after building it (:meth:`joint`,
+        :meth:`autonomous`, the jets of smooth known inputs, Systems built of graph nodes,
+        the analyses' working Systems); a user's System keeps the defaults. Each argument
+        left None is not changed.
+
+        Args:
+            known_coordinates: :attr:`known_coordinates`.
+            time_name: :attr:`time_name` (time made the last state).
+            joint_params: :attr:`joint_param_names`.
+            known_outputs: :attr:`known_outputs`.
+            graph: :attr:`expression_graph`: the graph whose nodes the functions are.
+            symmetry_fields: :attr:`symmetry_fields`.
+        """
+        for key, value in (("_known_coordinates", known_coordinates), ("_time_name", time_name),
+                           ("_joint_params", joint_params), ("_known_outputs", known_outputs),
+                           ("_graph", graph), ("_symmetry_fields", symmetry_fields)):
+            if value is not None:
+                object.__setattr__(self, key, value)
+        return self
 
     def joint(self) -> "System":
         """The parameter-free System on ``z = [x; p]`` that the analyses run on.
@@ -321,56 +363,6 @@ class System:
         return f"System({label}{', '.join(parts)})"
 
     # ------------------------------------------------------------------ validation
-    def _named_functions(self):
-        yield from ((f"output {k!r}", fn, ()) for k, fn in self.outputs.items())
-        yield from ((f"known field {k!r}", fn, (self.n,)) for k, fn in self.known.items())
-        yield from ((f"unknown field {k!r}", fn, (self.n,)) for k, fn in self.unknown.items())
-        if self.drift is not None:
-            yield ("drift", self.drift, (self.n,))
-
-    def _check_shapes(self):
-        """Trace every function once: it must run on ``x`` (or ``(x, p)``, ``(x, t)``,
-        ``(x, p, t)``), return the right shape and a real dtype; integer and boolean results
-        are promoted to float."""
-        promote = set()
-        args = [jax.ShapeDtypeStruct((self.n,), jnp.float64)]
-        on = f"a state vector of length {self.n}"
-        hint = "(with params, every function takes (x, p))"
-        if self.params:
-            args.append(jax.ShapeDtypeStruct((len(self.params),), jnp.float64))
-            on = f"(x, p) of lengths ({self.n}, {len(self.params)})"
-        if self.time is not None:
-            args.append(jax.ShapeDtypeStruct((), jnp.float64))
-            sig = "(x, p, t)" if self.params else "(x, t)"
-            on = (f"(x, p, {self.time}) of shapes ({self.n},), ({len(self.params)},), ()" if self.params
-                  else f"(x, {self.time}) of shapes ({self.n},), ()")
-            hint = f"(with time {self.time!r}, every function takes {sig})"
-        with jax.enable_x64(True):
-            for what, fn, expected in self._named_functions():
-                try:
-                    out = jax.eval_shape(fn, *args)
-                except Exception as exc:  # the user's function fails to trace
-                    msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
-                    if (self.params or self.time is not None) and isinstance(exc, TypeError) and "argument" in msg:
-                        msg += " " + hint
-                    raise ModelError(
-                        f"{what} fails on {on}: {type(exc).__name__}: {msg}"
-                    ) from None
-                shape = getattr(out, "shape", None)
-                if shape is None:
-                    raise ModelError(f"{what} must return an array, got {type(out).__name__}")
-                if tuple(shape) != expected:
-                    want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
-                    raise ModelError(f"{what} returns shape {tuple(shape)}, expected {want}")
-                dtype = np.dtype(getattr(out, "dtype", np.float64))
-                if np.issubdtype(dtype, np.complexfloating):
-                    raise ModelError(f"{what} returns a complex value ({dtype}); outputs and fields "
-                                     "must be real")
-                if not np.issubdtype(dtype, np.floating):
-                    promote.add(what)
-                self._check_index_range(what, fn, expected)
-        if promote:
-            self._promote_to_float(promote)
 
     def expression(self, fn, shape, what="function"):
         """The expression of one of this System's functions ``x (n,) -> shape`` in its
@@ -394,99 +386,13 @@ class System:
             table[key] = (fn, translate_or_refuse(self._graph, fn, shape, what))
         return table[key][1]
 
-    def _check_index_range(self, what, fn, expected):
-        """Translate every function into the expression graph: refuse one with a primitive
-        the graph has no rule for, and catch indexing past the state vector (or the
-        parameters), which JAX silently clamps (``x[5]`` of 2 states)."""
-        n, P = self.n, len(self.params)
-        try:
-            if not self.params and self.time is None:
-                self.expression(fn, expected, what)
-            else:
-                scratch = self.__dict__.get("_index_graph")
-                if scratch is None:
-                    scratch = Graph(n + P + (self.time is not None))
-                    object.__setattr__(self, "_index_graph", scratch)
-                extra = ((P,),) if P else ()
-                extra += ((),) if self.time is not None else ()
-                translate_or_refuse(scratch, fn, expected, what, extra)
-        except IndexOutOfRange as exc:
-            where = f"the state vector of length {n}" if not P else f"x (length {n}) or p (length {P})"
-            raise ModelError(f"{what} indexes outside {where}: {exc}") from None
-
     def _promote_to_float(self, which):
         """Wrap the functions named in ``which`` (integer/boolean results) to return floats."""
         for attr, kind in (("outputs", "output"), ("known", "known field"), ("unknown", "unknown field")):
             table = getattr(self, attr)
-            new = {k: _as_float(fn) if f"{kind} {k!r}" in which else fn for k, fn in table.items()}
+            new = {k: as_float(fn) if f"{kind} {k!r}" in which else fn for k, fn in table.items()}
             object.__setattr__(self, attr, MappingProxyType(new))
         if "drift" in which:
-            object.__setattr__(self, "drift", _as_float(self.drift))
-
-    def _check_finite(self):
-        """Every function must be finite somewhere in the sampling box.
-
-        It is evaluated at ``_CHECK_SAMPLES`` states; one finite at fewer than
-        ``_SPARSE_FRACTION`` of them is evaluated at ``_MORE_SAMPLES`` more to estimate the
-        fraction of the box where it is finite: none of them gives a ModelError saying so,
-        a small fraction a note in ``notes`` (the analyses drop the states where it is not).
-        """
-        named = list(self._named_functions())
-        finite = _finite_masks(self, named, _CHECK_SAMPLES, 12345)
-        sparse = [i for i, ok in enumerate(finite) if ok.mean() < _SPARSE_FRACTION]
-        if not sparse:
-            return
-        more = _finite_masks(self, [named[i] for i in sparse], _MORE_SAMPLES, 12346)
-        notes = list(self.notes)
-        for i, ok in zip(sparse, more):
-            what = named[i][0]
-            hits = int(ok.sum()) + int(finite[i].sum())
-            total = _MORE_SAMPLES + _CHECK_SAMPLES
-            if hits == 0:
-                raise ModelError(
-                    f"{what} returns NaN/inf at every one of {total} states drawn in the sampling "
-                    f"box ({_CHECK_SAMPLES} at validation, {_MORE_SAMPLES} more to look for where "
-                    "it is defined): check the model and its `domain`"
-                )
-            notes.append(
-                f"{what} is finite on only {_percent(hits / total)} % of the sampling box; the "
-                "analysis uses those states: narrow `domain` to where the model is defined"
-            )
-        object.__setattr__(self, "notes", tuple(notes))
+            object.__setattr__(self, "drift", as_float(self.drift))
 
 
-def _finite_masks(system, named, samples, seed) -> list[np.ndarray]:
-    """For each ``(what, fn, shape)`` of ``named`` (functions of ``x``), the ``(samples,)``
-    mask of sampled states where it is finite: their expressions in the System's graph
-    evaluated by numpy (nothing is compiled)."""
-    from .sampling import sample_states
-
-    xs = sample_states(system, samples, seed=seed)
-    exprs = [system.expression(fn, shape, what) for what, fn, shape in named]
-    roots = [r for e in exprs for r in ((e,) if isinstance(e, int) else e)]
-    values = evaluate(system._graph, roots, xs, gradients=False)
-    masks, at = [], 0
-    for e in exprs:
-        width = 1 if isinstance(e, int) else len(e)
-        masks.append(np.isfinite(values[:, at:at + width]).all(axis=1))
-        at += width
-    return masks
-
-
-def _percent(fraction: float) -> str:
-    """A fraction as a percentage with two significant digits (``0.047`` -> ``"4.7"``)."""
-    pct = 100.0 * fraction
-    return f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"
-
-
-def _as_float(fn):
-    """``fn`` with its integer or boolean result converted to float (float64 under x64)."""
-
-    def f(*args):
-        out = fn(*args)
-        if all(isinstance(a, np.ndarray) for a in args) and not isinstance(out, jax.Array):
-            return np.asarray(out, dtype=np.float64)
-        return jnp.asarray(out).astype(jnp.result_type(float))
-
-    f.__name__ = getattr(fn, "__name__", "f")
-    return f

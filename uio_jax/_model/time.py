@@ -74,8 +74,6 @@ def build_autonomous(system):
         name=system.name,
         notes=system.notes,
     )
-    object.__setattr__(auto, "_known_coordinates", 1)
-    object.__setattr__(auto, "_time_name", time)
-    object.__setattr__(auto, "_as_params", system.joint_param_names)
+    auto.mark_derived(known_coordinates=1, time_name=time)
     object.__setattr__(system, "notes", auto.notes)  # with the notes of its finiteness check
     return auto

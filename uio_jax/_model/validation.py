@@ -1,0 +1,192 @@
+"""The checks a System passes when it is built: shapes, expressions, finiteness.
+
+:func:`check_shapes` traces every function once (shape, dtype) and translates it into the
+expression graph (a primitive with no rule, an index past the state); :func:`finite_notes`
+evaluates every function at sampled states of the box (numpy over the graph: nothing is
+compiled). :class:`~uio_jax.System` applies what they return (floats for integer results,
+notes); they write nothing on the System.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._engine.graph import Graph
+from .._engine.graph_numpy import evaluate
+from .._engine.graph_trace import translate_or_refuse
+from .._engine.graph_values import IndexOutOfRange
+from .._errors import ModelError
+
+#: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
+CHECK_SAMPLES = 64
+#: A function finite at fewer than this fraction of the ``CHECK_SAMPLES`` states is
+#: evaluated at ``MORE_SAMPLES`` more states to estimate where it is defined: 64 states
+#: miss a set covering 5 % of the box with probability 0.95**64 = 4 %, 4096 states with
+#: probability below 1e-90 (and a set of 0.1 % with probability 2 %).
+SPARSE_FRACTION = 0.125
+#: States drawn (one vmapped evaluation) before a function is declared NaN/inf everywhere.
+MORE_SAMPLES = 4096
+
+
+def named_functions(system):
+    """``(what, fn, shape)`` of every output and field of ``system`` (``what`` names it in
+    messages)."""
+    yield from ((f"output {k!r}", fn, ()) for k, fn in system.outputs.items())
+    yield from ((f"known field {k!r}", fn, (system.n,)) for k, fn in system.known.items())
+    yield from ((f"unknown field {k!r}", fn, (system.n,)) for k, fn in system.unknown.items())
+    if system.drift is not None:
+        yield ("drift", system.drift, (system.n,))
+
+
+def check_shapes(system) -> set:
+    """Trace every function once: it must run on ``x`` (or ``(x, p)``, ``(x, t)``,
+    ``(x, p, t)``), return the right shape and a real dtype; then translate it into the
+    expression graph.
+
+    Returns:
+        The names (``what``) of the functions whose results are integer or boolean (the
+        System wraps them to return floats, :func:`as_float`).
+
+    Raises:
+        ModelError: a function fails to trace, returns the wrong shape or a complex value,
+            has a primitive the expression graph has no rule for, or indexes outside its
+            arguments.
+    """
+    promote = set()
+    # functions of (x, p) or (x, t) are translated into one scratch graph of [x; p; t]
+    scratch = (Graph(system.n + len(system.params) + (system.time is not None))
+               if system.params or system.time is not None else None)
+    args = [jax.ShapeDtypeStruct((system.n,), jnp.float64)]
+    on = f"a state vector of length {system.n}"
+    hint = "(with params, every function takes (x, p))"
+    if system.params:
+        args.append(jax.ShapeDtypeStruct((len(system.params),), jnp.float64))
+        on = f"(x, p) of lengths ({system.n}, {len(system.params)})"
+    if system.time is not None:
+        args.append(jax.ShapeDtypeStruct((), jnp.float64))
+        sig = "(x, p, t)" if system.params else "(x, t)"
+        on = (f"(x, p, {system.time}) of shapes ({system.n},), ({len(system.params)},), ()" if system.params
+              else f"(x, {system.time}) of shapes ({system.n},), ()")
+        hint = f"(with time {system.time!r}, every function takes {sig})"
+    with jax.enable_x64(True):
+        for what, fn, expected in named_functions(system):
+            try:
+                out = jax.eval_shape(fn, *args)
+            except Exception as exc:  # the user's function fails to trace
+                msg = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+                if (system.params or system.time is not None) and isinstance(exc, TypeError) and "argument" in msg:
+                    msg += " " + hint
+                raise ModelError(
+                    f"{what} fails on {on}: {type(exc).__name__}: {msg}"
+                ) from None
+            shape = getattr(out, "shape", None)
+            if shape is None:
+                raise ModelError(f"{what} must return an array, got {type(out).__name__}")
+            if tuple(shape) != expected:
+                want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
+                raise ModelError(f"{what} returns shape {tuple(shape)}, expected {want}")
+            dtype = np.dtype(getattr(out, "dtype", np.float64))
+            if np.issubdtype(dtype, np.complexfloating):
+                raise ModelError(f"{what} returns a complex value ({dtype}); outputs and fields "
+                                 "must be real")
+            if not np.issubdtype(dtype, np.floating):
+                promote.add(what)
+            _check_index_range(system, what, fn, expected, scratch)
+    return promote
+
+
+def _check_index_range(system, what, fn, expected, scratch):
+    """Translate every function into the expression graph: refuse one with a primitive
+    the graph has no rule for, and catch indexing past the state vector (or the
+    parameters), which JAX silently clamps (``x[5]`` of 2 states). ``scratch``: the graph
+    that functions of ``(x, p)`` or ``(x, t)`` are translated into (one per System)."""
+    n, P = system.n, len(system.params)
+    try:
+        if not system.params and system.time is None:
+            system.expression(fn, expected, what)
+        else:
+            extra = ((P,),) if P else ()
+            extra += ((),) if system.time is not None else ()
+            translate_or_refuse(scratch, fn, expected, what, extra)
+    except IndexOutOfRange as exc:
+        where = f"the state vector of length {n}" if not P else f"x (length {n}) or p (length {P})"
+        raise ModelError(f"{what} indexes outside {where}: {exc}") from None
+
+
+def finite_notes(system) -> tuple:
+    """Every function must be finite somewhere in the sampling box: the System's notes then.
+
+    It is evaluated at ``CHECK_SAMPLES`` states; one finite at fewer than
+    ``SPARSE_FRACTION`` of them is evaluated at ``MORE_SAMPLES`` more to estimate the
+    fraction of the box where it is finite: none of them gives a ModelError saying so,
+    a small fraction a note (the analyses drop the states where it is not).
+
+    Returns:
+        ``system.notes`` and one note per function finite on a small fraction of the box.
+
+    Raises:
+        ModelError: a function is NaN/inf at every state drawn.
+    """
+    named = list(named_functions(system))
+    finite = _finite_masks(system, named, CHECK_SAMPLES, 12345)
+    sparse = [i for i, ok in enumerate(finite) if ok.mean() < SPARSE_FRACTION]
+    if not sparse:
+        return tuple(system.notes)
+    more = _finite_masks(system, [named[i] for i in sparse], MORE_SAMPLES, 12346)
+    notes = list(system.notes)
+    for i, ok in zip(sparse, more):
+        what = named[i][0]
+        hits = int(ok.sum()) + int(finite[i].sum())
+        total = MORE_SAMPLES + CHECK_SAMPLES
+        if hits == 0:
+            raise ModelError(
+                f"{what} returns NaN/inf at every one of {total} states drawn in the sampling "
+                f"box ({CHECK_SAMPLES} at validation, {MORE_SAMPLES} more to look for where "
+                "it is defined): check the model and its `domain`"
+            )
+        notes.append(
+            f"{what} is finite on only {_percent(hits / total)} % of the sampling box; the "
+            "analysis uses those states: narrow `domain` to where the model is defined"
+        )
+    return tuple(notes)
+
+
+def _finite_masks(system, named, samples, seed) -> list[np.ndarray]:
+    """For each ``(what, fn, shape)`` of ``named`` (functions of ``x``), the ``(samples,)``
+    mask of sampled states where it is finite: their expressions in the System's graph
+    evaluated by numpy (nothing is compiled)."""
+    from .sampling import sample_states
+
+    xs = sample_states(system, samples, seed=seed)
+    exprs = [system.expression(fn, shape, what) for what, fn, shape in named]
+    roots = [r for e in exprs for r in ((e,) if isinstance(e, int) else e)]
+    values = evaluate(system.expression_graph, roots, xs, gradients=False)
+    masks, at = [], 0
+    for e in exprs:
+        width = 1 if isinstance(e, int) else len(e)
+        masks.append(np.isfinite(values[:, at:at + width]).all(axis=1))
+        at += width
+    return masks
+
+
+def _percent(fraction: float) -> str:
+    """A fraction as a percentage with two significant digits (``0.047`` -> ``"4.7"``)."""
+    pct = 100.0 * fraction
+    return f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"
+
+
+def as_float(fn):
+    """``fn`` with its integer or boolean result converted to float (float64 under x64)."""
+
+    def f(*args):
+        out = fn(*args)
+        if all(isinstance(a, np.ndarray) for a in args) and not isinstance(out, jax.Array):
+            return np.asarray(out, dtype=np.float64)
+        return jnp.asarray(out).astype(jnp.result_type(float))
+
+    f.__name__ = getattr(fn, "__name__", "f")
+    return f
+
+
+__all__ = ["CHECK_SAMPLES", "MORE_SAMPLES", "SPARSE_FRACTION", "as_float", "check_shapes", "finite_notes",
+           "named_functions"]
