@@ -411,7 +411,7 @@ class Context:
             screen_only=self.screen_only,
         )
 
-    def report(self, method, history, stop_reason, *, notes=(), details=None,
+    def report(self, method, history, stop, *, notes=(), details=None,
                system=None, dim=None, observable=None, space=None,
                known_inputs="switchable") -> Report:
         """Build the Report: certificate, weak-certificate note, generators.
@@ -471,7 +471,7 @@ class Context:
             history=tuple(history),
             certificate=cert,
             generators=tuple(nd.label for nd in self.codist.nodes),
-            stop_reason=stop_reason,
+            stop=stop,
             notes=tuple(notes),
             details=details or {},
             system_name=system.name,

@@ -317,7 +317,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analys
 
     Returns:
         ``(run, history, stop_reason, k_reached)``: the :class:`_Eorc`, one Step per order
-        ``k = 0..k_reached``, the stop reason's text.
+        ``k = 0..k_reached``, the :class:`~uio_jax._analysis.driver.Stop`.
     """
     K = default_k_max(system) if k_max is None else int(k_max)
     check_eorc_memory(system, samples, K)
@@ -326,7 +326,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analys
     run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop, analysed=analysed,
                 prob_threshold=prob_threshold)
     out = iterate(run)
-    return run, out.history, out.stop.message, out.m
+    return run, out.history, out.stop, out.m
 
 
 def _notes(run, last, notes, reason, dropped, k, k_used, dim_all, states, observable, smooth, K):
@@ -351,7 +351,7 @@ def _notes(run, last, notes, reason, dropped, k, k_used, dim_all, states, observ
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
             f"their derivatives up to order {K - 1} are known coordinates of the drift")
-    stopped = StopReason.KNOWN_BOUND.matches(reason)
+    stopped = reason.reason is StopReason.KNOWN_BOUND
     at_bound = stopped and k_used == k and dim_all == run.bound.dim
     hidden = [s for s, v in observable.items() if not v]
     if stopped:

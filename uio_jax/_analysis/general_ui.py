@@ -325,7 +325,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
                      f"{100 * weakest:.0f}% of the samples")
     space = SampledSpace(omega, n=n, dim=dim)
     omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
-    return omega.report("general_ui", out.history, out.stop.message, notes=notes,
+    return omega.report("general_ui", out.history, out.stop, notes=notes,
                         details=details, system=report_system or report_view(system, n),
                         dim=dim, observable=observable, space=space,
                         known_inputs=known_inputs)

@@ -66,10 +66,10 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
         start_nodes: generators of Omega_0 (default: the outputs).
 
     Returns:
-        ``(history, stop_reason)``: one Step per m = 0..M (``Step.dim = dim Omega_m``) and
-        the Report's text of the :class:`~uio_jax._analysis.driver.StopReason`.
+        ``(history, stop)``: one Step per m = 0..M (``Step.dim = dim Omega_m``) and the
+        :class:`~uio_jax._analysis.driver.Stop` (its StopReason member and values).
     """
     fields = [ctx.field_node(lbl) for lbl in field_labels]
     start = ctx.output_nodes() if start_nodes is None else list(start_nodes)
     out = iterate(Orc(ctx, fields, start, max_steps))
-    return out.history, out.stop.message
+    return out.history, out.stop

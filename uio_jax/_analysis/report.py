@@ -14,6 +14,7 @@ from types import MappingProxyType
 import numpy as np
 
 from . import directions
+from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
 from .functions_of_z import function_of_z
 from .report_text import report_text
@@ -54,7 +55,9 @@ class Report:
         history: one :class:`Step` per step m (per order k for the EORC).
         certificate: the sampling evidence behind every rank decision.
         generators: labels of the functions whose gradients span the final codistribution.
-        stop_reason: why the recursion stopped.
+        stop: why the recursion stopped: a :class:`~uio_jax._analysis.driver.Stop` (its
+            :class:`~uio_jax._analysis.driver.StopReason` member and values); ``stop_reason``
+            is its text.
         notes: remarks (method choice, sufficiency of the EORC, corrections applied).
         details: method-specific results (``m_prime``, ``m_star``, ``k``, ...).
         semantics: what "unknown input" and "known input" mean in this answer.
@@ -71,7 +74,7 @@ class Report:
     history: tuple[Step, ...]
     certificate: Certificate
     generators: tuple[str, ...]
-    stop_reason: str
+    stop: Stop
     notes: tuple[str, ...] = ()
     details: Mapping = field(default_factory=dict)
     semantics: str = SEMANTICS
@@ -93,6 +96,11 @@ class Report:
         object.__setattr__(self, "observable", MappingProxyType(observable))
         object.__setattr__(self, "identifiable", MappingProxyType(identifiable))
         object.__setattr__(self, "details", MappingProxyType(dict(self.details)))
+
+    @property
+    def stop_reason(self) -> str:
+        """Why the recursion stopped, as text (:attr:`stop`'s message)."""
+        return self.stop.message
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -280,6 +288,7 @@ class Report:
             "history": [s.to_dict() for s in self.history],
             "generators": list(self.generators),
             "stop_reason": self.stop_reason,
+            "stop": self.stop.reason.name.lower(),
             "certificate": self.certificate.to_dict(),
             "details": dict(self.details),
             "notes": list(self.notes),
@@ -302,9 +311,7 @@ class Report:
         reach the bound of its verified symmetries (:mod:`uio_jax._analysis.symmetry`): a
         state it does not show is moved by a symmetry.
         """
-        capped = any(t in self.stop_reason for t in ("reached before convergence",
-                                                     "no convergence certified",
-                                                     "no convergence within"))
+        capped = not self.stop.reason.converged
         if self.method == "general_ui" and self.details.get("exact") is False and not capped:
             return ("not certified exact (general_ui: the jets of the known inputs may have "
                     "been truncated, see the notes): 'observable' is proven")

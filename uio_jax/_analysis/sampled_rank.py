@@ -24,6 +24,7 @@ Everything here is numpy: a few batched products per call, which compiling would
 than they run on a first call.
 """
 
+import enum
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,6 +74,22 @@ def ratios(mats):
     return s / np.where(top > 0, top, 1.0)
 
 
+class Settlement(str, enum.Enum):
+    """How a rank decision was made beyond its float64 vote (a ``str``: compares equal to
+    its value, and is written as it in JSON)."""
+
+    #: the float64 vote alone
+    NONE = ""
+    #: modulo p at random points (:mod:`uio_jax._analysis.settle`)
+    EXACT = "exact mod p"
+    #: in extended precision (mpmath at two precisions)
+    EXTENDED = "mpmath"
+    #: neither could settle it: the float64 majority kept, not certified
+    UNDECIDED = "undecided"
+    #: implied by the span: a span of every direction contains every covector
+    IMPLIED = "implied"
+
+
 @dataclass(frozen=True)
 class RankDecision:
     """The generic rank of one sampled matrix family, with its evidence.
@@ -84,9 +101,8 @@ class RankDecision:
         sigma_next_max: largest ``s_{r+1} / s_1`` among the samples at rank r (0.0 when
             the matrix has only r singular values).
         samples: number of valid samples the decision used.
-        settled: how a weak vote was settled again (:mod:`uio_jax._analysis.settle`):
-            ``""`` (a clear float64 vote, not escalated), ``"exact mod p"``, ``"mpmath"``
-            or ``"undecided"`` (the float64 majority kept, not certified).
+        settled: how the vote was settled again (:class:`Settlement`; a plain string is
+            taken as its value).
     """
 
     rank: int
@@ -94,7 +110,10 @@ class RankDecision:
     sigma_r_min: float
     sigma_next_max: float
     samples: int
-    settled: str = ""
+    settled: "Settlement" = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "settled", Settlement(self.settled))
 
 
 def decide_rank(ratios, valid, rtol) -> RankDecision:

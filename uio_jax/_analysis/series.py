@@ -210,14 +210,14 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     on all of them when the report is built).
 
     Returns:
-        ``(history, stop_reason, k_reached)``: one Step per order ``k = 0..K``
-        (``Step.dim = rank [dy_0; ..; dy_k]``), the Report's text, ``K``.
+        ``(history, stop, k_reached)``: one Step per order ``k = 0..K`` (``Step.dim =
+        rank [dy_0; ..; dy_k]``), the :class:`~uio_jax._analysis.driver.Stop`, ``K``.
     """
     n = ctx.system.n
     cap = n if max_order is None else int(max_order)
     series = _Series(ctx, seed, cap)
     out = iterate(SeriesOrders(ctx, series, cap))
-    return out.history, out.stop.message, out.m
+    return out.history, out.stop, out.m
 
 
 def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):

@@ -44,6 +44,7 @@ contradiction recorded as an escalation.
 """
 
 import dataclasses
+import enum
 import math
 
 import numpy as np
@@ -88,6 +89,15 @@ DEFAULT_PROB_THRESHOLD = 0.999999
 DECISIONS_BUDGET = 10**6
 
 
+class Outcome(str, enum.Enum):
+    """What a decision settled beyond float64 found (a ``str``: compares equal to its value,
+    and is written as it in JSON)."""
+
+    INDEPENDENT = "independent"
+    DEPENDENT = "dependent"
+    UNDECIDED = "undecided"
+
+
 @dataclasses.dataclass(frozen=True)
 class Escalation:
     """One weak decision settled again.
@@ -97,7 +107,7 @@ class Escalation:
         float64: what the float64 vote said: ``"independent"`` or ``"dependent"``, with
             its evidence (agreeing fraction, median ``log10 rho``).
         how: ``"exact mod p"``, ``"mpmath"`` or ``"none"`` (and why).
-        result: ``"independent"``, ``"dependent"`` or ``"undecided"``.
+        result: an :class:`Outcome` (a plain string is taken as its value).
         bound: for a dependence found modulo ``p``, the probability bound that it is wrong
             (independence found there is certain: 0.0); None otherwise.
     """
@@ -105,8 +115,11 @@ class Escalation:
     what: str
     float64: str
     how: str
-    result: str
+    result: "Outcome"
     bound: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "result", Outcome(self.result))
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -434,6 +447,6 @@ class _Orthonormal:
         return float(self._residual(basis, candidate)[0])
 
 
-__all__ = ["DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE", "WEAK_FRACTION", "POINTS",
-           "MAX_POINTS", "DIGITS", "MAX_BOUND",
+__all__ = ["Outcome", "DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE",
+           "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND",
            "Escalation", "Settler", "is_weak", "median_decades"]

@@ -239,7 +239,7 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
             "the ORC of the known fields"
         )
         details = {"unknown_input_affects_outputs": False}
-        return ctx.report("single_ui", history, StopReason.KNOWN_FIELDS_ORC.stop().message,
+        return ctx.report("single_ui", history, StopReason.KNOWN_FIELDS_ORC.stop(),
                           notes=notes, details=details)
     rec = SingleUi(ctx, fs, g, h_tilde, offset, max_order)
     if rec.rule == "tau":  # Omega_0 is the last history entry (the chosen output's level)
@@ -258,7 +258,7 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
         notes.append("d tau never entered Omega within the step bound (Lemma 8 of 004); "
                      "the codistribution may be incomplete")
     _m_star_details(rec.verdict, rec.m_prime, offset, details, notes)
-    return ctx.report("single_ui", out.history, out.stop.message, notes=notes, details=details)
+    return ctx.report("single_ui", out.history, out.stop, notes=notes, details=details)
 
 
 def _m_star_details(verdict, m_prime, offset, details, notes):
