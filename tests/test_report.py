@@ -100,7 +100,9 @@ def test_the_first_lines_say_which_question_is_answered():
     assert lines[2].startswith("answer: exact (observability rank condition")
     eorc = dataclasses.replace(rep, method="eorc")
     assert str(eorc).splitlines()[2].startswith("answer: sufficient only (EORC)")
-    capped = dataclasses.replace(rep, stop_reason="max_order=1 reached before convergence")
+    from uio_jax._analysis.driver import StopReason
+
+    capped = dataclasses.replace(rep, stop=StopReason.MAX_ORDER.stop(max_order=1))
     assert "sufficient only (the recursion was capped" in capped.answer_kind()
     single = dataclasses.replace(rep, method="single_ui")
     assert single.answer_kind().startswith("exact (Martinelli")

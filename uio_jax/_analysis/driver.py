@@ -117,6 +117,14 @@ class StopReason(enum.Enum):
         return self not in (StopReason.MAX_ORDER, StopReason.STEP_CAP, StopReason.K_MAX,
                             StopReason.GENERAL_STALLED, StopReason.GENERAL_CAP)
 
+    @property
+    def capped(self) -> bool:
+        """Whether a cap on the steps stopped a recursion that is exact once converged (the
+        ORC, single_ui, the general solution): its answer is then sufficient only. The
+        EORC's ``K_MAX`` is not one: the EORC is sufficient at every order, exact at a bound."""
+        return self in (StopReason.MAX_ORDER, StopReason.STEP_CAP, StopReason.GENERAL_STALLED,
+                        StopReason.GENERAL_CAP)
+
     def _pattern(self):
         parts = re.split(r"\{(\w+)\}", self.value)
         regex = "".join(re.escape(p) if i % 2 == 0 else f"(?P<{p}>-?[0-9]+)"

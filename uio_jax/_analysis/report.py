@@ -149,16 +149,8 @@ class Report:
         return tuple(s.dim for s in self.history)
 
     def domain_centre(self) -> np.ndarray:
-        """The representative point of the report: the centre of the sampling box.
-
-        Returns:
-            ``(n,)`` array ``z = [x; p]``: for every state and then every parameter
-            (:attr:`variables`), the midpoint of its sampling box (``System.domain``,
-            the ``params=`` boxes).
-
-        Raises:
-            ModelError: the report does not know the sampling box (built by hand).
-        """
+        """``(n,)``: the centre of the sampling box of every state and parameter
+        (:func:`uio_jax._analysis.directions.domain_centre`)."""
         return directions.domain_centre(self, self._space)
 
     def unobservable_directions(self, x=None, p=None) -> np.ndarray:
@@ -185,42 +177,15 @@ class Report:
         return self._space.unobservable_directions(directions.point(self, self._space, x, p, "unobservable_directions"))
 
     def direction_summary(self, x=None, p=None) -> dict:
-        """The unobservable directions at a point, labelled by the variables' names.
-
-        Each direction (a column of :meth:`unobservable_directions`, unit norm) is
-        signed so that its largest component is positive; components below ``1e-12``
-        (round-off) are set to 0. For a model with parameters, the identifiable
-        parameter combinations are given by their differentials at the point: the
-        covectors ``c`` on the parameters that are not identifiable one by one with
-        ``[0; c]`` orthogonal to every direction, i.e. in the codistribution (for
-        ``x' = -(a + b) x``: ``da + db``, the differential of ``a + b``; for a product
-        ``a b`` at ``a = b = 1`` it would read the same). Directions with several
-        columns are a basis of the null space, not unique.
-
-        Args:
-            x, p: the point, as in :meth:`unobservable_directions` (default: the centre
-                of the sampling box).
-
-        Returns:
-            ``{"point": {name: value}, "directions": [{name: coefficient}, ...],
-            "identifiable_combinations": [{param: coefficient}, ...]}`` (combination
-            coefficients scaled so that the largest magnitude is 1).
-        """
+        """The unobservable directions at a point (default: the centre of the sampling box),
+        labelled by the variables' names, with the identifiable parameter combinations:
+        :func:`uio_jax._analysis.directions.direction_summary` says how."""
         return directions.direction_summary(self, self._space, x, p)
 
     def representative_point(self) -> tuple[np.ndarray, str]:
-        """Where the report's directions are given: the centre of the sampling box if the
-        codistribution has its generic rank there, else the first of a fixed sequence of
-        points off the centre (``centre + 0.3 * width * t``, ``t`` a fixed pattern in
-        ``[-1, 1]`` per coordinate) where it does.
-
-        Returns:
-            ``(z, rule)``: ``z`` of shape ``(n,)`` (:attr:`variables`) and a sentence
-            naming the choice.
-
-        Raises:
-            ModelError: the sampling box is unknown, or the rank drops at every candidate.
-        """
+        """``(z, rule)``: where the report's directions are given (the centre of the sampling
+        box where the rank is generic, else a fixed point off it:
+        :func:`uio_jax._analysis.directions.representative_point`)."""
         return directions.representative_point(self, self._space)
 
     def format_directions(self, summary=None) -> str:
@@ -311,7 +276,7 @@ class Report:
         reach the bound of its verified symmetries (:mod:`uio_jax._analysis.symmetry`): a
         state it does not show is moved by a symmetry.
         """
-        capped = not self.stop.reason.converged
+        capped = self.stop.reason.capped
         if self.method == "general_ui" and self.details.get("exact") is False and not capped:
             return ("not certified exact (general_ui: the jets of the known inputs may have "
                     "been truncated, see the notes): 'observable' is proven")

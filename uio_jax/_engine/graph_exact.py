@@ -28,6 +28,7 @@ from . import graph_elementary
 from .graph import exact_literal
 from .graph_elementary import Singular
 from .graph_numpy import columns, place_rows
+from .graph_ops import unary_slopes
 
 #: The prime of the modular evaluation: the Mersenne prime ``2^127 - 1`` (Python integers;
 #: a minor of degree ``D`` vanishes at a random point with probability at most
@@ -391,19 +392,7 @@ class ExtendedEvaluator:
             "logistic": lambda a: 1 / (1 + ctx.exp(-a)), "sign": ctx.sign, "floor": ctx.floor,
             "ceil": ctx.ceil, "round": ctx.nint, "not": lambda a: ctx.mpf(a == 0),
         }
-        self.slope = {
-            "sin": lambda a, v: ctx.cos(a), "cos": lambda a, v: -ctx.sin(a),
-            "tan": lambda a, v: 1 + v * v, "exp": lambda a, v: v, "log": lambda a, v: 1 / a,
-            "sqrt": lambda a, v: 1 / (2 * v), "tanh": lambda a, v: 1 - v * v,
-            "atan": lambda a, v: 1 / (1 + a * a), "asin": lambda a, v: 1 / ctx.sqrt(1 - a * a),
-            "acos": lambda a, v: -1 / ctx.sqrt(1 - a * a), "sinh": lambda a, v: ctx.cosh(a),
-            "cosh": lambda a, v: ctx.sinh(a), "asinh": lambda a, v: 1 / ctx.sqrt(a * a + 1),
-            "acosh": lambda a, v: 1 / ctx.sqrt(a * a - 1), "atanh": lambda a, v: 1 / (1 - a * a),
-            "abs": lambda a, v: ctx.sign(a), "log1p": lambda a, v: 1 / (1 + a),
-            "expm1": lambda a, v: v + 1, "logistic": lambda a, v: v * (1 - v),
-            "erf": lambda a, v: 2 / ctx.sqrt(ctx.pi) * ctx.exp(-a * a),
-            "cbrt": lambda a, v: 1 / (3 * v * v),
-        }
+        self.slope = unary_slopes(ctx)
 
     def gradients(self, roots):
         """``(values, grads)``: lists of mpmath numbers, ``grads[r]`` a list of ``n``."""

@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from .graph_ops import unary_slopes
+
 #: Bytes the live values and gradients of one chunk of samples may take.
 CHUNK_BYTES = 256 * 2**20
 
@@ -36,20 +38,8 @@ _UNARY_VALUE = {
     "erf": np.vectorize(math.erf, otypes=[np.float64]),
 }
 
-#: ``d op(a) / da`` from the operand ``a`` and the value ``v = op(a)``
-_UNARY_SLOPE = {
-    "sin": lambda a, v: np.cos(a), "cos": lambda a, v: -np.sin(a),
-    "tan": lambda a, v: 1.0 + v * v, "exp": lambda a, v: v, "log": lambda a, v: 1.0 / a,
-    "sqrt": lambda a, v: 0.5 / v, "tanh": lambda a, v: 1.0 - v * v,
-    "atan": lambda a, v: 1.0 / (1.0 + a * a), "asin": lambda a, v: 1.0 / np.sqrt(1.0 - a * a),
-    "acos": lambda a, v: -1.0 / np.sqrt(1.0 - a * a), "sinh": lambda a, v: np.cosh(a),
-    "cosh": lambda a, v: np.sinh(a), "asinh": lambda a, v: 1.0 / np.sqrt(a * a + 1.0),
-    "acosh": lambda a, v: 1.0 / np.sqrt(a * a - 1.0), "atanh": lambda a, v: 1.0 / (1.0 - a * a),
-    "abs": lambda a, v: np.sign(a), "log1p": lambda a, v: 1.0 / (1.0 + a),
-    "expm1": lambda a, v: v + 1.0, "logistic": lambda a, v: v * (1.0 - v),
-    "cbrt": lambda a, v: (1.0 / 3.0) / (v * v),
-    "erf": lambda a, v: (2.0 / math.sqrt(math.pi)) * np.exp(-a * a),
-}
+#: ``d op(a) / da`` from the operand ``a`` and the value ``v = op(a)`` (float64)
+_UNARY_SLOPE = unary_slopes(np)
 
 _COMPARE = {"lt": np.less, "le": np.less_equal, "gt": np.greater, "ge": np.greater_equal,
             "eq": np.equal, "ne": np.not_equal, "and": np.logical_and, "or": np.logical_or}

@@ -20,6 +20,7 @@ import numpy as np
 
 from .._errors import ModelError
 from .._model.system import System
+from .._model.validation import check_traced_output
 
 _SOURCE = "from_dynamics"
 
@@ -202,13 +203,4 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
             msg = text.splitlines()[0] if text else ""
             raise ModelError(f"{_SOURCE}: {what} fails on {args} of lengths {lengths}: "
                              f"{type(exc).__name__}: {msg}") from None
-    shape = getattr(out, "shape", None)
-    if shape is None:
-        raise ModelError(f"{_SOURCE}: {what} must return an array, got {type(out).__name__}")
-    if tuple(shape) != expected:
-        want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
-        raise ModelError(f"{_SOURCE}: {what} returns shape {tuple(shape)}, expected {want}")
-    dtype = np.dtype(out.dtype)
-    if np.issubdtype(dtype, np.complexfloating):
-        raise ModelError(f"{_SOURCE}: {what} returns a complex value ({dtype}); the dynamics and outputs "
-                         "must be real")
+    check_traced_output(f"{_SOURCE}: {what}", out, expected, "the dynamics and outputs")

@@ -316,15 +316,8 @@ class Experiment:
 
     # ------------------------------------------------------------------ time step checks
     def memory_bytes(self, trials: int, keep: int = 0) -> int:
-        """Estimated peak memory (bytes) of a run of ``trials`` trials keeping ``keep``
-        full trajectories.
-
-        Records: ``trials * (n_records + 1) * (2 N + 2 d + 1)`` numbers at
-        ``BYTES_PER_RECORD_NUMBER`` (16) bytes each; the filter carries (``N^2 + 4 N``
-        float64 per trial, in and out); per kept trajectory the float64 arrays of
-        :func:`~uio_jax.trajectories` (``(n_epochs + 1) (2 n + 2 N [+ N^2 when keep <= 4])``
-        and ``n_steps * m`` readings), three copies (device, host, concatenated).
-        """
+        """Estimated peak memory (bytes) of a run of ``trials`` trials keeping ``keep`` full
+        trajectories (:func:`uio_jax._model.experiment_checks.memory_bytes` says how)."""
         return checks.memory_bytes(self, trials, keep)
 
     def check_memory(self, trials: int, keep: int = 0) -> int:

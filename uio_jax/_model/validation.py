@@ -28,6 +28,22 @@ SPARSE_FRACTION = 0.125
 MORE_SAMPLES = 4096
 
 
+def check_traced_output(what, out, expected, real) -> np.dtype:
+    """The traced result ``out`` of a model function (``jax.eval_shape``): an array of shape
+    ``expected`` (``()`` or ``(n,)``), not complex; returns its dtype. ``what`` names the
+    function in the one-line ModelError, ``real`` what must be real."""
+    shape = getattr(out, "shape", None)
+    if shape is None:
+        raise ModelError(f"{what} must return an array, got {type(out).__name__}")
+    if tuple(shape) != expected:
+        want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
+        raise ModelError(f"{what} returns shape {tuple(shape)}, expected {want}")
+    dtype = np.dtype(getattr(out, "dtype", np.float64))
+    if np.issubdtype(dtype, np.complexfloating):
+        raise ModelError(f"{what} returns a complex value ({dtype}); {real} must be real")
+    return dtype
+
+
 def named_functions(system):
     """``(what, fn, shape)`` of every output and field of ``system`` (``what`` names it in
     messages)."""
@@ -79,16 +95,7 @@ def check_shapes(system) -> set:
                 raise ModelError(
                     f"{what} fails on {on}: {type(exc).__name__}: {msg}"
                 ) from None
-            shape = getattr(out, "shape", None)
-            if shape is None:
-                raise ModelError(f"{what} must return an array, got {type(out).__name__}")
-            if tuple(shape) != expected:
-                want = "a scalar ()" if expected == () else f"shape {expected} (one entry per state)"
-                raise ModelError(f"{what} returns shape {tuple(shape)}, expected {want}")
-            dtype = np.dtype(getattr(out, "dtype", np.float64))
-            if np.issubdtype(dtype, np.complexfloating):
-                raise ModelError(f"{what} returns a complex value ({dtype}); outputs and fields "
-                                 "must be real")
+            dtype = check_traced_output(what, out, expected, "outputs and fields")
             if not np.issubdtype(dtype, np.floating):
                 promote.add(what)
             _check_index_range(system, what, fn, expected, scratch)
@@ -188,5 +195,6 @@ def as_float(fn):
     return f
 
 
-__all__ = ["CHECK_SAMPLES", "MORE_SAMPLES", "SPARSE_FRACTION", "as_float", "check_shapes", "finite_notes",
+__all__ = ["CHECK_SAMPLES", "MORE_SAMPLES", "SPARSE_FRACTION", "as_float", "check_shapes", "check_traced_output",
+           "finite_notes",
            "named_functions"]
