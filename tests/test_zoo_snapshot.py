@@ -15,7 +15,12 @@ exact checks of the trial span that computes a dimension were counted in
 ``Certificate.verified`` (14 counts grew), and when Systems could declare symmetries (every
 EORC report gained ``details["symmetries"]``, None without any; the uncalibrated Vi-SfM
 with one accelerometer declares its internal rotation and stops at its bound, k = 10
-instead of 25, same verdicts, now exact). A change that
+instead of 25, same verdicts, now exact). Refreshed when every decision became exact (issue 37:
+constants exact, elementary functions made rational modulo p, every vote verified; every
+certificate gained its arithmetic and counts, the screen of an exact analysis stops at the
+decision samples, the general solution's zero tests count the extension's chain tests, a
+report keeps its StopReason member as ``stop``; every verdict, dimension and step unchanged,
+57 of 57 analysed reports exact in arithmetic). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
 strings and labels compare exactly; floats (singular-value margins of the certificate) to a
 relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any
