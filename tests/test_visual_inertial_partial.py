@@ -249,17 +249,21 @@ def test_case_2_one_unobservable_direction_the_internal_rotation(mod, cases):
     verdict, one unobservable direction (dim n - 1 = 22, the q_c components unobservable,
     the internal rotation in the null space), at k = 10 in these coordinates (not at the
     paper's k = 2: NOT_REPRODUCED). At that order the span's smallest directions are under
-    float64's reach at a single state, so the null space is asked at k = 1 (the symmetry is
-    in it at every order: test_case_2_internal_rotation_in_the_eorc_null_space); at k = 14
-    the query refuses rather than answer wrong."""
+    float64's reach at a single state (``s_r/s_1`` about 1e-12), so the null space there is
+    computed in 60 digits: the internal rotation (it was refused, float64 being unable to
+    tell)."""
     system = cases["uncalibrated_one_acc"]
     rep = uj.analyze(system, method="eorc", samples=256)
     pub = mod.NOT_REPRODUCED["uncalibrated_one_acc"]
     assert rep.dim == pub["dim"] == system.n - 1 and list(rep.dims).index(22) == 10
     assert sorted(s for s, v in rep.observable.items() if v) == sorted(pub["observable"])
     assert rep.certificate.undecided == 0
-    with pytest.raises(uj.ModelError, match="not independent in float64"):
-        rep.unobservable_directions(np.asarray(_point(system, 100)))
+    point = np.asarray(_point(system, 100), dtype=np.float64)
+    d = rep.unobservable_directions(point)
+    with jax.enable_x64(True):
+        rotation = np.asarray(mod.internal_rotation(jnp.asarray(point)))
+    assert d.shape == (system.n, 1)
+    assert abs(d[:, 0] @ rotation) / np.linalg.norm(rotation) == pytest.approx(1.0, abs=1e-12)
     # the declared internal rotation, verified exactly, bounds every order: the run stops
     # at k = 10 with an exact verdict, and A_2, A_3 are proved unobservable (B = [[0, 1], [-1, 0]])
     assert rep.details["k"] == 10 and rep.exact and StopReason.SYMMETRY_BOUND.matches(rep.stop_reason)
