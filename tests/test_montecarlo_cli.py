@@ -103,3 +103,23 @@ def test_sound_dt_gives_no_warning(tmp_path, capsys):
     assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0",
                      "--no-analysis", "--no-progress", "--no-cache"]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_the_analysis_beside_the_verdict_takes_the_meaning_of_known_inputs(tmp_path, capsys, monkeypatch):
+    """``--known-inputs smooth`` reaches the analysis shown beside the verdict (issue 40: the
+    Monte Carlo had no such option)."""
+    import uio_jax._analysis.analyze as analysis
+
+    seen = []
+    real = analysis.analyze
+
+    def recording(system, **kw):
+        seen.append(kw.get("known_inputs"))
+        return real(system, **kw)
+
+    monkeypatch.setattr(analysis, "analyze", recording)
+    path = tmp_path / "toy.py"
+    path.write_text(textwrap.dedent(TOY.format(dt=0.05)))
+    assert cli.main(["montecarlo", f"{path}:toy", "--trials", "2", "--keep", "0", "--no-progress",
+                     "--no-cache", "--known-inputs", "smooth"]) == 0
+    assert seen == ["smooth"]

@@ -8,6 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import zoo_system
 
 import uio_jax as uj
 from uio_jax._model.system import DEFAULT_TIME_BOX
@@ -350,3 +351,32 @@ def test_from_dynamics_without_the_time_argument_is_one_line():
     with pytest.raises(uj.ModelError) as exc:
         uj.System.from_dynamics(("x",), lambda x, u, w: x, {"y": lambda x, u, w, t: x[0]}, time="t")
     assert "dynamics fails on (x, u, w, t)" in _one_line(exc)
+
+
+def test_time_varying_directions_are_stated_at_a_time_the_user_can_choose():
+    """``x1' = 1, x2' = w, y = x1 + t x2`` (TUIO6): the hidden direction at time t is
+    ``(1, -1/t)``. The printed directions are at the centre of the t box (t = 1, said in the
+    text), and ``unobservable_directions(x, t=...)`` takes another time; a model without time
+    refuses one. The time's own output adds no note about idle outputs."""
+    rep = uj.analyze(zoo_system("multi_ui", "time_varying"))
+    text = rep.format_directions()
+    assert "(x1=1, x2=1; t=1)" in text and "+0.707 x1  -0.707 x2" in text
+    d = rep.unobservable_directions([1.0, 1.0], t=0.5)[:, 0]
+    np.testing.assert_allclose(np.abs(d), np.array([1.0, 2.0]) / np.sqrt(5.0), atol=1e-12)
+    assert not any("adds no direction" in note for note in rep.notes)
+    plain = uj.analyze(uj.System(("x1",), {"y": lambda x: x[0]}), samples=64)
+    with pytest.raises(uj.ModelError, match="does not depend on time"):
+        plain.unobservable_directions([1.0], t=1.0)
+
+
+def test_an_answer_for_switchable_known_inputs_says_so_and_what_to_run_for_smooth_ones():
+    """The default meaning of a known input surprised robotics users (issue 40): a report with
+    switchable known inputs says what it holds for and how to ask for smooth ones; smooth
+    ones and Systems without known inputs get no such note."""
+    def note(rep):
+        return [n for n in rep.notes if "known_inputs='smooth'" in n and "may jump" in n]
+
+    model = zoo_system("unicycle_polar", "range_v_unknown")
+    assert len(note(uj.analyze(model, samples=64))) == 1
+    assert not note(uj.analyze(model, samples=64, known_inputs="smooth"))
+    assert not note(uj.analyze(uj.System(("x1",), {"y": lambda x: x[0]}), samples=64))

@@ -121,7 +121,16 @@ def analyze(
             "not use it (max_order caps its steps)",))
     if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
         report = _with_symmetries(report, system, seed)
+    if report.known_inputs == "switchable":
+        report = dataclasses.replace(report, notes=tuple(report.notes) + (SWITCHABLE_NOTE,))
     return report
+
+
+#: The note of every answer for switchable known inputs: the other meaning can give less.
+SWITCHABLE_NOTE = ("this answer holds for known inputs that may be chosen freely and may jump "
+                   "(known_inputs='switchable'); generic smooth known inputs can hide more (a boat's "
+                   "heading from GPS with smooth thrust and yaw rate): known_inputs='smooth', "
+                   "--known-inputs smooth")
 
 
 def _with_idle_outputs_note(report, system):
@@ -132,7 +141,8 @@ def _with_idle_outputs_note(report, system):
     names = list(system.outputs)
     if first is None or first.m != 0 or not set(first.added) <= set(names):
         return report
-    idle = [y for y in names if y not in first.added]
+    known = set(system.known_outputs)  # time as an output of its own coordinate: not the user's
+    idle = [y for y in names if y not in first.added and y not in known]
     if not idle:
         return report
     many = len(idle) > 1

@@ -165,6 +165,9 @@ def format_directions(report, space, summary=None) -> str:
     """
     summary = direction_summary(report, space) if summary is None else summary
     at = ", ".join(f"{k}={v:.3g}" for k, v in summary["point"].items())
+    known = getattr(space, "known_point", dict)()
+    if known:  # a time-varying System: the directions hold at this time
+        at += "; " + ", ".join(f"{k}={v:.3g}" for k, v in known.items())
     where = {CENTRE: "the centre of the domain",
              OFF_CENTRE: "the centre of the domain: the rank drops there; instead at"}
     lines = [f"unobservable directions at {where.get(summary.get('rule'), 'the point')} "

@@ -153,7 +153,7 @@ class Report:
         (:func:`uio_jax._analysis.directions.domain_centre`)."""
         return directions.domain_centre(self, self._space)
 
-    def unobservable_directions(self, x=None, p=None) -> np.ndarray:
+    def unobservable_directions(self, x=None, p=None, t=None) -> np.ndarray:
         """Basis of the unobservable directions (null space of the codistribution) at a point.
 
         These are the continuous symmetries of the system: moving the state (and the
@@ -166,6 +166,8 @@ class Report:
                 len(params)`` (:attr:`variables`); or, with ``p``, the state alone, shape
                 ``(len(states),)``. Default: :meth:`domain_centre`.
             p: the parameters, shape ``(len(params),)``, when ``x`` is the state alone.
+            t: the time, for a time-varying System (default: the centre of its box, the
+                time the printed directions state).
 
         Returns:
             ``(n, n - dim)`` array with orthonormal columns (rows: :attr:`variables`).
@@ -174,7 +176,8 @@ class Report:
             ModelError: a point of the wrong shape or with NaN/inf, or a point where the
                 codistribution is not defined.
         """
-        return self._space.unobservable_directions(directions.point(self, self._space, x, p, "unobservable_directions"))
+        z = directions.point(self, self._space, x, p, "unobservable_directions")
+        return self._space.unobservable_directions(z) if t is None else self._space.unobservable_directions(z, at=t)
 
     def direction_summary(self, x=None, p=None) -> dict:
         """The unobservable directions at a point (default: the centre of the sampling box),

@@ -17,6 +17,7 @@ import numpy as np
 
 from .._engine import graph_exact
 from .._errors import ModelError
+from .._model.smooth_inputs import known_coordinates
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,7 +47,7 @@ class Space(Protocol):
     """What a Report asks of the final codistribution (``Report._space``), about the
     original state ``x (n,)``: :class:`SampledSpace` is the one implementation."""
 
-    def unobservable_directions(self, x) -> np.ndarray:
+    def unobservable_directions(self, x, at=None) -> np.ndarray:
         """``(n, n - dim)`` orthonormal columns: the annihilator of the span on ``dx``."""
 
     def is_observable(self, fn) -> bool:
@@ -95,8 +96,19 @@ class SampledSpace(Space):
         lo, hi = ctx.system.box()
         rng = np.random.default_rng(0x5FACE)
         self._fill = lo[self._n:] + rng.random(self._N - self._n) * (hi[self._n:] - lo[self._n:])
+        # the known coordinates right after the reported ones (the time of a time-varying
+        # System, the jets of smooth known inputs) at the centre of their box: the directions
+        # are stated at that time (:meth:`known_point`), which the caller may choose
+        known = min(known_coordinates(ctx.system), self._N - self._n) if self._n < self._N else 0
+        self._known_names = tuple(ctx.system.states[self._n:self._n + known])
+        self._fill[:known] = 0.5 * (lo[self._n:self._n + known] + hi[self._n:self._n + known])
 
-    def unobservable_directions(self, x) -> np.ndarray:
+    def known_point(self) -> dict:
+        """``{name: value}`` of the known coordinates the directions are computed at (the
+        time of a time-varying System: the centre of its box unless given)."""
+        return {name: float(self._fill[i]) for i, name in enumerate(self._known_names)}
+
+    def unobservable_directions(self, x, at=None) -> np.ndarray:
         """Annihilator in R^n of the span intersected with ``span{dx_1..dx_n}`` at ``x``.
 
         With ``G (r, N)`` the row-normalized gradients of the kept generators at
@@ -108,6 +120,8 @@ class SampledSpace(Space):
 
         Args:
             x: original state, ``(n,)``.
+            at: the value of the first known coordinate (the time), default that of
+                :meth:`known_point`.
 
         Returns:
             ``(n, n - dim)``, orthonormal columns.
@@ -123,7 +137,14 @@ class SampledSpace(Space):
             return np.zeros((n, 0))
         if r == 0:
             return np.eye(n)
-        X = np.concatenate([x, self._fill])
+        fill = self._fill.copy()
+        if at is not None:
+            if not self._known_names:
+                raise ModelError("this report's model does not depend on time: no time to give")
+            if not np.isfinite(float(at)):
+                raise ModelError(f"the time must be a finite number, got {at!r}")
+            fill[0] = float(at)
+        X = np.concatenate([x, fill])
         with jax.enable_x64(True):
             g = self._ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
         if not np.isfinite(g).all():

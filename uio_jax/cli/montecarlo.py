@@ -32,6 +32,10 @@ def add_parser(subparsers):
                         "(F P F^T + Q, Joseph update; slower, for checking)")
     p.add_argument("--no-analysis", action="store_true",
                    help="skip the observability analysis shown beside the verdict")
+    p.add_argument("--known-inputs", choices=("switchable", "smooth"), default="switchable",
+                   help="the meaning of a known input in the analysis beside the verdict: switchable "
+                        "(default: it may jump) or smooth (a generic smooth function of time); the "
+                        "simulated inputs are the experiment's own"),
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="split the trials over the workers of a running Dask cluster "
@@ -118,7 +122,7 @@ def run(args) -> int:
         if not args.no_analysis:
             from .._analysis.analyze import analyze
 
-            comparison = res.compare(analyze(exp.analysis_system()))
+            comparison = res.compare(analyze(exp.analysis_system(), known_inputs=args.known_inputs))
     print(res.summary(comparison))
     if args.json:
         d = res.to_dict(comparison)  # says what the text says: outcome, headline, filter
