@@ -25,7 +25,16 @@ def while_const(x):  # bounds computed from constants: a while loop with a const
     return lax.fori_loop(jnp.int32(0), jnp.int32(3), lambda i, c: c * x[0] + x[1], x[1])
 
 
-@pytest.mark.parametrize("fn", [fori, scanned, while_const])
+def indexed_where(x):  # a condition on the loop counter choosing a state: nodes, not numbers
+    return lax.fori_loop(0, 3, lambda i, acc: acc.at[i].set(jnp.where(i < 2, x[i % 2] * 3.0, 0.0)),
+                         jnp.zeros(3)).sum() + x[0]
+
+
+def wrapped_index(x):  # (i + 1) % n: a primitive without a rule ('rem') on constants only
+    return lax.fori_loop(0, 2, lambda i, c: c + x[(i + 1) % 2] ** 2, 0.0)
+
+
+@pytest.mark.parametrize("fn", [fori, scanned, while_const, indexed_where, wrapped_index])
 def test_loops_translate_with_jax_values_and_gradients(fn):
     g = Graph(2)
     expr = translate(g, fn, ())

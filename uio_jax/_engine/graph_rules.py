@@ -130,7 +130,11 @@ def _select_n(graph, i, eqn, ins):
         if all(not is_symbolic(c) for c in cases):
             return [np.choose(pred.astype(int), [np.asarray(c) for c in cases])]
         cases = np.broadcast_arrays(*[as_nodes(graph, c) for c in cases])
-        return [np.choose(np.broadcast_to(pred.astype(int), cases[0].shape), cases)]
+        which = np.broadcast_to(pred.astype(int), cases[0].shape)
+        out = np.empty(cases[0].shape, dtype=object)  # nodes stay nodes (np.choose makes ints)
+        for idx in np.ndindex(out.shape):
+            out[idx] = cases[which[idx]][idx]
+        return [out]
     if len(cases) != 2:
         raise Untranslatable("select_n", "more than two cases with a state-dependent choice")
     return [elementwise(graph, graph.select, [pred, cases[0], cases[1]])]
@@ -160,7 +164,16 @@ def _call(graph, i, eqn, ins):
 
 
 def _untranslatable(graph, i, eqn, ins):
-    raise Untranslatable(eqn.primitive.name)
+    """A primitive without a rule: evaluated as it is when none of its operands depends on
+    the state (an index computed from a loop counter, ``(i + 1) % n``; the result is a
+    constant of the model), refused otherwise."""
+    if any(is_symbolic(v) for v in ins) or eqn.primitive.multiple_results:
+        raise Untranslatable(eqn.primitive.name)
+    try:
+        out = eqn.primitive.bind(*[np.asarray(v) for v in ins], **eqn.params)
+    except Exception:  # a primitive that cannot run on concrete numpy values
+        raise Untranslatable(eqn.primitive.name) from None
+    return [np.asarray(out)]
 
 
 _TABLE = {
