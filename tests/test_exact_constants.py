@@ -86,7 +86,8 @@ def test_the_constant_sweep(c_h):
 # ------------------------------------------------------------------ against the exact oracle
 
 DECIMALS = ("1.3", "0.15", "2.5", "0.7", "1.7", "3", "-1.1", "0.2", "1/7", "2/3")
-FUNCTIONS = ("sin({})", "cos({})", "exp({}/4)", "sqrt(1 + ({})**2)", "atan({})")
+FUNCTIONS = ("sin({})", "cos({})", "exp({}/4)", "sqrt(1 + ({})**2)", "atan({})", "log(1 + ({})**2)",
+             "tanh({})", "cosh({}/2)", "atan2({}, 2)")
 
 
 def _random_model(seed: int, functions: bool):
@@ -125,7 +126,8 @@ def _random_model(seed: int, functions: bool):
     return names, drift, unknown, outputs
 
 
-_JAX = {"sin": jnp.sin, "cos": jnp.cos, "exp": jnp.exp, "sqrt": jnp.sqrt, "atan": jnp.arctan}
+_JAX = {"sin": jnp.sin, "cos": jnp.cos, "exp": jnp.exp, "sqrt": jnp.sqrt, "atan": jnp.arctan, "log": jnp.log,
+        "tanh": jnp.tanh, "asin": jnp.arcsin, "cosh": jnp.cosh, "atan2": jnp.arctan2}
 
 
 def _jax_function(names, texts):
@@ -165,7 +167,7 @@ def test_random_rational_systems_with_decimal_constants_equal_the_exact_oracle(s
     _check_against_oracle(seed, functions=False)
 
 
-@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("seed", range(8))
 def test_random_systems_with_elementary_functions_equal_the_oracle(seed):
     _check_against_oracle(100 + seed, functions=True)
 
