@@ -98,3 +98,16 @@ def test_the_recursion_decides_on_as_many_defined_states_on_a_partly_undefined_m
         else:
             assert defined.sum() < D and ctx.decisions == memory.certify_samples(S, 2) == S
     assert memory.decision_count(None, S, 2) == D  # a model outside the graph: not screened
+
+
+def test_an_output_nan_through_a_where_is_noticed():
+    """``y = where(x1 > 1, nan, x1 + x2^2)``: NaN on half the box while its gradient is finite
+    there (the chosen branch is a constant): the samples are dropped and the report says so
+    (issue 40: it was not noticed)."""
+    system = uj.System(("x1", "x2"), {"y": lambda x: jnp.where(x[0] > 1.0, jnp.nan, x[0] + x[1] ** 2)},
+                       drift=lambda x: jnp.array([x[1], -x[0]]))
+    rep = uj.analyze(system, samples=512)
+    cert = rep.certificate
+    assert 0.4 < cert.dropped / (cert.used + cert.dropped) < 0.6
+    assert any("were dropped: the model is NaN/inf there" in note for note in rep.notes)
+    assert rep.dim == 2

@@ -60,7 +60,11 @@ class Context:
             nodes = [*self.output_nodes(), *(self.field_node(f) for f in system.fields())]
             exprs = [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr)]
             wanted = screen_samples(system.n) if self.settler.exact_capable(exprs) else DECISION_SAMPLES
-            self._start(xs_all, rtol, decision_count(self._defined(xs_all), samples, system.n, wanted))
+            #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
+            #: sample is dropped (counted in the certificate), even where their gradients are
+            #: finite (a NaN chosen by a ``where``)
+            self.defined = self._defined(xs_all)
+            self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
 
     def _defined(self, xs_all):
         """``(S,)``: whether the outputs and fields are finite at each sample."""
@@ -78,6 +82,7 @@ class Context:
         self.certified = len(self.xs) == len(xs_all)
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
+        self.codist.valid &= self.defined[:decisions]
         self.codist.settle = self.settler.settle  # every vote settled again in the expression graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         #: how the decisions made outside the codistribution were settled (the zero tests of
@@ -105,6 +110,7 @@ class Context:
         sub = Context.__new__(Context)
         sub.system, sub.builder, sub.samples = self.system, self.builder, self.samples
         sub.seed, sub.settler, sub.prob_threshold = self.seed, self.settler, self.prob_threshold
+        sub.defined = self.defined
         sub._start(self.xs_all, self.codist.rtol, self.decisions)
         sub._grads = self._grads if not self.certified or sub.certified else {}
         return sub
@@ -139,6 +145,7 @@ class Context:
         lo, hi = self.system.box()
         count = certify_samples(len(self.xs_all), self.system.n)
         full = Codistribution(self.system.n, count, hi - lo, phase.rtol)
+        full.valid &= self.defined[:count]
         full.settle = phase.settle
         full.escalations = list(phase.escalations)
         full.verified = phase.verified
