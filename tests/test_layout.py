@@ -82,7 +82,7 @@ MAX_FUNCTION_LINES = 80
 #: ``(path, function) -> cap``: functions over the limit in files another change is editing
 #: (issue 36, item 5); each may not grow past its length when the limit was introduced.
 LONG_FUNCTIONS = {
-    ("uio_jax/_analysis/analyze.py", "analyze"): 88,  # its docstring: the options' contract
+    ("uio_jax/_analysis/analyze.py", "analyze"): 81,  # its docstring: the options' contract
     ("uio_jax/_analysis/general_ui.py", "general_ui_report"): 83,
     ("uio_jax/_analysis/general_ui_steps.py", "extend"): 105,
 }

@@ -152,3 +152,10 @@ def test_a_declared_symmetry_of_a_model_that_is_not_rational(field, how):
     check = rep.details["symmetries"]["checks"][0]
     assert check["verified"] and check["how"].startswith(how)
     assert rep.observable == {"x1": False, "x2": True}
+
+
+def test_a_symmetry_nan_everywhere_is_refused_up_front():
+    """A declared field NaN at the centre of the box and at three other states is refused when
+    the System is built, in one line (issue 40: it was accepted, then reported unverified)."""
+    with pytest.raises(uj.ModelError, match="symmetry 's' is NaN/inf at every state tried"):
+        uj.System(("x1", "x2"), {"y": lambda x: x[0]}, symmetries={"s": lambda x: jnp.nan * x})

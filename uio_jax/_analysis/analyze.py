@@ -113,13 +113,20 @@ def analyze(
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
-    report = _with_idle_outputs_note(_run(system, method, samples, seed, rtol, max_order, k_max,
-                                          known_inputs, opts["prob_threshold"]), system)
+    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, opts["prob_threshold"])
+    return _with_notes(report, system, k_max, seed)
+
+
+def _with_notes(report, system, k_max, seed):
+    """``report`` with what the run alone does not say: outputs that add nothing, a
+    ``k_max`` given to a method that does not use it, the declared symmetries (verified;
+    the EORC uses them itself), the meaning of switchable known inputs."""
+    report = _with_idle_outputs_note(report, system)
     if k_max is not None and report.method != "eorc":  # given, but not used: said, not silent
         report = dataclasses.replace(report, notes=tuple(report.notes) + (
             f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
             "not use it (max_order caps its steps)",))
-    if report.method != "eorc" and symmetry_fields(system):  # the EORC uses them itself
+    if report.method != "eorc" and symmetry_fields(system):
         report = _with_symmetries(report, system, seed)
     if report.known_inputs == "switchable":
         report = dataclasses.replace(report, notes=tuple(report.notes) + (SWITCHABLE_NOTE,))

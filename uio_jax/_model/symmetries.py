@@ -33,7 +33,8 @@ def check_symmetry_shapes(system) -> None:
     array of shape ``(n + len(params),)``.
 
     Raises:
-        ModelError: it fails to trace, returns another shape, or a complex value.
+        ModelError: it fails to trace, returns another shape, or a complex value, or it is
+            NaN/inf at every one of a few states of the box (its centre and three others).
     """
     n, P = system.n, len(system.params)
     args = [jax.ShapeDtypeStruct((n,), jnp.float64)]
@@ -56,6 +57,26 @@ def check_symmetry_shapes(system) -> None:
                 raise ModelError(f"symmetry {name!r} returns shape {shape}, expected ({want},) ({of})")
             if np.issubdtype(np.dtype(getattr(out, "dtype", np.float64)), np.complexfloating):
                 raise ModelError(f"symmetry {name!r} returns a complex value; a symmetry must be real")
+            if not any(np.isfinite(np.asarray(fn(*point))).all() for point in _probe_points(system)):
+                raise ModelError(f"symmetry {name!r} is NaN/inf at every state tried in the domain "
+                                 "(its centre and three others): check the field")
+
+
+def _probe_points(system):
+    """The arguments of a System's functions at the centre of its box and three other fixed
+    states of it (parameters and time likewise)."""
+    lo, hi = system.box()  # the states
+    boxes = [system.params[p] for p in system.params]  # parameters, then time
+    if system.time is not None:
+        boxes.append(system.time_box)
+    for t in (0.5, 0.21, 0.63, 0.87):
+        args = [jnp.asarray(lo + t * (hi - lo))]
+        extra = [float(a) + t * (float(b) - float(a)) for a, b in boxes]
+        if system.params:
+            args.append(jnp.asarray(extra[:len(system.params)]))
+        if system.time is not None:
+            args.append(jnp.asarray(extra[-1]))
+        yield args
 
 
 def attach(system) -> None:
