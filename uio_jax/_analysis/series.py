@@ -139,7 +139,7 @@ class _GraphCoefficients:
             self.levels.append(self.gt.jvp(self.levels[-1], self.tangent))
         if k not in self.done:
             back = self.g.import_nodes(self.gt, self.levels[k], self.at_zero)
-            self.done[k] = [self.g.div(e, self.g.const(float(math.factorial(k)))) for e in back]
+            self.done[k] = [self.g.div(e, self.g.const(math.factorial(k))) for e in back]
         return self.done[k]
 
 

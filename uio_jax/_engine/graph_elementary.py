@@ -184,7 +184,7 @@ def evaluate(graph, k, V, draws):
         if op == "sin":
             return s, (c,)
         if op == "cos":
-            return s * 0 + c, ((-s) % p,)
+            return c, ((-s) % p,)
         v = s * _inv(c, p) % p
         return v, ((1 + v * v) % p,)
     if op in EXPONENTIAL:
