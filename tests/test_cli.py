@@ -114,9 +114,29 @@ def test_each_decided_step_is_announced_once(spec, method):
     assert all(f"dim {s.dim} " in ln for s, ln in zip(rep.history, lines))
 
 
-def test_analyze_progress_only_on_a_terminal(capsys, monkeypatch):
+def _progress_step():
+    from uio_jax._analysis.evidence import Step
+
+    return Step(3, 2, ("a",), 1.0)
+
+
+def test_analyze_progress_on_a_terminal_and_for_long_runs_elsewhere(capsys, monkeypatch):
+    """Every step on a terminal; off a terminal (a log) only the steps of a run that has lasted
+    ``OFF_TERMINAL_AFTER`` seconds (issue 40: long work printed nothing off a terminal)."""
+    import io
+
+    from uio_jax import _progress
+
     assert cli.main(["analyze", GOOD, "--samples", "64"]) == 0
-    assert "uio-jax: m=" not in capsys.readouterr().err  # stderr is not a terminal here
+    assert "uio-jax: m=" not in capsys.readouterr().err  # a short run, stderr not a terminal
+    log = io.StringIO()
+    printer = _progress.StepPrinter(stream=log)
+    step = _progress_step()
+    printer(step)
+    assert log.getvalue() == ""
+    printer.t0 -= _progress.OFF_TERMINAL_AFTER + 1  # the run has lasted longer
+    printer(step)
+    assert log.getvalue().startswith("uio-jax: m=3  dim 2")
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     assert cli.main(["analyze", GOOD, "--samples", "64"]) == 0
     assert "uio-jax: m=0  dim 1" in capsys.readouterr().err

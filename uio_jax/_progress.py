@@ -37,20 +37,25 @@ def announce_step(step):
     return step
 
 
+#: Seconds of a run after which its steps are printed off a terminal (:class:`StepPrinter`).
+OFF_TERMINAL_AFTER = 5.0
+
+
 class StepPrinter:
     """One line per decided step on ``stream``: ``uio-jax: k=3  dim 6 (+2 generators)  41.2 s``
     (``k`` for EORC orders, ``m`` for the steps of the other analyses; seconds since the
-    printer was made). ``enabled=None`` prints only when the stream is a terminal."""
+    printer was made). ``enabled=None``: every step on a terminal; on another stream (a log,
+    a pipe) the steps decided once the run has lasted :data:`OFF_TERMINAL_AFTER` seconds, so
+    that long work shows where it is and short runs print nothing."""
 
     def __init__(self, *, enabled=None, stream=None):
         self.stream = stream if stream is not None else sys.stderr
-        if enabled is None:
-            enabled = is_terminal(self.stream)
-        self.enabled = bool(enabled)
+        self.after = 0.0 if enabled or is_terminal(self.stream) else OFF_TERMINAL_AFTER
+        self.enabled = enabled is None or bool(enabled)
         self.t0 = time.perf_counter()
 
     def __call__(self, step):
-        if not self.enabled:
+        if not self.enabled or time.perf_counter() - self.t0 < self.after:
             return
         name = "k" if "augmented_rank" in step.extra else "m"
         added = len(step.added)
