@@ -294,3 +294,13 @@ def test_default_cache_dir_rule(monkeypatch, tmp_path):
     assert compile_cache.default_cache_dir() == str(tmp_path / "home" / ".cache" / "uio_jax" / "xla")
     for words in ("$UIO_JAX_CACHE_DIR", "$XDG_CACHE_HOME/uio_jax/xla", "~/.cache/uio_jax/xla"):
         assert words in compile_cache.DEFAULT_DIR_RULE
+
+
+def test_an_analysis_that_outgrows_the_memory_limit_stops_in_one_line(monkeypatch):
+    """The arrays' estimate before a run cannot see the expression graph of deep derivatives
+    (a 100-variable chain grew past 16 GB): the run is stopped when the process passes the
+    limit, with one line naming where it was (issue 40: no guard covered that path)."""
+    monkeypatch.setenv(memory.ENV, "1G")
+    monkeypatch.setattr(memory, "resident_bytes", lambda: 2 * 2**30)
+    with pytest.raises(uj.OptionError, match=r"grew to 2\.1 GB resident at rank 0 of 7 .* past the limit 1\.1 GB"):
+        uj.analyze(zoo("vehicle_wind", "no_wind"))

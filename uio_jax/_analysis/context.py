@@ -19,7 +19,14 @@ from .._errors import ModelError
 from .._model.sampling import sample_states
 from .._model.smooth_inputs import known_coordinates
 from .evidence import Certificate, Step
-from .memory import CERTIFY_BYTES, DECISION_SAMPLES, certify_samples, decision_count, screen_samples
+from .memory import (
+    CERTIFY_BYTES,
+    DECISION_SAMPLES,
+    certify_samples,
+    check_resident,
+    decision_count,
+    screen_samples,
+)
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Report
 from .settle import DEFAULT_PROB_THRESHOLD, Escalation, Settler
@@ -314,6 +321,7 @@ class Context:
         nodes = list(nodes)
         if not nodes:
             return []
+        check_resident(f"rank {self.dim} of {self.system.n} ({len(self.builder.graph)} graph nodes)")
         if grads is None:
             grads = self.gradients(nodes)
         try:

@@ -232,6 +232,40 @@ def check_memory(samples: int, coords: int, states: int | None = None, *, what: 
     return total
 
 
-__all__ = ["ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "DECISION_SAMPLES", "decision_count", "CERTIFY_BYTES",
-           "certify_samples", "rank_samples", "parse_size", "physical_memory", "memory_limit",
-           "analysis_bytes", "format_bytes", "check_memory"]
+def resident_bytes() -> int | None:
+    """The process's resident memory now (``/proc/self/statm``), else its peak
+    (``getrusage``), else None."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError, AttributeError):
+        pass
+    try:
+        import resource
+
+        return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+    except (ImportError, OSError, ValueError):
+        return None
+
+
+def check_resident(what: str) -> None:
+    """Stop an analysis whose process has grown past :func:`memory_limit` (what the arrays'
+    estimate before the run cannot see: the expression graph of deep derivatives and its
+    evaluations grow with the model), with one line, instead of exhausting the machine.
+
+    Raises:
+        OptionError: the resident memory is over the limit; ``what`` says where the run was.
+    """
+    used = resident_bytes()
+    if used is None:
+        return
+    limit, source = memory_limit()
+    if used > limit:
+        raise OptionError(f"the analysis grew to {format_bytes(used)} resident at {what}, past the limit "
+                          f"{format_bytes(limit)} ({source}): a smaller model, a cap (max_order, k_max), "
+                          "or a larger limit")
+
+
+__all__ = ["resident_bytes", "check_resident", "ENV", "PHYSICAL_FRACTION", "FALLBACK_LIMIT", "DECISION_SAMPLES",
+           "decision_count", "CERTIFY_BYTES", "certify_samples", "rank_samples", "parse_size",
+           "physical_memory", "memory_limit", "analysis_bytes", "format_bytes", "check_memory"]
