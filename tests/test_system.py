@@ -99,3 +99,23 @@ def test_system_is_read_only():
         s.outputs["z"] = lambda x: x[0]
     with pytest.raises(Exception):
         s.states = ("q",)
+
+
+def test_a_domain_too_wide_for_float64_is_refused_by_the_api_too():
+    """The file loaders refused ``[-1e308, 1e308]``; the Python API sampled inf and blamed the
+    model (issue 40): one line naming the box, as the loaders say."""
+    with pytest.raises(uj.ModelError, match=r"domain of 'x' \[-1e\+308, 1e\+308\] is too wide"):
+        uj.System(states=("x",), outputs={"y": lambda x: x[0]}, domain={"x": (-1e308, 1e308)})
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(states=("1x",), outputs={"y": lambda x: x[0]}), "state name '1x' is not a valid name"),
+    (dict(states=("x y",), outputs={"y": lambda x: x[0]}), "state name 'x y' is not a valid name"),
+    (dict(states=("x",), params=("2k",), outputs={"y": lambda x, p: x[0]}), "parameter name '2k' is not a valid"),
+])
+def test_the_api_refuses_the_names_model_files_refuse(kwargs, words):
+    """State and parameter names the file loaders refuse are refused by ``System`` too (issue
+    40); a keyword such as the HIV model's ``lambda`` stays a name, an output any key."""
+    with pytest.raises(uj.ModelError, match=words):
+        uj.System(**kwargs)
+    uj.System(states=("lambda",), outputs={"y": lambda x: x[0]})

@@ -30,6 +30,18 @@ def check_input_names(known, unknown, states, params):
                 raise ModelError(f"{kind} input {k!r} has the name of a parameter")
 
 
+def check_identifiers(kinds) -> None:
+    """The names that expressions use (states, parameters) are identifiers (letters, digits and
+    ``_``, not starting with a digit), as in model files (``kinds``: kind -> names); one-line
+    ModelError otherwise. A Python keyword is a name here (the HIV model's ``lambda``), though
+    an expression of a model file cannot use it; outputs and inputs are only keys."""
+    for kind, names in kinds.items():
+        for nm in names:
+            if not nm.isidentifier():
+                raise ModelError(f"{kind} name {nm!r} is not a valid name (letters, digits and _, "
+                                 "not starting with a digit), as in model files")
+
+
 def as_names(names, what) -> tuple[str, ...]:
     """``names`` as a tuple of distinct non-empty strings; ``what`` names the argument in errors."""
     if isinstance(names, str):
@@ -102,6 +114,9 @@ def as_box(box, what: str) -> tuple[float, float]:
         raise ModelError(f"{what} must be finite, got ({lo}, {hi})")
     if lo >= hi:
         raise ModelError(f"{what} is empty: lo={lo} >= hi={hi}")
+    if not math.isfinite(hi - lo):  # the samples lo + u (hi - lo) would be inf, and blame the model
+        raise ModelError(f"{what} [{lo:g}, {hi:g}] is too wide: its width overflows float64; give the "
+                         "range where the model is meant to be evaluated")
     return lo, hi
 
 

@@ -39,6 +39,7 @@ from .arguments import (
     as_names,
     as_params,
     as_time,
+    check_identifiers,
     check_input_names,
 )
 from .symmetries import as_symmetries, attach, check_symmetry_shapes
@@ -167,6 +168,7 @@ class System:
         object.__setattr__(self, "domain", as_domain(self.domain, states, angles, time))
         if not _DERIVED.get():
             check_input_names(self.known, self.unknown, states, params)
+            check_identifiers({"state": states, "parameter": tuple(params)})
         notes = (self.notes,) if isinstance(self.notes, str) else tuple(self.notes or ())
         if not all(isinstance(t, str) for t in notes):
             raise ModelError("notes must be strings")
