@@ -27,6 +27,7 @@ from .memory import (
     decision_count,
     screen_samples,
 )
+from .policy import DecisionPolicy
 from .rank import Codistribution
 from .report import SEMANTICS, SEMANTICS_SMOOTH, Report
 from .settle import DEFAULT_PROB_THRESHOLD, Escalation, Settler
@@ -90,7 +91,7 @@ class Context:
         lo, hi = self.system.box()
         self.codist = Codistribution(self.system.n, len(self.xs), hi - lo, rtol)
         self.codist.valid &= self.defined[:decisions]
-        self.codist.settle = self.settler.settle  # every vote settled again in the expression graph
+        self.codist.policy = DecisionPolicy(self.settler.settle)  # every vote settled again in the graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
         #: how the decisions made outside the codistribution were settled (the zero tests of
         #: the general solution: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote),
@@ -153,22 +154,16 @@ class Context:
         count = certify_samples(len(self.xs_all), self.system.n)
         full = Codistribution(self.system.n, count, hi - lo, phase.rtol)
         full.valid &= self.defined[:count]
-        full.settle = phase.settle
-        full.escalations = list(phase.escalations)
-        full.verified = phase.verified
-        full.closure_verified = phase.closure_verified
-        full.rejections_verified = phase.rejections_verified
-        full.verify_rejections, full.contradicted = phase.verify_rejections, phase.contradicted
+        full.policy, full.record = phase.policy, phase.record.copy()
         decided, decided_on = self._grads, len(self.xs)  # gradients at the decision samples
         self.xs, self._grads, self.certified = self.xs_all[:count], {}, True
         self._grads.update(self._extended(kept, decided, decided_on))
         if kept:
-            full.expect_rise = True  # a generator the decision samples kept: settled again if not
-            added = self.absorb_into(full, kept)
-            full.expect_rise = False
+            # a generator the decision samples kept: settled again if it does not rise here
+            added = self.absorb_into(full, kept, expect_rise=True)
             for nd in kept:
                 if nd not in added:
-                    full.escalations.append(Escalation(
+                    full.record.add(Escalation(
                         f"{nd.label} (kept on {len(phase.valid)} samples)",
                         f"dependent on the {count} certifying samples", f"{count} samples", "undecided"))
         full.rejections = phase.rejections + full.rejections
@@ -184,11 +179,12 @@ class Context:
         tail = self.builder.gradients(have, self.xs[count:])
         return {nd: np.concatenate([head[nd], tail[:, i]]) for i, nd in enumerate(have)}
 
-    def absorb_into(self, codist, nodes) -> list:
-        """Absorb ``nodes`` into ``codist`` with their gradients at :attr:`xs`."""
+    def absorb_into(self, codist, nodes, expect_rise=False) -> list:
+        """Absorb ``nodes`` into ``codist`` with their gradients at :attr:`xs`
+        (``expect_rise``: :meth:`~uio_jax._analysis.rank.Codistribution.absorb`)."""
         grads = self.gradients(nodes)
         try:
-            return codist.absorb(nodes, grads)
+            return codist.absorb(nodes, grads, expect_rise=expect_rise)
         except FloatingPointError:
             raise ModelError("the generators are NaN/inf at every sampled state: check the model "
                              "and its domain") from None
@@ -234,11 +230,7 @@ class Context:
         # the members are dependent on the span itself: only the others can raise the rank
         at = [p for p, i in enumerate(todo) if i < n and not members[i]]
         added = fork.absorb([units[todo[p]] for p in at], None, tested.take(at))
-        seen = {id(e) for e in codist.escalations}  # a question asked again is recorded once
-        codist.escalations.extend(e for e in fork.escalations if id(e) not in seen)
-        codist.verified += fork.verified  # the trial's exact checks count in the certificate
-        codist.rejections_verified += fork.rejections_verified
-        codist.contradicted = codist.contradicted or fork.contradicted
+        codist.record.merge(fork.record)  # the trial's decisions count in the certificate
         self.memberships += [(False, d) for d in fork.acceptances]
         self.memberships += [(True, d) for d in fork.rejections]
         return members, n - len(added)

@@ -438,7 +438,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         if k_used < k:
             at = history[k_used]
             dropped = ctx.codist.escalations[at.extra["escalations"]:]
-            ctx.codist.escalations = ctx.codist.escalations[:at.extra["escalations"]]
+            ctx.codist.record.escalations = ctx.codist.escalations[:at.extra["escalations"]]
             ctx.certify(upto=at.extra["augmented_rank"])
         else:
             dropped = []

@@ -37,7 +37,7 @@ rank would keep growing.
 
 **Soundness of r.** ``r`` must not be underestimated (an early stop would then hide a
 direction): the series test runs with every float64 rejection settled again
-(``Codistribution.verify_rejections = "all"``: exact modulo p for rational models, mpmath
+(``DecisionPolicy.reaching(Reach.ALL)``: exact modulo p for rational models, mpmath
 at two precisions otherwise) and its rises verified exactly where rational; a decision
 left undecided, a series stopped by its cap, or a model the series cannot expand gives no
 bound (the EORC goes on as before).
@@ -48,6 +48,7 @@ import dataclasses
 from .._model.smooth_inputs import known_coordinates
 from .._model.system import System, derived_system
 from .context import Context
+from .policy import Reach
 from .series import run_series
 from .settle import DEFAULT_PROB_THRESHOLD
 
@@ -92,7 +93,7 @@ def known_input_bound(system: System, *, samples: int, seed: int, rtol: float,
         return None
     known = known_input_system(system)
     ctx = Context(known, samples, seed, rtol, prob_threshold)
-    ctx.codist.verify_rejections = "all"
+    ctx.codist.policy = ctx.codist.policy.reaching(Reach.ALL)
     history, reason, k = run_series(ctx, seed=seed)
     codist = ctx.codist
     if any(e.result == "undecided" for e in codist.escalations):

@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .policy import Record, evidence
 from .sampled_rank import (
     QR_FROM,
     ZERO_ROW_RTOL,
@@ -31,7 +32,6 @@ from .sampled_rank import (
     residuals,
     sequential_qr,
 )
-from .settle import is_weak, median_decades
 
 _BLOCK_BYTES = 64 * 2**20
 
@@ -95,23 +95,11 @@ class Codistribution:
         self.nodes = []
         self.rejections: list[RankDecision] = []
         self.acceptances: list[RankDecision] = []
-        #: ``settle(kept nodes, candidate node, float64 text) -> Escalation`` for weak
-        #: votes (:class:`uio_jax._analysis.settle.Settler`), None: not settled again
-        self.settle = None
-        self.escalations: list = []  # Escalation records, in order
-        #: every candidate is expected to raise the rank (the kept generators re-decided on
-        #: more samples): a vote that it does not is settled again, weak or not
-        self.expect_rise = False
-        self.verified = 0  # clear float64 rises confirmed beyond float64 (kept generators, non-members)
-        self.closure_verified = 0  # rejections of a step that kept nothing, confirmed in mpmath
-        #: clear float64 votes settled again: ``"exact"`` (modulo p where the graph is made
-        #: rational, else the vote stands; what every analysis sets) or ``"all"`` (mpmath
-        #: elsewhere, undecided if that fails: a span that must be proved)
-        self.verify_rejections = "exact"
-        #: whether a settled decision has contradicted a float64 vote (round-off has reached
-        #: ``rtol`` in this span's derivatives; recorded, the decisions are settled anyway)
-        self.contradicted = False
-        self.rejections_verified = 0  # clear float64 rejections confirmed beyond float64
+        #: what every vote is settled again by (:class:`~uio_jax._analysis.policy.DecisionPolicy`);
+        #: None: the float64 votes stand
+        self.policy = None
+        #: what this span's decisions found beyond float64 (:class:`~uio_jax._analysis.policy.Record`)
+        self.record = Record()
         self._decided = (None, None)  # (key, RankDecision) of the last decision()
         #: unit covectors ``e_i`` decided members of the span (``i -> RankDecision``): the
         #: span only grows, so they are not tested again
@@ -126,6 +114,26 @@ class Codistribution:
         """``(S, r, n)``: per sample, the orthonormal rows of the span (zero rows where a kept
         generator was dependent at that sample; a view)."""
         return np.moveaxis(self.basis[: self.rank], 0, 1)
+
+    @property
+    def escalations(self) -> list:
+        """The escalations of this span's decisions (:attr:`record`)."""
+        return self.record.escalations
+
+    @property
+    def verified(self) -> int:
+        """Clear rises confirmed beyond float64 (:attr:`record`)."""
+        return self.record.verified
+
+    @property
+    def closure_verified(self) -> int:
+        """Rejections of a stopping step confirmed beyond float64 (:attr:`record`)."""
+        return self.record.closure_verified
+
+    @property
+    def rejections_verified(self) -> int:
+        """Clear rejections and memberships confirmed beyond float64 (:attr:`record`)."""
+        return self.record.rejections_verified
 
     @property
     def rank(self) -> int:
@@ -156,9 +164,7 @@ class Codistribution:
             c._rows[:r], c.basis[:r] = self._rows[:r], self.basis[:r]
         c.nodes = list(self.nodes)
         c.rejections, c.acceptances = [], []
-        c.settle, c.escalations, c.expect_rise, c.verified = self.settle, [], False, 0
-        c.closure_verified = c.rejections_verified = 0
-        c.verify_rejections, c.contradicted = self.verify_rejections, self.contradicted
+        c.policy, c.record = self.policy, Record(contradicted=self.record.contradicted)
         c._decided = self._decided
         c.unit_members = dict(self.unit_members)
         return c
@@ -251,13 +257,16 @@ class Codistribution:
         cands[np.arange(len(at)), :, at] = np.broadcast_to(self.col_scale, (n,))[at, None]
         return Tested(cands, np.ones(S, dtype=bool), rho, dirs)
 
-    def absorb(self, nodes, grads, tested: "Tested | None" = None, confirm_empty: bool = False):
+    def absorb(self, nodes, grads, tested: "Tested | None" = None, confirm_empty: bool = False,
+               expect_rise: bool = False):
         """Keep the candidates that raise the generic rank, in order.
 
         Args:
             nodes: c candidate Nodes.
             grads: their gradients at the samples, ``(S, c, n)`` (unused when ``tested``).
             tested: :meth:`test` of the same ``(c, S, n)`` covectors against this span.
+            expect_rise: every candidate is expected to raise the rank (the kept generators
+                re-decided on more samples): a vote that it does not is settled again.
             confirm_empty: when no candidate is kept, settle every rejection exactly where
                 the graph is rational (:meth:`_confirm_empty`): a step that adds nothing
                 ends a recursion, and a genuine direction of a deep derivative can sit
@@ -286,7 +295,7 @@ class Codistribution:
             dirs = cands / np.where(norms > 0, norms, 1.0)[..., None]
         else:
             rho, dirs = self._distances(cands)
-        first = [self._decide(r, nd, self.valid) for r, nd in zip(rho, nodes)]
+        first = [self._decide(r, nd, self.valid, expect_rise) for r, nd in zip(rho, nodes)]
         rising = [i for i, d in enumerate(first) if d.rank > self.rank]
         self.rejections.extend(d for d in first if d.rank <= self.rank)
         self._reserve(min(self.n, self.rank + len(rising)))
@@ -304,11 +313,11 @@ class Codistribution:
                 d, r_i, dir_i = first[i], rho[i], dirs[i]
             elif qr is not None and j < qr[0].shape[0]:
                 r_i, dir_i = np.abs(qr[1][:, j]), qr[0][j] * np.sign(qr[1][:, j])[:, None]
-                d = self._decide(r_i, nodes[i], self.valid)
+                d = self._decide(r_i, nodes[i], self.valid, expect_rise)
             else:
                 r_i = np.linalg.norm(res[j], axis=-1)
                 dir_i = res[j] / np.where(r_i > 0, r_i, 1.0)[:, None]
-                d = self._decide(r_i, nodes[i], self.valid)
+                d = self._decide(r_i, nodes[i], self.valid, expect_rise)
             if d.rank > self.rank:
                 self._keep(nodes[i], cands[i], r_i, dir_i, d)
                 added.append(nodes[i])
@@ -331,28 +340,26 @@ class Codistribution:
 
     def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
         """No candidate was kept: each float64 rejection not settled yet is settled again
-        (modulo ``p`` where the graph is made rational, where :meth:`_decide` has verified it
-        already; in extended precision elsewhere: a step that keeps nothing ends a
-        recursion, and a genuine direction of a deep derivative can sit under float64's
-        round-off). A confirmed dependence is counted (:attr:`closure_verified`) and
-        recorded as settled; the first candidate found independent is kept (its escalation
-        recorded, its rejection withdrawn) and the others are absorbed against the grown
-        span. Returns the kept nodes."""
-        if self.settle is None or self.rank >= self.n:
+        (:meth:`~uio_jax._analysis.policy.DecisionPolicy.settle_stop`: modulo ``p`` where the
+        graph is made rational, where :meth:`_decide` has settled it already; in extended
+        precision elsewhere: a step that keeps nothing ends a recursion, and a genuine
+        direction of a deep derivative can sit under float64's round-off). A confirmed
+        dependence is recorded as settled; the first candidate found independent is kept
+        (its rejection withdrawn) and the others are absorbed against the grown span.
+        Returns the kept nodes."""
+        if self.policy is None or self.rank >= self.n:
             return []
         for i, (node, d) in enumerate(zip(nodes, first)):
             if node is None or d.settled:  # settled beyond float64 already
                 continue
-            esc = self.settle(self.nodes, node, self._evidence(d, rho[i], self.valid))
+            text = evidence(d, rho[i], self.valid, self.rtol, self.rank)
+            esc = self.policy.settle_stop(self.nodes, node, text, self.record)
             if esc is None:
                 continue
             how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
             if esc.result == "dependent":
-                self.closure_verified += 1
                 self.rejections = [replace(r, settled=how) if r is d else r for r in self.rejections]
                 continue
-            if not any(e is esc for e in self.escalations):
-                self.escalations.append(esc)
             if esc.result == "independent":
                 self.rejections = [r for r in self.rejections if r is not d]
                 self._keep(node, cands[i], rho[i], dirs[i], replace(d, rank=self.rank + 1, settled=how))
@@ -361,46 +368,16 @@ class Codistribution:
                 return [node, *more]
         return []
 
-    def _evidence(self, d, rho, valid) -> str:
-        """The float64 vote of a decision, for the record of its escalation."""
-        said = "independent" if d.rank > len(self.nodes) else "dependent"
-        return (f"{said} ({100 * d.fraction:.1f}% of samples, median rho "
-                f"{median_decades(rho, valid, self.rtol):+.2f} decades from rtol)")
-
-    def _decide(self, rho, node, valid) -> RankDecision:
-        """:func:`decide_increase` of one candidate, settled again in the expression graph
-        (:attr:`settle`): a weak vote (:func:`uio_jax._analysis.settle.is_weak`) exactly or in
-        extended precision; a clear vote exactly where the graph is made rational (also in
-        extended precision when :attr:`verify_rejections` is ``"all"``): round-off of a deep
-        derivative can fake a clear rise, and a genuine direction can sit under it. The
-        settled answer replaces the vote (an undecided one keeps it, marked); a span of every
-        direction contains every covector (``settled="implied"``)."""
-        d = decide_increase(rho, valid, self.rtol, self.rank)
+    def _decide(self, rho, node, valid, expect_rise=False) -> RankDecision:
+        """The decision on one candidate: a span of every direction contains every covector
+        (``settled="implied"``); otherwise the float64 vote (:func:`decide_increase`),
+        settled again by :attr:`policy` (:meth:`~uio_jax._analysis.policy.DecisionPolicy.decide`)
+        where there is one and the candidate has an expression."""
         if self.rank >= self.n:
-            return replace(d, rank=self.rank, settled="implied")
-        if self.settle is None or node is None:
-            return d
-        rises = d.rank > self.rank
-        weak = (self.expect_rise and not rises) or is_weak(rho, valid, self.rtol, d.fraction)
-        exact_only = not weak and self.verify_rejections != "all"
-        esc = self.settle(self.nodes, node, self._evidence(d, rho, valid), exact_only=exact_only)
-        if esc is None:  # neither exact nor asked beyond: the float64 vote stands
-            return d
-        how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
-        confirmed = esc.result == ("independent" if rises else "dependent")
-        if confirmed and not weak:  # a clear vote confirmed: counted, not an escalation
-            if rises:
-                self.verified += 1
-            else:
-                self.rejections_verified += 1
-            return replace(d, settled=how)
-        if not any(e is esc for e in self.escalations):  # asked again: recorded once
-            self.escalations.append(esc)
-        if esc.result == "undecided":
-            return replace(d, settled="undecided")
-        if not confirmed:  # float64 was wrong: round-off has reached rtol in this span
-            self.contradicted = True
-        return replace(d, rank=self.rank + (esc.result == "independent"), settled=how)
+            return replace(decide_increase(rho, valid, self.rtol, self.rank), rank=self.rank, settled="implied")
+        if self.policy is None or node is None:
+            return decide_increase(rho, valid, self.rtol, self.rank)
+        return self.policy.decide(rho, valid, self.rtol, self.nodes, node, self.record, expect_rise=expect_rise)
 
     def contains(self, covectors, tested: "Tested | None" = None, nodes=None):
         """Membership of covector families in the span.
