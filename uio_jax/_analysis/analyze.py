@@ -100,8 +100,7 @@ def analyze(
         ModelError: a model that fails at the sampled states.
 
     References:
-        Martinelli, IROS 2017 (002): Algorithms 1-3 and the 7-step procedure;
-        Martinelli, INRIA RR-8608 (004): sections 4-10.
+        Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
     if not isinstance(system, System):
         raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")

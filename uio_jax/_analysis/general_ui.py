@@ -313,7 +313,19 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     }
     if system.known:
         details["jet_order"] = jet
-    notes = list(notes)
+    notes = list(notes) + _report_notes(system, truncated, jet, weakest)
+    space = SampledSpace(omega, n=n, dim=dim)
+    omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
+    return omega.report("general_ui", out.history, out.stop, notes=notes,
+                        details=details, system=report_system or report_view(system, n),
+                        dim=dim, observable=observable, space=space,
+                        known_inputs=known_inputs)
+
+
+def _report_notes(system, truncated, jet, weakest) -> list:
+    """The general solution's own notes: the meaning of its known inputs, a jet that may
+    have been truncated, a weak zero test."""
+    notes = []
     if system.known:
         notes.append(
             "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
@@ -324,12 +336,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     if weakest < 0.9:
         notes.append(f"weak zero test: a 'vanishes identically' decision was backed by only "
                      f"{100 * weakest:.0f}% of the samples")
-    space = SampledSpace(omega, n=n, dim=dim)
-    omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
-    return omega.report("general_ui", out.history, out.stop, notes=notes,
-                        details=details, system=report_system or report_view(system, n),
-                        dim=dim, observable=observable, space=space,
-                        known_inputs=known_inputs)
+    return notes
 
 
 def _top_jet_used(out: Outcome, system, jet) -> bool:

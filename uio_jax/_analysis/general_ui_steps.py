@@ -296,29 +296,45 @@ def lift(graph, source, node, coords):
     return graph.import_nodes(source, [node] if isinstance(node, int) else list(node), tuple(coords))
 
 
-def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed, rtol):
-    """The UI extension (module docstring) from the aborted guarded closure's root
-    ``theta_star`` and ``order``; returns ``(Working, info)`` on the extended system."""
-    sysw = w.system
-    N, m = sysw.n, len(hats)
-    names_ui = [list(sysw.unknown)[c] for c in rec.cols] + \
-               [k for i, k in enumerate(sysw.unknown) if i not in rec.cols]
-    taken = set(sysw.states)
+class _Fresh:
+    """Names not taken yet: a name taken already gets primes appended (``D1(y)'``)."""
 
-    def fresh(nm):
-        while nm in taken:
+    def __init__(self, taken):
+        self.taken = set(taken)
+
+    def __call__(self, nm: str) -> str:
+        while nm in self.taken:
             nm += "'"
-        taken.add(nm)
+        self.taken.add(nm)
         return nm
 
+
+def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed, rtol):
+    """The UI extension (module docstring) from the aborted guarded closure's root
+    ``theta_star`` and ``order``; returns ``(Working, info)`` on the extended system.
+
+    The chains ``v_j^(0..order)`` of the reconstructed inputs' derivatives are first all
+    added (:func:`_chain_lengths` finds how far each must go), then the system is rebuilt
+    with the kept chains only (:func:`_extended_working`)."""
+    fresh = _Fresh(w.system.states)
     ids = [w.theta[i].label for i in rec.rows]  # v_j^(i) = d^(i+1) h~_j / dt^(i+1)
-    vnames = [[fresh(f"D{i + 1}({_short(ids[j])})") for i in range(order + 1)] for j in range(m)]
-    L = order + 1
+    vnames = [[fresh(f"D{i + 1}({_short(ids[j])})") for i in range(order + 1)] for j in range(len(hats))]
+    keep_to, theta_v, full_graph, domain = _chain_lengths(w, theta_star, order, hat0, hats, vnames,
+                                                          samples, seed, rtol)
+    return _extended_working(w, theta_star, order, hat0, hats, tildes, rec, vnames, ids, keep_to,
+                             (theta_v, full_graph), domain, fresh, samples, seed, rtol)
+
+
+def _chain_lengths(w, theta_star, order, hat0, hats, vnames, samples, seed, rtol):
+    """On the full extension ``[z; v_1^(0..order); ..; v_m^(0..order)]``, the highest
+    derivative of each chain that ``L_F'^order theta*`` depends on (None: none), by exact zero
+    tests: ``(keep_to, theta_v, graph, domain)`` (``theta_v``: that derivative, a Node of the
+    full extension's ``graph``; ``domain``: the boxes of every coordinate)."""
+    sysw = w.system
+    N, m, L = sysw.n, len(hats), order + 1
     src = w.ctx.builder.graph  # the working system's graph: hat0, hats, tildes, theta live there
-    domain = dict(sysw.domain)
     flat = [nm for row in vnames for nm in row]
-    domain.update({nm: DEFAULT_BOX for nm in flat})
-    # the full extension: [z; v_1^(0..ord); ..; v_m^(0..ord)]
+    domain = {**dict(sysw.domain), **{nm: DEFAULT_BOX for nm in flat}}
     gf = Graph(N + m * L)
     z = gf.coords[:N]
     v = [gf.coords[N + j * L:N + (j + 1) * L] for j in range(m)]
@@ -344,7 +360,21 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
             if not decide_zero(w, ctx_full, f"d theta*/d {vnames[j][i]}", [expr], nz, frac):
                 top = i
         keep_to.append(top)
-    # the final extended system: kept chains only
+    return keep_to, theta_v, b.graph, domain
+
+
+def _extended_working(w, theta_star, order, hat0, hats, tildes, rec, vnames, ids, keep_to, theta_v_in, domain,
+                      fresh, samples, seed, rtol):
+    """The extended system with the kept chains only (``keep_to``, :func:`_chain_lengths`):
+    its drift, its new unknown inputs (a chain's next derivative, or the rescaled field where
+    a chain is empty; the unreconstructed fields ``G~``), its outputs (the working ones, the
+    chains' coordinates, ``theta_v``, given with its graph); ``(Working, info)``."""
+    theta_v, full_graph = theta_v_in
+    sysw = w.system
+    N, m, L = sysw.n, len(hats), order + 1
+    src = w.ctx.builder.graph
+    names_ui = [list(sysw.unknown)[c] for c in rec.cols] + \
+               [k for i, k in enumerate(sysw.unknown) if i not in rec.cols]
     kept_names = [vnames[j][: keep_to[j] + 1] for j in range(m) if keep_to[j] is not None]
     kept_flat = [nm for row in kept_names for nm in row]
     pos_full = {nm: N + j * L + i for j in range(m) for i, nm in enumerate(vnames[j])}
@@ -388,7 +418,7 @@ def extend(w: Working, theta_star, order, hat0, hats, tildes, rec, samples, seed
     outputs = {th.label: lift(gn, src, th.expr, Z[:N])[0] for th in w.theta}
     for nm in kept_flat:
         outputs[nm] = Z[kept_index[nm]]
-    outputs["theta_v"] = lift(gn, b.graph, theta_v.expr, embed)[0]
+    outputs["theta_v"] = lift(gn, full_graph, theta_v.expr, embed)[0]
     domain_new = {k: v for k, v in domain.items() if k in sysw.states or k in kept_flat}
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
                               domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
