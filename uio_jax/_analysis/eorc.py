@@ -167,7 +167,7 @@ class _Eorc(Recursion):
         * every unknown input is observable and ``dim_k`` equals the known-input bound
           (:mod:`.known_bound`, computed once, the first time the rest holds).
         """
-        if any(e.result == "undecided" for e in self.ctx.codist.escalations):
+        if any(e.result == "undecided" for e in self.ctx.codist.record.escalations):
             return None
         observed = set(last.extra["observable_inputs"])
         inputs = self.names[: self.mw]
@@ -201,7 +201,7 @@ class _Eorc(Recursion):
                 self.started.append(self.dispatch(added, k + 1))
 
         states, inputs, dim = self.coordinates(k, start_next)
-        escalations = self.ctx.codist.escalations
+        escalations = self.ctx.codist.record.escalations
         extra = {
             "augmented_rank": self.ctx.dim,
             "augmented_dim": self.N + k * self.mw,
@@ -437,8 +437,8 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
         k_used = uncertain[0] - 1 if uncertain and uncertain[0] > 0 else k
         if k_used < k:
             at = history[k_used]
-            dropped = ctx.codist.escalations[at.extra["escalations"]:]
-            ctx.codist.record.escalations = ctx.codist.escalations[:at.extra["escalations"]]
+            dropped = ctx.codist.record.escalations[at.extra["escalations"]:]
+            ctx.codist.record.escalations = ctx.codist.record.escalations[:at.extra["escalations"]]
             ctx.certify(upto=at.extra["augmented_rank"])
         else:
             dropped = []

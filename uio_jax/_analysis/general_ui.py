@@ -288,7 +288,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
             omega.memberships += [(True, d) for d in spent.codist.rejections]
             omega.memberships += spent.memberships
             if spent.codist is not omega.codist:
-                for esc in spent.codist.escalations:
+                for esc in spent.codist.record.escalations:
                     omega.codist.record.add(esc)
     states = system.states[:n]
     observable = dict(zip(states, members[:n]))

@@ -96,11 +96,12 @@ def known_input_bound(system: System, *, samples: int, seed: int, rtol: float,
     ctx.codist.policy = ctx.codist.policy.reaching(Reach.ALL)
     history, reason, k = run_series(ctx, seed=seed)
     codist = ctx.codist
-    if any(e.result == "undecided" for e in codist.escalations):
+    if any(e.result == "undecided" for e in codist.record.escalations):
         return None
     if ctx.dim < known.n and history[-1].added:  # stopped by the cap, not closed
         return None
-    return KnownBound(ctx.dim, k, len(codist.escalations) + codist.rejections_verified + codist.verified)
+    record = codist.record
+    return KnownBound(ctx.dim, k, len(record.escalations) + record.rejections_verified + record.verified)
 
 
 def stop_note(bound: KnownBound, k: int, dim_k: int, dim_all: int, hidden, held: bool) -> str:

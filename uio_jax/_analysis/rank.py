@@ -116,26 +116,6 @@ class Codistribution:
         return np.moveaxis(self.basis[: self.rank], 0, 1)
 
     @property
-    def escalations(self) -> list:
-        """The escalations of this span's decisions (:attr:`record`)."""
-        return self.record.escalations
-
-    @property
-    def verified(self) -> int:
-        """Clear rises confirmed beyond float64 (:attr:`record`)."""
-        return self.record.verified
-
-    @property
-    def closure_verified(self) -> int:
-        """Rejections of a stopping step confirmed beyond float64 (:attr:`record`)."""
-        return self.record.closure_verified
-
-    @property
-    def rejections_verified(self) -> int:
-        """Clear rejections and memberships confirmed beyond float64 (:attr:`record`)."""
-        return self.record.rejections_verified
-
-    @property
     def rank(self) -> int:
         """The generic rank ``r`` of the span: the number of kept generators."""
         return len(self.nodes)

@@ -247,7 +247,7 @@ class SampledSpace(Space):
         grads = self._ctx.gradients([node])  # (S, 1, N), zero past n
         member, decision = self._ctx.codist.contains(np.moveaxis(grads, 1, 0), nodes=[node])[0]
         if decision.settled == "undecided":
-            esc = self._ctx.codist.escalations[-1]
+            esc = self._ctx.codist.record.escalations[-1]
             raise ModelError(f"is_observable: undecided (float64: {esc.float64}; {esc.how}): "
                              "the answer would not be certified")
         return bool(member)

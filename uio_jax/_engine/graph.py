@@ -181,10 +181,15 @@ class Graph:
             return b
         if b == self.zero:
             return a
-        folded = self._fold("add", a, b)
+        return self._commutative("add", a, b)
+
+    def _commutative(self, op, a, b) -> int:
+        """``op(a, b)`` for ``add`` or ``mul``: folded when both are constants, else one node
+        for both orders of the operands."""
+        folded = self._fold(op, a, b)
         if folded is not None:
             return folded
-        return self._node("add", (a, b) if a <= b else (b, a))
+        return self._node(op, (a, b) if a <= b else (b, a))
 
     def sub(self, a: int, b: int) -> int:
         """``a - b`` (``a + (-b)``)."""
@@ -205,14 +210,11 @@ class Graph:
             return b
         if b == self.one:
             return a
-        folded = self._fold("mul", a, b)
-        if folded is not None:
-            return folded
-        if self.op[a] == "c" and self.param[a] == -1.0:
+        if self.op[a] == "c" and self.param[a] == -1.0:  # (a constant times -1 folds in neg)
             return self.neg(b)
         if self.op[b] == "c" and self.param[b] == -1.0:
             return self.neg(a)
-        return self._node("mul", (a, b) if a <= b else (b, a))
+        return self._commutative("mul", a, b)
 
     def div(self, a: int, b: int) -> int:
         """``a / b``."""
@@ -395,18 +397,7 @@ class Graph:
         if len(tangent) != self.n:
             raise ValueError(f"tangent has {len(tangent)} entries, expected {self.n}")
         memo = self._tangents.setdefault(tangent, {})
-        todo = []
-        seen = set()
-        stack = list(roots)
-        args = self.args
-        while stack:
-            i = stack.pop()
-            if i in memo or i in seen:
-                continue
-            seen.add(i)
-            todo.append(i)
-            stack.extend(args[i])
-        for i in sorted(todo):
+        for i in self.reachable(roots, known=memo):  # ascending: operands first
             memo[i] = derivative(self, i, memo, tangent)
         return [memo[r] for r in roots]
 

@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
+from .._model.arguments import check_names
 from .._model.system import System
 from .._model.validation import check_traced_output
 
@@ -176,13 +177,9 @@ def _names(v, what) -> tuple:
         names = tuple(v)
     except TypeError:
         raise ModelError(f"{_SOURCE}: {what} must be a sequence of names, got {type(v).__name__}") from None
-    seen = set()
-    for nm in names:
-        if not isinstance(nm, str) or not nm.isidentifier():
-            raise ModelError(f"{_SOURCE}: {what} entry {nm!r} is not a valid name (letters, digits and _)")
-        if nm in seen:
-            raise ModelError(f"{_SOURCE}: {nm!r} is listed twice in {what}")
-        seen.add(nm)
+    check_names(names, lambda nm: not isinstance(nm, str) or not nm.isidentifier(),
+                f"{_SOURCE}: {what} entry " + "{nm!r} is not a valid name (letters, digits and _)",
+                f"{_SOURCE}: " + "{nm!r} is listed twice in " + what)
     return names
 
 

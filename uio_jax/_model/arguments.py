@@ -50,14 +50,22 @@ def as_names(names, what) -> tuple[str, ...]:
         names = tuple(names)
     except TypeError:
         raise ModelError(f"{what} must be a sequence of names, got {type(names).__name__}") from None
+    check_names(names, lambda nm: not isinstance(nm, str) or not nm,
+                what + " entries must be non-empty strings, got {nm!r}", "duplicate name {nm!r} in " + what)
+    return names
+
+
+def check_names(names, invalid, invalid_message: str, twice_message: str) -> None:
+    """One-line ModelErrors for a sequence of names: the first ``nm`` with ``invalid(nm)``,
+    then the first one listed twice (messages: ``str.format`` templates with ``{nm!r}``)."""
+    bad = next((nm for nm in names if invalid(nm)), None)
+    if bad is not None:
+        raise ModelError(invalid_message.format(nm=bad))
     seen = set()
     for nm in names:
-        if not isinstance(nm, str) or not nm:
-            raise ModelError(f"{what} entries must be non-empty strings, got {nm!r}")
         if nm in seen:
-            raise ModelError(f"duplicate name {nm!r} in {what}")
+            raise ModelError(twice_message.format(nm=nm))
         seen.add(nm)
-    return names
 
 
 def as_mapping(value, what: str, of: str) -> Mapping:
