@@ -11,8 +11,9 @@ jax.config.update("jax_enable_x64", True)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-#: under CI=true a skip (a missing oracle) fails the run instead of vanishing
-pytest_plugins = ["strict_skips"]
+#: under CI=true a skip (a missing oracle) fails the run instead of vanishing; the new-user
+#: tests' small models and their fixtures
+pytest_plugins = ["strict_skips", "new_user_models"]
 
 
 def zoo(spec: str) -> str:

@@ -9,37 +9,12 @@ import textwrap
 
 import pytest
 from helpers import one_line_error, zoo_path, zoo_report
+from new_user_models import TOML, TOY  # noqa: F401 (the models, also read by the fixtures)
 
 import uio_jax as uj
 from uio_jax import cli
 
 GOOD = f"{zoo_path('unicycle_polar')}:range_known"
-
-TOY = """
-import jax.numpy as jnp
-import uio_jax as uj
-
-def _system():
-    return uj.System(("x",), {"y": lambda x: x[0]}, drift=lambda x: -2.0 * x)
-
-def toy_experiment():
-    return uj.Experiment(name="toy", system=_system(), dt=0.05, n_steps=20, x0=(1.0,),
-                         inputs=lambda s, z: (s, jnp.zeros(0), jnp.zeros(0)), istate0=(),
-                         n_input_normals=0, known_std=lambda u: jnp.zeros(0),
-                         measurements=(uj.Measurement("y", lambda x: x[0], 0.1, 1),),
-                         prior_std=(5.0,), units={"x": "m"})
-"""
-
-TOML = """
-name = "two states"
-states = ["a", "b"]
-[outputs]
-y = "a"
-[drift]
-a = "b"
-b = "0"
-"""
-
 
 def _full_device(tmp_path, name="full", minor=7):
     """A private copy of /dev/full (every write fails with ENOSPC; ``minor=3``: /dev/null):
@@ -57,20 +32,6 @@ def _no_space(capsys, path):
     line = one_line_error(capsys)
     assert "No space left on device" in line and path in line, line
     assert stat.S_ISCHR(os.stat(path).st_mode)  # the device is still a device
-
-
-@pytest.fixture
-def toy(tmp_path):
-    path = tmp_path / "toy.py"
-    path.write_text(textwrap.dedent(TOY))
-    return f"{path}:toy"
-
-
-@pytest.fixture
-def toml_model(tmp_path):
-    path = tmp_path / "m.toml"
-    path.write_text(textwrap.dedent(TOML))
-    return str(path)
 
 
 # -- 1. output lost, success reported -------------------------------------------------------

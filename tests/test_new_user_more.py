@@ -9,25 +9,11 @@ import textwrap
 
 import pytest
 from helpers import ROOT, one_line_error, zoo_path
-from test_new_user import GOOD, TOML, TOY
+from new_user_models import TOML, TOY
+from test_new_user import GOOD
 
 import uio_jax as uj
 from uio_jax import cli
-
-
-@pytest.fixture
-def toy(tmp_path):
-    path = tmp_path / "toy.py"
-    path.write_text(textwrap.dedent(TOY))
-    return f"{path}:toy"
-
-
-@pytest.fixture
-def toml_model(tmp_path):
-    path = tmp_path / "m.toml"
-    path.write_text(textwrap.dedent(TOML))
-    return str(path)
-
 
 # -- 6. tracebacks and raw exceptions ------------------------------------------------------
 
