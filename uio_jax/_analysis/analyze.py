@@ -32,6 +32,7 @@ from .series import check_applicable as series_applicable
 from .series import series_report
 from .single_ui import check_applicable, single_ui_report
 from .symmetry import symmetry_notes, verify_symmetries
+from .taylor_route import NotTaken, taylor_applicable, taylor_report
 
 
 def analyze(
@@ -189,6 +190,11 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, pr
         elif chosen == "single_ui":
             check_applicable(system)
         ctx = Context(system, samples, seed, rtol, prob_threshold)
+        if chosen in ("orc", "series") and taylor_applicable(ctx, chosen):
+            try:
+                return taylor_report(ctx, chosen, seed=seed, why=why, max_order=max_order)
+            except NotTaken:
+                pass  # the symbolic route decides it
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":

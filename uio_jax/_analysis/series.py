@@ -204,6 +204,11 @@ class SeriesOrders(Recursion):
         return None
 
 
+#: The note of a series report on a model with known inputs.
+SERIES_NOTE = ("series: rank of the output Taylor coefficients y_0..y_K along a generic known input "
+               "(STRIKE-GOLDD's test); its final span equals the ORC's, its per-order dims are not the ORC's steps")
+
+
 def run_series(ctx: Context, *, seed: int, max_order=None):
     """Absorb ``dy_k`` order by order (:class:`SeriesOrders`), on the decision samples of
     ``ctx`` (``ctx.xs``, :func:`uio_jax._analysis.memory.decision_count`; the final span is certified
@@ -226,11 +231,8 @@ def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
     history, reason, k = run_series(ctx, seed=seed, max_order=max_order)
     notes = [why] if why else []
     if ctx.system.known:
-        notes.append(
-            "series: rank of the output Taylor coefficients y_0..y_K along a generic known input "
-            "(STRIKE-GOLDD's test); its final span equals the ORC's, its per-order dims are not the ORC's steps"
-        )
+        notes.append(SERIES_NOTE)
     return ctx.report("series", history, reason, notes=notes, details={"order": k})
 
 
-__all__ = ["series_report", "run_series", "input_coefficients", "check_applicable"]
+__all__ = ["series_report", "run_series", "input_coefficients", "check_applicable", "SERIES_NOTE"]

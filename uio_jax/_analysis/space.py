@@ -167,29 +167,10 @@ class SampledSpace(Space):
         the expression graph at ``X`` (its floats taken exactly) and the null space is
         computed there. A state where they are dependent even at ``dps`` digits (``s_r/s_1``
         under ``10^-(dps/2)``) is singular: refused."""
-        n, N = self._n, self._N
         dps = EXTENDED_DIGITS if dps is None else dps
         ev = graph_exact.ExtendedEvaluator(self._ctx.builder.graph, X, dps)
-        ctx = ev.ctx
         _, grads = ev.gradients([nd.expr for nd in self._nodes])
-        rows = []
-        for row in grads:
-            norm = ctx.sqrt(ctx.fsum(v * v for v in row))
-            if not ctx.isfinite(norm) or norm == 0:
-                raise ModelError("the codistribution is not defined at this state (NaN/inf or a zero gradient)")
-            rows.append([v / norm for v in row])
-        _, sv, vt = ctx.svd_r(ctx.matrix(rows), full_matrices=True)
-        if sv[min(r, N) - 1] < ctx.mpf(10) ** (-dps // 2) * sv[0]:
-            raise ModelError(
-                f"a singular state: the {r} kept generators are dependent here even at {dps} digits "
-                f"(s_r/s_1 = {float(sv[min(r, N) - 1] / sv[0]):.1e}); ask at another state")
-        V = np.array([[float(vt[i, j]) for j in range(N)] for i in range(vt.rows)])
-        if N == n:
-            return V[r:].T.copy()
-        q = ctx.matrix([[vt[i, j] for j in range(N)] for i in range(r)])
-        P = ctx.eye(N) - q.T * q
-        _, _, wt = ctx.svd_r(ctx.matrix([[P[i, j] for j in range(n)] for i in range(N)]), full_matrices=True)
-        return np.array([[float(wt[i, j]) for j in range(n)] for i in range(n - self._dim)]).T.copy()
+        return annihilator_extended(ev.ctx, grads, self._n, self._dim, dps)
 
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` of the kept generators at the valid samples."""
@@ -230,20 +211,8 @@ class SampledSpace(Space):
         Args:
             fn: callable ``x (n,) -> ()`` of the original state.
         """
-        if not callable(fn):
-            raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
-        n = self._n
-        with jax.enable_x64(True):
-            try:
-                out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
-            except Exception as exc:
-                raise ModelError(f"function fails on a state of length {n}: "
-                                 f"{type(exc).__name__}") from None
-        if getattr(out, "shape", None) != ():
-            raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
-        of_state = fn if n == self._N else (lambda X: fn(X[:n]))
         # in the expression graph when fn translates (numpy, a weak vote settled exactly)
-        node = self._ctx.builder.function(getattr(fn, "__name__", "fn"), of_state)
+        node = function_node(self._ctx.builder, fn, self._n, self._N)
         grads = self._ctx.gradients([node])  # (S, 1, N), zero past n
         member, decision = self._ctx.codist.contains(np.moveaxis(grads, 1, 0), nodes=[node])[0]
         if decision.settled == "undecided":
@@ -253,4 +222,58 @@ class SampledSpace(Space):
         return bool(member)
 
 
-__all__ = ["ReportView", "report_view", "system_known", "Space", "SampledSpace"]
+def annihilator_extended(ctx, grads, n, dim, dps) -> np.ndarray:
+    """The annihilator ``(n, n - dim)`` of the span of the gradient rows ``grads`` (``r``
+    lists of ``N`` mpmath numbers, ``N >= n``) intersected with ``span{dx_1..dx_n}``, in the
+    mpmath context ``ctx`` (``dps`` digits): :meth:`SampledSpace.unobservable_directions` at
+    that precision.
+
+    Raises:
+        ModelError: a zero or non-finite row, or rows dependent even at ``dps`` digits (a
+            singular state).
+    """
+    r, N = len(grads), len(grads[0])
+    rows = []
+    for row in grads:
+        norm = ctx.sqrt(ctx.fsum(v * v for v in row))
+        if not ctx.isfinite(norm) or norm == 0:
+            raise ModelError("the codistribution is not defined at this state (NaN/inf or a zero gradient)")
+        rows.append([v / norm for v in row])
+    _, sv, vt = ctx.svd_r(ctx.matrix(rows), full_matrices=True)
+    if sv[min(r, N) - 1] < ctx.mpf(10) ** (-dps // 2) * sv[0]:
+        raise ModelError(
+            f"a singular state: the {r} kept generators are dependent here even at {dps} digits "
+            f"(s_r/s_1 = {float(sv[min(r, N) - 1] / sv[0]):.1e}); ask at another state")
+    V = np.array([[float(vt[i, j]) for j in range(N)] for i in range(vt.rows)])
+    if N == n:
+        return V[r:].T.copy()
+    q = ctx.matrix([[vt[i, j] for j in range(N)] for i in range(r)])
+    P = ctx.eye(N) - q.T * q
+    _, _, wt = ctx.svd_r(ctx.matrix([[P[i, j] for j in range(n)] for i in range(N)]), full_matrices=True)
+    return np.array([[float(wt[i, j]) for j in range(n)] for i in range(n - dim)]).T.copy()
+
+
+def function_node(builder, fn, n, N):
+    """The graph node of ``fn: x (n,) -> ()`` on the ``N`` analysed coordinates (``fn`` of the
+    first ``n``), after checking that it is a callable returning a scalar.
+
+    Raises:
+        ModelError: not a callable, a function that fails on a state of length ``n`` or
+            does not return a scalar.
+    """
+    if not callable(fn):
+        raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
+    with jax.enable_x64(True):
+        try:
+            out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))
+        except Exception as exc:
+            raise ModelError(f"function fails on a state of length {n}: "
+                             f"{type(exc).__name__}") from None
+    if getattr(out, "shape", None) != ():
+        raise ModelError(f"function must return a scalar (), got shape {getattr(out, 'shape', None)}")
+    of_state = fn if n == N else (lambda X: fn(X[:n]))
+    return builder.function(getattr(fn, "__name__", "fn"), of_state)
+
+
+__all__ = ["ReportView", "report_view", "system_known", "Space", "SampledSpace", "annihilator_extended",
+           "function_node"]

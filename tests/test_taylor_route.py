@@ -1,0 +1,161 @@
+"""The Taylor route (Sedoglavic's: output Taylor series at a random point modulo p) against
+the symbolic route and independent oracles.
+
+* the engine's coefficients equal the symbolic Lie derivatives over k! (mpmath walk of the
+  graph), with division, powers, sin, exp and known inputs;
+* its degree bounds are never below the true degrees (sympy);
+* on models of 24 variables and more the engine takes the route, and its reports equal the
+  symbolic route's (forced by raising the threshold): dims per step, verdicts, generators,
+  unobservable directions and ``is_observable``, on observable and unobservable models.
+"""
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import sympy
+
+import uio_jax as uj
+from uio_jax._analysis import taylor_route
+from uio_jax._analysis.context import Context
+from uio_jax._engine import graph_elementary, graph_exact, taylor
+from uio_jax._engine.taylor_degrees import TaylorDegrees
+
+
+def _small():
+    """A rational-and-elementary model of 3 states and 1 parameter."""
+    def drift(x, p):
+        return jnp.stack([x[1] / (x[0] + 2.0) + jnp.sin(x[2]), -p[0] * x[0] * x[1] ** 2, jnp.exp(0.3 * x[0]) - x[2]])
+
+    return uj.System(states=("x0", "x1", "x2"), params={"k": (0.5, 1.5)}, drift=drift,
+                     outputs={"y": lambda x, p: x[0] / (1.0 + x[1] ** 2)})
+
+
+def _context(system):
+    return Context(system.autonomous(), 16, 0, 1e-8)
+
+
+def test_coefficients_equal_the_symbolic_lie_derivatives():
+    ctx = _context(_small())
+    g = ctx.builder.graph
+    f0 = list(ctx.field_node("f0").expr)
+    h = ctx.output_nodes()[0].expr
+    x = np.array([0.7, 0.4, -0.3, 1.1])
+    series = taylor.TaylorSeries(g, [f0], [], [h], taylor.Float(x[None]), 4)
+    L = [h]
+    for k in range(5):
+        values, grads = graph_exact.ExtendedEvaluator(g, x, 40).gradients(L)
+        got = series.coefficient(h, k)[0]
+        assert got[0] == pytest.approx(float(values[0]) / math.factorial(k), rel=1e-9, abs=1e-12)
+        np.testing.assert_allclose(got[1:], [float(v) / math.factorial(k) for v in grads[0]], rtol=1e-8, atol=1e-11)
+        L = g.jvp(L, f0)
+
+
+def _sympy_lie(k):
+    """``L_f^k y`` of the rational model below, in sympy."""
+    x0, x1, p = sympy.symbols("x0 x1 p")
+    f = [x1 / (x0 + 2), -p * x0 * x1 ** 2 + 1, 0]
+    z = [x0, x1, p]
+    L = x0 / (1 + x1 ** 2)
+    for _ in range(k):
+        L = sympy.cancel(sum(sympy.diff(L, v) * fv for v, fv in zip(z, f)))
+    return L, z
+
+
+def test_degree_bounds_are_bounds():
+    system = uj.System(states=("x0", "x1"), params={"p": (0.5, 1.5)},
+                       drift=lambda x, p: jnp.stack([x[1] / (x[0] + 2.0), -p[0] * x[0] * x[1] ** 2 + 1.0]),
+                       outputs={"y": lambda x, p: x[0] / (1.0 + x[1] ** 2)})
+    ctx = _context(system)
+    g = ctx.builder.graph
+    f0 = list(ctx.field_node("f0").expr)
+    h = ctx.output_nodes()[0].expr
+    ins, slot = taylor.program(g, [h] + [v for v in f0 if v is not None])
+    fields = [[None if v is None else slot[v] for v in f0]]
+    degrees = TaylorDegrees(ins, fields, [], 5)
+    for k in range(5):
+        L, z = _sympy_lie(k)
+        num, den = sympy.fraction(sympy.together(L))
+        true = sympy.Poly(num, *z).total_degree() + sympy.Poly(den, *z).total_degree()
+        assert degrees.degree(slot[h], k) >= true
+
+
+def _chain(n_states, coupling="mul", hidden=False):
+    """The single-output chain with parameters; ``hidden``: the first rate is ``a0 * b``, a
+    product of two parameters, so only the product is identifiable."""
+    def drift(x, a):
+        nxt = jnp.concatenate([x[1:], jnp.zeros(1)])
+        prev = jnp.concatenate([jnp.zeros(1), x[:-1]])
+        rate = jnp.concatenate([a[:1] * a[n_states:], a[1:n_states]]) if hidden else a[:n_states]
+        other = jnp.sin(x) if coupling == "sin" else x / (1.0 + x ** 2) if coupling == "div" else x
+        return -rate * x + nxt + 0.5 * prev * other
+
+    params = {f"a{i}": (0.5, 1.5) for i in range(n_states)}
+    if hidden:
+        params["b"] = (0.5, 1.5)
+    return uj.System(states=tuple(f"x{i}" for i in range(n_states)), outputs={"y": lambda x, a: x[0]},
+                     drift=drift, params=params, name="chain")
+
+
+def _symbolic(monkeypatch, system, **kw):
+    with monkeypatch.context() as m:
+        m.setattr(taylor_route, "TAYLOR_MIN_VARIABLES", 10**9)
+        return uj.analyze(system, **kw)
+
+
+def _same(a, b):
+    assert a.dim == b.dim and a.dims == b.dims
+    assert dict(a.observable) == dict(b.observable)
+    assert dict(a.identifiable) == dict(b.identifiable)
+    assert a.generators == b.generators
+    assert a.stop_reason == b.stop_reason
+    assert a.exact and b.exact
+
+
+@pytest.mark.parametrize("coupling, hidden", [("mul", False), ("sin", False), ("div", True), ("mul", True)])
+def test_reports_equal_the_symbolic_route(monkeypatch, coupling, hidden):
+    system = _chain(12, coupling, hidden)
+    fast = uj.analyze(system)
+    assert any("Taylor series" in note for note in fast.notes)
+    slow = _symbolic(monkeypatch, system)
+    assert not any("Taylor series" in note for note in slow.notes)
+    _same(fast, slow)
+    if hidden:  # a0 and b hidden, their product seen: one direction, the same in both
+        assert fast.dim == system.n + len(system.params) - 1
+        assert not fast.identifiable["a0"] and not fast.identifiable["b"]
+        d1, d2 = fast.unobservable_directions(), slow.unobservable_directions()  # at the box centre
+        assert d1.shape == d2.shape == (system.n + len(system.params), 1)
+        assert abs(float(d1[:, 0] @ d2[:, 0])) == pytest.approx(1.0, abs=1e-6)
+        product = lambda x, p: p[0] * p[-1]  # noqa: E731
+        ratio = lambda x, p: p[0] / p[-1]  # noqa: E731
+        assert fast.is_observable(product) and slow.is_observable(product)
+        assert not fast.is_observable(ratio) and not slow.is_observable(ratio)
+
+
+def test_series_with_a_known_input_equals_the_symbolic_route(monkeypatch):
+    base = _chain(12)
+    system = uj.System(states=base.states, params=base.params, drift=base.drift, outputs=base.outputs,
+                       known={"u": lambda x, a: jnp.zeros(12).at[-1].set(1.0 + x[0])})
+    fast = uj.analyze(system, method="series")
+    slow = _symbolic(monkeypatch, system, method="series")
+    assert any("Taylor series" in note for note in fast.notes)
+    _same(fast, slow)
+
+
+def test_small_models_keep_the_symbolic_route():
+    report = uj.analyze(_chain(4))
+    assert not any("Taylor series" in note for note in report.notes)
+
+
+def test_singular_points_are_drawn_again():
+    draws = graph_elementary.Draws(graph_exact.PRIME, 1, [1])
+    system = uj.System(states=("x0", "x1"), drift=lambda x: jnp.stack([1.0 / x[0], x[0]]),
+                       outputs={"y": lambda x: x[1]})
+    ctx = _context(system)
+    g = ctx.builder.graph
+    f0 = list(ctx.field_node("f0").expr)
+    h = ctx.output_nodes()[0].expr
+    series = taylor.TaylorSeries(g, [f0], [], [h], taylor.Modular([[0, 5]], draws), 3)
+    with pytest.raises(graph_elementary.Singular):
+        series.coefficient(h, 2)
