@@ -186,6 +186,21 @@ def rank_mod_p(rows) -> int:
     return rank
 
 
+def function_rank(fns, n, *, seed=0) -> int:
+    """Rank of the Jacobian of the functions ``fns`` (each ``fn(x)`` on a list of ``n``
+    coordinates, written with ``+ - * /`` and rational constants) at a random point modulo P:
+    how many of them are independent (generic rank, with the probability of the module
+    docstring)."""
+    alg = Algebra(0, n)
+    rng = random.Random(seed)
+    x = []
+    for a in range(n):
+        jet = Jet.constant(alg, rng.randrange(1, P))
+        jet.d[0, a] = 1
+        x.append(jet)
+    return rank_mod_p([(Jet.constant(alg, 0) + fn(x)).top(0) for fn in fns])
+
+
 def eorc(model, k, *, points=2, seed=0):
     """``(dim, observable)`` of the EORC of order ``k``: the dimension on the original state
     and the set of observable state indices, the largest rank over ``points`` random points."""

@@ -194,12 +194,26 @@ def test_named_observable_functions(oracle, reports, case):
     assert not rep.is_observable(lambda z: z[0])  # r_x: moved by the yaw
     if case == "one_acc":  # the speed in the accelerometer frame turns with the internal rotation
         assert not rep.is_observable(lambda z: _rt([z[6], z[7], z[8], z[9]], [z[3], z[4], z[5]])[1])
-    rng = np.random.default_rng(1)
-    alg = oracle.Algebra(0, 23)
-    x = []
-    for a in range(23):
-        jet = oracle.Jet.constant(alg, int(rng.integers(1, oracle.P)))
-        jet.d[0, a] = 1
-        x.append(jet)
-    rows = [oracle.Jet.constant(alg, 0) + fn(x) for _, fn in fns]
-    assert oracle.rank_mod_p([r.top(0) for r in rows]) == rep.dim
+    assert oracle.function_rank([fn for _, fn in fns], 23, seed=1) == rep.dim
+
+
+def test_named_observable_functions_of_case_1(oracle):
+    """Case 1 (``visual_inertial_partial.py:calibrated_one_acc``, 12 states ``[r, v, q, g, B]``)
+    at the paper's order k = 7: every function but the yaw, named as the feature and the speed
+    in the local frame, the gravity direction there (roll, pitch), g, the bias and ``|q|^2``:
+    each observable (exact membership), 11 independent = the dimension; the heading is not."""
+    rep = uj.analyze(zoo_module("visual_inertial_partial").calibrated_one_acc(), samples=256, k_max=7)
+    assert rep.dim == 11
+
+    def q(x):
+        return [x[6], x[7], x[8], x[9]]
+
+    fns = [lambda x, i=i: _rt(q(x), [-x[0], -x[1], -x[2]])[i] for i in range(3)]
+    fns += [lambda x, i=i: _rt(q(x), [x[3], x[4], x[5]])[i] for i in range(3)]
+    fns += [lambda x, i=i: _rt(q(x), [0, 0, 1])[i] for i in range(3)]
+    fns += [lambda x: x[10], lambda x: x[11], lambda x: sum(v * v for v in q(x))]
+    for fn in fns:
+        assert rep.is_observable(lambda z, fn=fn: fn([z[i] for i in range(12)]))
+    assert not rep.is_observable(lambda z: jnp.arctan2(_rt([z[6], -z[7], -z[8], -z[9]], [1, 0, 0])[1],
+                                                       _rt([z[6], -z[7], -z[8], -z[9]], [1, 0, 0])[0]))
+    assert oracle.function_rank(fns, 12, seed=3) == rep.dim
