@@ -274,7 +274,8 @@ verified yaw symmetry. Case 2 (one accelerometer) has exactly the two published
 unobservable directions, the yaw and the rotation of the accelerometer frame about its own
 axis, from k = 3 on (exact, the bound of the two verified symmetries), not from k = 2: at
 k = 2 one more direction, a mixture that moves every state, is left, and the third
-derivatives of the bearings remove it. The reason is a count: the known accelerometer acts
+derivatives of the bearings remove it. The ranks show where the order goes (an account of
+the computation, not a proof about other formulations): the known accelerometer acts
 on the velocity only and the outputs do not depend on the velocity, so its Lie derivatives
 start at order 2 with eight functions of the state, while every order adds five unknown
 coordinates (two specific forces, three angular rates or their derivatives); the rank of
@@ -292,5 +293,6 @@ computation (`scripts/eorc_jet_oracle.py`: every Lie derivative word kept, gradi
 nilpotent jets, ranks modulo another prime) gives the same dimensions 10, 15, 20, 21 for
 case 2 and 10, 15, 22 for case 3. Case 1 (`visual_inertial_partial.py`, 12 states with
 the gravity magnitude and an accelerometer bias) is reproduced at its published order
-k = 7 in its yaw-free form (the `k` row above).
+k = 7, in its yaw-free form (the `k` row) and in its 12 global coordinates (every function
+but the yaw, first at k = 7).
 """
