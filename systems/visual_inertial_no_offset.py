@@ -44,7 +44,7 @@ verdict.
 **What the EORC gives** (``tests/test_visual_inertial_no_offset.py``; 4 features):
 
 * full IMU (ORC): dim 22 = n - 1, the yaw the only unobservable direction;
-* case 3 (two accelerometers): dims 10, 16, 22 at k = 0, 1, 2: the full IMU's 22 at k = 2, as
+* case 3 (two accelerometers): dims 10, 15, 22 at k = 0, 1, 2: the full IMU's 22 at k = 2, as
   published, and the bound of the yaw, so the verdict is exact;
 * case 2 (one accelerometer): dims 10, 15, 20, 21 at k = 0..3: at k = 3 exactly the yaw and the
   internal rotation are unobservable (dim 21 = n - 2, the bound of the two symmetries, exact);

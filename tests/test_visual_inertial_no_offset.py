@@ -32,15 +32,20 @@ def oracle():
 
 
 @pytest.fixture(scope="module")
-def reports(mod):
+def systems(mod):
+    """The three models with 4 features, built once (a System checks its functions)."""
+    return {name: getattr(mod, name)() for name in DIMS}
+
+
+@pytest.fixture(scope="module")
+def reports(systems):
     """Case 3 to the paper's order k = 2, case 2 and the full IMU to their own stops."""
-    return {"full_imu": uj.analyze(mod.full_imu(), samples=256),
-            "two_acc": uj.analyze(mod.two_acc(), samples=256, k_max=2),
-            "one_acc": uj.analyze(mod.one_acc(), samples=256)}
+    return {"full_imu": uj.analyze(systems["full_imu"], samples=256),
+            "two_acc": uj.analyze(systems["two_acc"], samples=256, k_max=2),
+            "one_acc": uj.analyze(systems["one_acc"], samples=256)}
 
 
-def test_dimensions_and_inputs(mod):
-    systems = {name: getattr(mod, name)() for name in DIMS}
+def test_dimensions_and_inputs(mod, systems):
     assert {s.n for s in systems.values()} == {23}
     assert tuple(systems["one_acc"].known) == ("A_1",)
     assert tuple(systems["two_acc"].known) == ("A_1", "A_2")
@@ -51,10 +56,10 @@ def test_dimensions_and_inputs(mod):
         mod.two_acc(n_f=0)
 
 
-def test_bearing_is_the_camera_frame_projection(mod):
+def test_bearing_is_the_camera_frame_projection(systems):
     """Level, camera = accelerometer frame, 3 below feature 1 and 0.3 to its side: feature 1
     at bearing (-0.1, 0); feature 2 at (1, 0, 0) at bearing ((1 - 0.3) / 3, 0)."""
-    system = mod.two_acc()
+    system = systems["two_acc"]
     x = np.zeros(system.n)
     x[[0, 2, 6, 10]] = [0.3, -3.0, 1.0, 1.0]
     x[14] = 1.0
@@ -64,7 +69,7 @@ def test_bearing_is_the_camera_frame_projection(mod):
     assert float(system.outputs["u2"](x)) == pytest.approx(0.7 / 3.0)
 
 
-def _bracket_residual(system, sym, seeds=range(3)):
+def _bracket_residual(system, sym, seeds=(0,)):
     """``L_sym h`` for every output and the part of ``[sym, f]`` outside span(unknown fields)
     for the drift and every field, in float64 (worst relative value)."""
     lo, hi = system.box()
@@ -85,11 +90,12 @@ def _bracket_residual(system, sym, seeds=range(3)):
 
 
 def test_symmetries_by_hand(mod):
-    """On two features (the fields' code is the same for any number; cheaper in float64)."""
+    """On two features (the fields' code is the same for any number; cheaper in float64), at
+    one random state each (an identity of the model: a random state shows a violation)."""
     assert _bracket_residual(mod.full_imu(n_f=2), mod.yaw_symmetry) < 1e-10
     assert _bracket_residual(mod.one_acc(n_f=2), mod.internal_rotation) < 1e-10
     # with the second accelerometer known the internal rotation is none: the check can fail
-    assert _bracket_residual(mod.two_acc(n_f=2), mod.internal_rotation, seeds=[0]) > 1e-3
+    assert _bracket_residual(mod.two_acc(n_f=2), mod.internal_rotation) > 1e-3
 
 
 @pytest.mark.parametrize("name", list(DIMS))
