@@ -17,6 +17,7 @@ from . import directions
 from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
 from .functions_of_z import function_of_z
+from .observable_functions import ObservableFunctions, name_functions
 from .report_text import report_text
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
@@ -83,6 +84,7 @@ class Report:
     identifiable: Mapping[str, bool] = field(default_factory=dict)
     known_inputs: str = "switchable"
     _space: object = field(default=None, repr=False)
+    _named: list = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self):
         params = tuple(self.params)
@@ -231,6 +233,25 @@ class Report:
         """
         return self._space.is_observable(function_of_z(self, fn, "is_observable"))
 
+    @property
+    def named_functions(self) -> ObservableFunctions:
+        """Readable observable functions that span the observable codistribution, each
+        checked exactly (:mod:`uio_jax._analysis.observable_functions`: candidates, ranking,
+        checks). Computed on first access (it costs about as much as a small analysis) and
+        kept."""
+        if not self._named:
+            inputs = len(self.details.get("extended_state", ())) - self.n if self.method == "eorc" else 0
+            self._named.append(name_functions(self._space.parts(), inputs=max(inputs, 0)))
+        return self._named[0]
+
+    @property
+    def observable_functions(self) -> tuple[str, ...]:
+        """The named observable functions as expressions in the model's names (sympy-readable
+        strings; ``sympy.sympify(text, locals={name: Symbol(name)})``): independent, each in
+        the observable codistribution, ``dim`` of them when all could be named
+        (:attr:`named_functions` says how many and how they were decided)."""
+        return self.named_functions.texts
+
     def to_dict(self) -> dict:
         """JSON-ready dictionary (no callables).
 
@@ -263,6 +284,7 @@ class Report:
             "semantics": self.semantics,
             "exact": self.exact,
             "known_inputs": self.known_inputs,
+            "observable_functions": self.named_functions.to_dict(),
             **(directions.directions_dict(self, self._space) if self.params else {}),
         })
 
