@@ -27,11 +27,10 @@ again by the exact membership test and every field by the exact symmetry check b
 reported.
 """
 
+import dataclasses
 import itertools
 import math
 from fractions import Fraction
-
-import dataclasses
 
 import numpy as np
 

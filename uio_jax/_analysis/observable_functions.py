@@ -10,14 +10,17 @@ say so.
 **Candidates**, ranked by simplicity (:func:`uio_jax._analysis.expression_text.text_size`:
 operators, calls and names of the printed text, then its length):
 
-1. the states and parameters themselves;
+1. the states and parameters themselves, and, when something is unobservable, the
+   observable Laurent monomials (the invariants of a scaling symmetry; an ansatz solved exactly
+   modulo p, :mod:`.ansatz`);
 2. the model's own subexpressions: every node of the expression graph of its outputs and
    fields (``R(q)^T (p_f - p)`` in the vehicle's camera output, ``theta - phi`` in the
    unicycle's field, ``a + b`` in ``x' = -(a + b) x``) that depends on the report's
    coordinates only and prints as an expression (:mod:`.expression_text`);
-3. polynomials of degree at most 2 and Laurent monomials (the invariants of a scaling
-   symmetry) found by ansatz, solved exactly modulo p (:mod:`.ansatz`);
-4. if these do not reach the dimension: ratios and products of two of the simplest
+3. if these do not reach the dimension: polynomials of degree at most 2 in the coordinates
+   and the elementary functions of one coordinate in the model (``cos(theta)``), found by
+   ansatz (:mod:`.ansatz`);
+4. if still short: ratios and products of two of the simplest
    subexpressions, and polynomials of degree 3.
 
 **Kept** in that order when (a) the candidate's gradient lies in ``Omega`` and (b) it raises
@@ -184,8 +187,8 @@ class _Run:
 
     # ---------------------------------------------------------------- candidates
     def first_pass(self):
-        """The variables and the model's subexpressions; then, if short, the ansatz of degree 2
-        (over the atoms) and the Laurent monomials."""
+        """The variables, the model's subexpressions and the Laurent monomials; then, if short,
+        the polynomial ansatz of degree 2 (over the atoms)."""
         g = self.graph
         self.variables = [c for c in (self._candidate(g.coords[i], Source.VARIABLE) for i in range(self.m)) if c]
         order = g.reachable(self.parts.roots)
@@ -195,10 +198,11 @@ class _Run:
         subs.sort(key=_rank)
         self.subexpressions = subs[:MAX_SUBEXPRESSIONS]
         self.atoms = list(g.coords[:self.m]) + [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
-        self._select(self.variables + self.subexpressions)
+        self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed)
+        hidden = self.exact and self.parts.dim < self.parts.n  # a scaling may hide something
+        self._select(self.variables + self.subexpressions + (self._laurent() if hidden else []))
         if self.short() and self.exact:
-            self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed)
-            self._select(self._polynomials(2) + self._laurent())
+            self._select(self._polynomials(2))
 
     def second_pass(self):
         """Ratios and products of two of the simplest subexpressions (or variables); the
