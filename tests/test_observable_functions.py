@@ -206,3 +206,49 @@ def test_incomplete_naming_is_said_with_the_generators():
     nf = rep.named_functions
     assert rep.dim == 1 and not nf.complete and nf.generators
     assert "0 of 1 named; the other 1 given only as generators" in str(rep)
+
+
+# ----------------------------------------------------------------------------- symmetries, reparametrisation
+def _fields(rep):
+    return [[f.components.get(v, "0") for v in rep.variables] for f in rep.symmetries.fields]
+
+
+def test_symmetries_found_rotation_about_the_landmark_and_the_scaling():
+    """Hand-derived: the planar landmark model's rotation ``(-y, x, 1)`` (up to a factor) and
+    Lotka-Volterra's scaling ``x2 d/dx2 - b d/db`` are found and verified."""
+    rep = uj.analyze(planar_landmark(), samples=S)
+    (field,) = _fields(rep)
+    assert rep.symmetries.complete and rep.symmetries.fields[0].kind == "rotation"
+    x, y, th = sp.symbols("x y theta")
+    ratio = {sp.simplify(sp.sympify(c, locals={"theta": th}) / h) for c, h in zip(field, (-y, x, 1))}
+    assert len(ratio) == 1 and ratio.pop() != 0  # proportional to the hand-derived field
+    lv = uj.analyze(lotka_volterra(), samples=S)
+    assert _fields(lv) == [["0", "x2", "0", "-b", "0", "0"]] and lv.symmetries.fields[0].kind == "scaling"
+
+
+def test_002_vehicle_without_wind_three_rotations_about_the_feature():
+    """002 III-B: the unobservable directions are the rotations about the feature: three
+    verified rotations, which annihilate every named function (sympy)."""
+    rep = uj.analyze(load("vehicle_wind.py:no_wind"), samples=S)
+    assert rep.symmetries.complete and [f.kind for f in rep.symmetries.fields] == ["rotation"] * 3
+    for field in _fields(rep):
+        assert annihilated(rep.observable_functions, list(rep.variables), field)
+
+
+def test_reparametrised_model_has_every_parameter_identifiable(tmp_path):
+    """``x' = -(a + b) x``: b fixed at 0 (translated by the symmetry), a stands for a + b;
+    Lotka-Volterra: b fixed at 1 (scaled). Written as TOML, read back, analysed: every
+    parameter identifiable, and the dimension is the original one."""
+    system = uj.System(states=("x",), outputs={"y": lambda x, p: x[0]},
+                       drift=lambda x, p: jnp.stack([-(p[0] + p[1]) * x[0]]), params=("a", "b"))
+    for model, fixed in ((system, "b = 0"), (lotka_volterra(), "b = 1")):
+        rep = uj.analyze(model, samples=S)
+        data = rep.reparametrised_model()
+        assert fixed in data["notes"][0] and "b" not in data["params"]
+        path = tmp_path / "reparametrised.toml"
+        uj.save_model(data, path)
+        again = uj.analyze(uj.load_system(str(path)), samples=S)
+        assert all(again.identifiable.values()) and again.dim == rep.dim
+    assert uj.analyze(lotka_volterra().__class__(
+        states=("x",), outputs={"y": lambda x, p: x[0]}, drift=lambda x, p: jnp.stack([-p[0] * x[0]]),
+        params=("k",)), samples=S).reparametrised_model() is None

@@ -94,6 +94,9 @@ class Printer:
                 a, b = b, a
             if a[0] == "-1":
                 return f"-{_wrap(b, _POWER if b[1] == _UNARY else _PRODUCT)}", _UNARY
+            if b[1] == _UNARY and b[0].startswith("-"):  # x*-c -> -(x*c)
+                inner = f"{_wrap(a, _PRODUCT)}*{_wrap((b[0][1:], _UNARY), _PRODUCT)}"
+                return f"-{inner}", _UNARY
             return f"{_wrap(a, _PRODUCT)}*{_wrap(b, _PRODUCT)}", _PRODUCT
         if op == "div":
             a, b = parts

@@ -57,6 +57,7 @@ class SpanParts:
         settler: the analysis' :class:`~uio_jax._analysis.settle.Settler` (exact decisions).
         roots: the graph nodes of the analysed System's outputs and fields.
         box: ``(lo, hi)`` of the analysed coordinates.
+        system: the analysed System (whose coordinates the span lives on).
     """
 
     builder: object
@@ -67,6 +68,7 @@ class SpanParts:
     settler: object
     roots: tuple
     box: tuple
+    system: object = None
 
 
 class Space(Protocol):
@@ -135,7 +137,7 @@ class SampledSpace(Space):
         nodes = [*ctx.output_nodes(), *(ctx.field_node(f) for f in ctx.system.fields())]
         roots = tuple(e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr))
         return SpanParts(ctx.builder, self._nodes, tuple(ctx.system.states), self._n, self._dim,
-                         ctx.settler, roots, ctx.system.box())
+                         ctx.settler, roots, ctx.system.box(), ctx.system)
 
     def known_point(self) -> dict:
         """``{name: value}`` of the known coordinates the directions are computed at (the
