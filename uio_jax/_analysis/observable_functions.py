@@ -98,7 +98,8 @@ class ObservableFunctions:
         generators: labels of the kept generators: a spanning set of ``Omega`` in any case.
         arithmetic: how the checks were decided: ``"exact mod p"`` or ``"mpmath"``.
         error_bound: probability bound that one of the memberships is wrong (exact route).
-        seconds: time spent naming them.
+        seconds: time spent naming them (not in :meth:`to_dict`: the JSON of a report is
+            the same at every run).
     """
 
     functions: tuple
@@ -141,7 +142,7 @@ class ObservableFunctions:
                 "input_functions": [f.to_dict() for f in self.input_functions],
                 "dim": self.dim, "named": len(self.functions), "complete": self.complete,
                 "generators": list(self.generators), "arithmetic": self.arithmetic,
-                "error_bound": self.error_bound, "seconds": self.seconds}
+                "error_bound": self.error_bound}
 
 
 def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions:

@@ -17,8 +17,8 @@ from .._errors import ModelError
 from . import directions
 from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
-from .functions_of_z import function_of_z
 from .found_symmetries import FoundSymmetries, find_symmetries
+from .functions_of_z import function_of_z
 from .observable_functions import ObservableFunctions, name_functions
 from .reparametrise import reparametrised_model
 from .report_text import report_text
