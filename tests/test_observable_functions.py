@@ -7,7 +7,9 @@ derivations (a symmetry derived by hand annihilates every named function, checke
 symbolically by sympy), and the count: as many independent functions as the dimension.
 """
 
+import keyword
 import random
+import re
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -23,8 +25,12 @@ ROOT = Path(_ROOT)
 
 
 def _exprs(texts, names):
-    syms = sp.symbols(names)
-    local = dict(zip(names, syms))
+    """sympy expressions of the texts; a name that is a Python keyword (HIV's ``lambda``) is
+    read as ``NAME_`` (sympify parses Python)."""
+    safe = {n: f"{n}_" if keyword.iskeyword(n) else n for n in names}
+    texts = [re.sub(r"\b\w+\b", lambda m: safe.get(m.group(0), m.group(0)), t) for t in texts]
+    syms = sp.symbols([safe[n] for n in names])
+    local = dict(zip(safe.values(), syms))
     return [sp.sympify(t, locals=local) for t in texts], syms
 
 
