@@ -86,6 +86,8 @@ def _compare(mod, name, pub, rep, system):
                 got = [st.extra.get("augmented_rank") for st in rep.history] if key == "augmented_ranks" else None
             got = list(got) if isinstance(got, tuple) else got
             rows.append((key, pub[key], got, got == pub[key]))
+    if "functions" in pub:
+        rows += _function_rows(pub["functions"], rep)
     lo, hi = system.box()
     rng = np.random.default_rng(0)
     for sym in pub.get("symmetries", []):
@@ -119,6 +121,20 @@ def _notes(mods) -> str:
     parts = [f"### `{name}`\n\n{mod.REPRODUCTION_NOTES.strip()}\n"
              for name, mod in mods if getattr(mod, "REPRODUCTION_NOTES", None)]
     return "\n## Notes\n\n" + "\n".join(parts) if parts else ""
+
+
+def _function_rows(paper, rep):
+    """The paper's observable functions against ours: each of the paper's is observable (the
+    exact test of ``Report.is_observable``), ours are ``dim`` independent ones: the same field."""
+    from uio_jax._io.expression_functions import to_function
+    from uio_jax._io.expressions import parse_expression
+
+    names = list(rep.variables)
+    members = [rep.is_observable(to_function(parse_expression(t, names), names)) for t in paper]
+    named = rep.named_functions
+    return [("paper's observable functions in Omega", f"{len(paper)} functions",
+             f"{sum(members)} of {len(paper)} observable", all(members)),
+            ("named functions (ours)", f"dim {rep.dim}", "; ".join(named.texts), named.complete)]
 
 
 def main(argv=None) -> int:

@@ -72,5 +72,5 @@ PUBLISHED = {
                      "dims": [2, 3], "dim": 3, "observable": ["xv", "yv", "theta"]},
     "inputs_unknown": {"source": "004 section 11.2.1 (001 section V-A)", "method": "eorc",
                        "dims": [2, 3], "dim": 3, "k": 1, "augmented_ranks": [2, 4],
-                       "observable": ["xv", "yv", "theta"]},
+                       "observable": ["xv", "yv", "theta"], "functions": ["xv", "yv", "theta"]},
 }

@@ -117,6 +117,7 @@ PUBLISHED = {
                   "observable": ["r", "phi", "theta"]},
     "range_v_unknown": {"source": "004 section 11.1.1", "method": "single_ui", "dims": [1, 1, 2, 2],
                         "dim": 2, "m_prime": 2, "m_star": 2, "observable": ["r"],
+                        "functions": ["r", "theta - phi"],
                         "symmetries": ["rotation_symmetry"]},
     "range_omega_unknown": {"source": "004 section 11.1.2", "method": "single_ui", "dim": 2,
                             "m_prime": 1, "m_star": 1, "observable": ["r"],

@@ -130,6 +130,11 @@ PUBLISHED = {
         "dims": [3, 4, 4],
         "dim": 4,
         "observable": [],
+        # "all the observable modes are the components of F ... and the norm of the quaternion"
+        "functions": ["x*(qt**2 + qx**2 - qy**2 - qz**2) + 2*y*(qx*qy + qt*qz) + 2*z*(qx*qz - qt*qy)",
+                      "2*x*(qx*qy - qt*qz) + y*(qt**2 - qx**2 + qy**2 - qz**2) + 2*z*(qy*qz + qt*qx)",
+                      "2*x*(qx*qz + qt*qy) + 2*y*(qy*qz - qt*qx) + z*(qt**2 - qx**2 - qy**2 + qz**2)",
+                      "sqrt(qt**2 + qx**2 + qy**2 + qz**2)"],
     },
     "wind_unknown": {
         "source": "002 section III-C",

@@ -1,7 +1,9 @@
 """Every zoo report equals the stored snapshot (``tests/data/zoo_reports.json``).
 
 The snapshot was written by ``scripts/snapshot_reports.py`` (256 samples, seed 0); it was
-last refreshed when the recursions moved to 128 decision samples and a step keeping nothing
+last refreshed when the reports gained their named observable functions and found
+symmetries (issue 38: two new keys, every other value unchanged); before that when the
+recursions moved to 128 decision samples and a step keeping nothing
 got its rejections settled exactly (every certificate's counts and margins moved; four
 visual-inertial EORCs no longer stop on a false "Omega-bar closed" but run to k_max, with
 the same verdicts on the states and more input derivatives observable). Refreshed again

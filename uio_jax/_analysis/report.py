@@ -13,10 +13,14 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .._errors import ModelError
 from . import directions
 from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
+from .found_symmetries import FoundSymmetries, find_symmetries
 from .functions_of_z import function_of_z
+from .observable_functions import ObservableFunctions, name_functions
+from .reparametrise import reparametrised_model
 from .report_text import report_text
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
@@ -83,6 +87,8 @@ class Report:
     identifiable: Mapping[str, bool] = field(default_factory=dict)
     known_inputs: str = "switchable"
     _space: object = field(default=None, repr=False)
+    _named: list = field(default_factory=list, repr=False, compare=False)
+    _found: list = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self):
         params = tuple(self.params)
@@ -231,6 +237,59 @@ class Report:
         """
         return self._space.is_observable(function_of_z(self, fn, "is_observable"))
 
+    @property
+    def named_functions(self) -> ObservableFunctions:
+        """Readable observable functions that span the observable codistribution, each
+        checked exactly (:mod:`uio_jax._analysis.observable_functions`: candidates, ranking,
+        checks). Computed on first access (it costs about as much as a small analysis) and
+        kept."""
+        if not self._named:
+            inputs = len(self.details.get("extended_state", ())) - self.n if self.method == "eorc" else 0
+            self._named.append(name_functions(self._space.parts(), inputs=max(inputs, 0)))
+        return self._named[0]
+
+    @property
+    def symmetries(self) -> FoundSymmetries:
+        """The unobservable distribution as verified closed-form symmetries: polynomial vector
+        fields of degree at most 1 (translations, rotations, scalings) found by an exact
+        ansatz and verified by the symmetry check of declared symmetries
+        (:mod:`uio_jax._analysis.found_symmetries`). Computed on first access and kept."""
+        if not self._found:
+            parts = self._space.parts()
+            self._found.append(find_symmetries(parts, parts.system))
+        return self._found[0]
+
+    def reparametrised_model(self) -> dict | None:
+        """A model whose parameters are all identifiable, in the model-file schema
+        (:func:`uio_jax.save_model` writes it as TOML), or None when every parameter is
+        identifiable already: the parameters of a cross-section of the unobservable
+        directions fixed (0 where a symmetry translates them, 1 where one scales them, else
+        the centre of their box), the others standing for identifiable combinations
+        (:mod:`uio_jax._analysis.reparametrise`).
+
+        Raises:
+            ModelError: the analysis ran on more coordinates than the report's (EORC, a
+                time-varying model), or a function of the model has no expression text.
+        """
+        if all(self.identifiable.values()):
+            return None
+        parts = self._space.parts()
+        if parts.builder.graph.n != self.n:
+            raise ModelError("reparametrised_model: the analysis ran on more coordinates than the "
+                             "states and parameters (EORC, general_ui extension or time)")
+        try:
+            return reparametrised_model(parts, self, self.symmetries)
+        except ValueError as exc:
+            raise ModelError(f"reparametrised_model: {exc}") from None
+
+    @property
+    def observable_functions(self) -> tuple[str, ...]:
+        """The named observable functions as expressions in the model's names (sympy-readable
+        strings; ``sympy.sympify(text, locals={name: Symbol(name)})``): independent, each in
+        the observable codistribution, ``dim`` of them when all could be named
+        (:attr:`named_functions` says how many and how they were decided)."""
+        return self.named_functions.texts
+
     def to_dict(self) -> dict:
         """JSON-ready dictionary (no callables).
 
@@ -263,6 +322,8 @@ class Report:
             "semantics": self.semantics,
             "exact": self.exact,
             "known_inputs": self.known_inputs,
+            "observable_functions": self.named_functions.to_dict(),
+            "found_symmetries": self.symmetries.to_dict(),
             **(directions.directions_dict(self, self._space) if self.params else {}),
         })
 

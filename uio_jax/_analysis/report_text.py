@@ -40,6 +40,13 @@ def report_text(report) -> str:
             if p in undecided:
                 verdict = f"UNDECIDED (float64: {verdict})"
             lines.append(f"  {p:<{width}}  {verdict}")
+    named = report.named_functions
+    lines.append(f"observable functions: {named.summary()}")
+    lines += [f"  {f.text}" for f in named.functions]
+    lines += [f"  {f.text}   (uses an unknown input)" for f in named.input_functions]
+    found = report.symmetries
+    lines.append(f"symmetries found: {found.summary()}")
+    lines += [f"  {f.text()}" for f in found.fields]
     lines.append(f"certificate: {report.certificate}")
     for note in report.notes:
         lines.append(f"note: {note}")

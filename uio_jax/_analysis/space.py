@@ -43,6 +43,34 @@ def system_known(system) -> bool:
     return bool(getattr(system, "known", ()))
 
 
+@dataclasses.dataclass(frozen=True)
+class SpanParts:
+    """What the closed forms of a report (:mod:`uio_jax._analysis.observable_functions`) read
+    of its final codistribution.
+
+    Attributes:
+        builder: the node builder of the analysed System (its expression graph: ``builder.graph``).
+        nodes: the kept generators (Nodes), their gradients independent.
+        names: the names of the analysed coordinates (``N`` of them).
+        n: the coordinates the report is about (its states and parameters: the first ``n``).
+        dim: the dimension of the span on those.
+        settler: the analysis' :class:`~uio_jax._analysis.settle.Settler` (exact decisions).
+        roots: the graph nodes of the analysed System's outputs and fields.
+        box: ``(lo, hi)`` of the analysed coordinates.
+        system: the analysed System (whose coordinates the span lives on).
+    """
+
+    builder: object
+    nodes: tuple
+    names: tuple
+    n: int
+    dim: int
+    settler: object
+    roots: tuple
+    box: tuple
+    system: object = None
+
+
 class Space(Protocol):
     """What a Report asks of the final codistribution (``Report._space``), about the
     original state ``x (n,)``: :class:`SampledSpace` is the one implementation."""
@@ -102,6 +130,14 @@ class SampledSpace(Space):
         known = min(known_coordinates(ctx.system), self._N - self._n) if self._n < self._N else 0
         self._known_names = tuple(ctx.system.states[self._n:self._n + known])
         self._fill[:known] = 0.5 * (lo[self._n:self._n + known] + hi[self._n:self._n + known])
+
+    def parts(self) -> SpanParts:
+        """The final codistribution's parts (:class:`SpanParts`)."""
+        ctx = self._ctx
+        nodes = [*ctx.output_nodes(), *(ctx.field_node(f) for f in ctx.system.fields())]
+        roots = tuple(e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr))
+        return SpanParts(ctx.builder, self._nodes, tuple(ctx.system.states), self._n, self._dim,
+                         ctx.settler, roots, ctx.system.box(), ctx.system)
 
     def known_point(self) -> dict:
         """``{name: value}`` of the known coordinates the directions are computed at (the
@@ -276,4 +312,4 @@ def function_node(builder, fn, n, N):
 
 
 __all__ = ["ReportView", "report_view", "system_known", "Space", "SampledSpace", "annihilator_extended",
-           "function_node"]
+           "function_node", "SpanParts"]

@@ -40,6 +40,9 @@ class BatchRow:
             float64) or ``"undecided"`` (some could not be settled: the verdicts in
             ``undecided`` are not certified); None for a failed model.
         undecided: the states and parameters whose verdict is not certified.
+        functions: the named observable functions (``Report.observable_functions``).
+        functions_complete: whether they span the observable codistribution (their number
+            is ``dim``); None for a failed model.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
     """
@@ -60,6 +63,8 @@ class BatchRow:
     inputs: tuple[str, ...] = ()
     status: str | None = None
     undecided: tuple[str, ...] = ()
+    functions: tuple[str, ...] = ()
+    functions_complete: bool | None = None
     report: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -82,7 +87,8 @@ class BatchRow:
             "gap_decades": _num(self.gap_decades), "seconds": round(self.seconds, 4),
             "error": self.error, "reached": self.reached, "exact": self.exact,
             "observable_inputs": list(self.inputs), "status": self.status,
-            "undecided": list(self.undecided),
+            "undecided": list(self.undecided), "observable_functions": list(self.functions),
+            "functions_complete": self.functions_complete,
         }
         return d
 
@@ -208,12 +214,12 @@ class BatchResult:
         headers = ["model", "method", "dim / n", "observable states"]
         if has_params:
             headers.append("identifiable params")
-        headers += ["unobs.", "fraction", "gap (dec.)", "time (s)", "status"]
+        headers += ["unobs.", "observable functions", "fraction", "gap (dec.)", "time (s)", "status"]
         body = []
         for r in self.rows:
             if not r.ok:
                 cells = [r.model, r.method or "-", "-", "-"] + (["-"] if has_params else [])
-                cells += ["-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
+                cells += ["-", "-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
             else:
                 method = r.method + ("" if r.exact is not False else " (suff.)")
                 cells = [r.model, method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
@@ -221,7 +227,7 @@ class BatchResult:
                     cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
                 status = {"undecided": "UNDECIDED: " + ", ".join(r.undecided) if r.undecided else "UNDECIDED",
                           "escalated": "escalated", "ok": "ok"}.get(r.status or "ok", r.status)
-                cells += [str(r.unobservable), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
+                cells += [str(r.unobservable), _functions(r), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
                           status]  # "ok" in Markdown too: an empty cell reads as missing
             body.append([printable(c) for c in cells])  # names and errors from model files
         return headers, body
@@ -245,6 +251,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
         exact=bool(rep.exact), inputs=_observable_inputs(rep),
         status=rep.certificate.status, undecided=tuple(rep.undecided),
+        functions=tuple(rep.observable_functions), functions_complete=rep.named_functions.complete,
     )
 
 
@@ -274,6 +281,15 @@ def one_line(exc, with_type=True) -> str:
     text = str(exc).strip()
     first = text.splitlines()[0] if text else ""
     return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
+
+
+def _functions(row) -> str:
+    """The named observable functions of a row, ``; ``-separated, and how many of ``dim``
+    when they are fewer."""
+    text = "; ".join(row.functions) if row.functions else "-"
+    if row.functions_complete is False:
+        text += f" ({len(row.functions)} of {row.dim} named)"
+    return text
 
 
 def _names(names, total) -> str:

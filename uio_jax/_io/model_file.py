@@ -196,12 +196,17 @@ def save_model(system, path) -> None:
 
     Works for Systems built from model files, :meth:`System.from_sympy` or StrikePy
     modules (they keep their :class:`ModelSpec` in ``System.source``); reading the file
-    back with :func:`load_model_file` gives the same model.
+    back with :func:`load_model_file` gives the same model. ``system`` may also be a
+    dictionary in the model-file schema (``Report.reparametrised_model()``): it is checked
+    as a model file is, then written.
 
     Raises:
         ModelError: the System is made of Python functions (no spec), or the suffix is
             neither ``.toml`` nor ``.json``.
     """
+    if isinstance(system, dict):
+        spec = spec_from_dict(system, "model dictionary")
+        system = build_system(spec)
     spec = getattr(system, "source", None)
     if not isinstance(spec, ModelSpec):
         label = f" {system.name!r}" if getattr(system, "name", "") else ""

@@ -1,0 +1,320 @@
+"""Closed forms by ansatz, solved exactly: functions whose differentials lie in a codistribution,
+and vector fields that it annihilates, as combinations of monomials with unknown coefficients.
+
+The codistribution is the span of the gradients of kept generators ``k_1..k_r`` on ``N``
+coordinates (:class:`~uio_jax._analysis.space.SpanParts`). At a random point ``z`` of
+``F_p^N`` (``p = 2^127 - 1``; :class:`uio_jax._engine.graph_exact.ModularEvaluator`, the
+elementary functions on their variety) its rows ``K(z) (r, N)`` and its kernel
+``V(z) (N, N - r)`` (the unobservable directions) are computed exactly. Three linear ansatzes
+in unknown coefficients ``c`` give equations at each point:
+
+* a function ``f = sum_a c_a m_a`` (monomials ``m_a`` of the first ``m`` coordinates of degree
+  at most ``d``) is observable iff ``d f . v = 0`` for every unobservable direction ``v``:
+  ``sum_a c_a (d m_a . v_j)(z) = 0``;
+* a Laurent monomial ``prod z_i^(a_i)`` is observable iff ``d log`` of it is:
+  ``sum_i a_i v_ji(z) / z_i = 0`` (the exponents of the observable ones form a lattice: for a
+  scaling symmetry, its invariant monomials);
+* a vector field ``X = sum_(i,a) c_ia m_a e_i`` is annihilated by the codistribution iff
+  ``d k . X = 0`` for every kept generator: ``sum_(i,a) c_ia (d k / d z_i)(z) m_a(z) = 0``.
+
+Points are added until the solution space stops shrinking (two points in a row leave its
+dimension unchanged, or the equations outnumber the unknowns by the rows of two points). A
+basis of the solutions is put in reduced echelon form with the most complex unknowns first
+(so that each basis element uses as few and as simple monomials as it can), and its entries
+are read back as small fractions (rational reconstruction). These are *candidates*: a point
+set that is too small can leave a spurious solution, so every function found is verified
+again by the exact membership test and every field by the exact symmetry check before it is
+reported.
+"""
+
+import dataclasses
+import itertools
+import math
+from fractions import Fraction
+
+import numpy as np
+
+from .._engine import graph_exact
+
+
+@dataclasses.dataclass(frozen=True)
+class Point:
+    """One random point modulo p: the coordinates ``z (N,)``, the kept rows ``K (r, N)``, a
+    basis ``V (N - r, N)`` of their kernel, the atoms' values and gradients (``{i: d a / d z_i}``)."""
+
+    z: list
+    K: list
+    V: list
+    values: list
+    grads: list
+
+#: Most unknowns an ansatz may have (monomials times coordinates): past it the ansatz is skipped.
+MAX_UNKNOWNS = 120
+#: Most random points an ansatz draws.
+MAX_POINTS = 80
+
+
+def monomials(m: int, degree: int, low: int = 1) -> list[tuple[int, ...]]:
+    """Exponent vectors of the monomials in ``m`` coordinates of total degree ``low..degree``,
+    the highest degree first (within a degree, lexicographically descending)."""
+    out = []
+    for d in range(degree, low - 1, -1):
+        for combo in itertools.combinations_with_replacement(range(m), d):
+            e = [0] * m
+            for i in combo:
+                e[i] += 1
+            out.append(tuple(e))
+    return out
+
+
+def rational(a: int, p: int = graph_exact.PRIME):
+    """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
+    reconstruction, by the extended Euclidean algorithm), or None when there is none."""
+    bound = math.isqrt(p // 2)
+    r0, r1, s0, s1 = p, a % p, 0, 1
+    while r1 > bound:
+        q = r0 // r1
+        r0, r1, s0, s1 = r1, r0 - q * r1, s1, s0 - q * s1
+    if s1 == 0 or abs(s1) > bound:
+        return None
+    return Fraction(r1, s1)
+
+
+#: Largest numerator or denominator of a coefficient read back from a residue: a solution
+#: with larger ones is a spurious one of too few points, or not a readable closed form.
+MAX_COEFFICIENT = 10**6
+
+
+def integer_vector(row, p: int = graph_exact.PRIME):
+    """A residue vector as the smallest integer vector proportional to it (its fractions
+    reconstructed, scaled by the least common denominator, divided by the gcd, the first
+    nonzero entry positive), or None when an entry has no small fraction."""
+    fr = []
+    for v in row:
+        f = rational(int(v), p)
+        if f is None or abs(f.numerator) > MAX_COEFFICIENT or f.denominator > MAX_COEFFICIENT:
+            return None
+        fr.append(f)
+    lcm = 1
+    for f in fr:
+        lcm = lcm * f.denominator // math.gcd(lcm, f.denominator)
+    ints = [int(f * lcm) for f in fr]
+    g = 0
+    for v in ints:
+        g = math.gcd(g, v)
+    if g == 0:
+        return None
+    ints = [v // g for v in ints]
+    first = next(v for v in ints if v)
+    return [-v for v in ints] if first < 0 else ints
+
+
+def kernel(rows, cols: int, p: int = graph_exact.PRIME) -> list[list[int]]:
+    """A basis of ``{c : rows c = 0}`` over ``F_p`` (each basis vector: 1 at its own free
+    column, zero at the others). ``rows``: a list of rows or a
+    :class:`~uio_jax._engine.graph_exact.Echelon` of them."""
+    if isinstance(rows, graph_exact.Echelon):
+        ech = rows
+    else:
+        ech = graph_exact.Echelon(p)
+        for r in rows:
+            ech.add(r)
+    pivots = dict(zip(ech.pivots, ech.rows))
+    free = [c for c in range(cols) if c not in pivots]
+    out = []
+    for f in free:
+        v = [0] * cols
+        v[f] = 1
+        for c, r in pivots.items():
+            v[c] = (-r[f]) % p
+        out.append(v)
+    return out
+
+
+def simplest_basis(vectors, p: int = graph_exact.PRIME) -> list[list[int]]:
+    """The reduced echelon form of a basis (columns ordered most complex first by the caller):
+    each vector has its leading entry at its most complex unknown and none at the others'."""
+    ech = graph_exact.Echelon(p)
+    for v in vectors:
+        ech.add(v)
+    return [row for _, row in sorted(zip(ech.pivots, ech.rows))]
+
+
+class ModularSpan:
+    """The kept generators' rows and the unobservable directions at random points of ``F_p``.
+
+    Args:
+        graph: the expression graph.
+        kept: graph nodes of the kept generators (independent).
+        atoms: graph nodes the polynomial ansatz is written in (the coordinates, and
+            elementary functions of one coordinate such as ``cos(theta)``).
+        seed: seed of the points.
+    """
+
+    def __init__(self, graph, kept, atoms=(), seed: int = 0):
+        self.graph, self.kept, self.atoms = graph, list(kept), list(atoms)
+        self.rng = np.random.default_rng([int(seed), 0xA25A72])
+        self.p = graph_exact.PRIME
+        self.points = []  # Point per drawn point
+
+    def point(self, i: int):
+        """The ``i``-th :class:`Point` (drawn on first use; a singular draw, or one where the
+        kept rows lose rank, is drawn again, at most 8 times), or None."""
+        while len(self.points) <= i:
+            found = self._draw()
+            if found is None:
+                return None
+            self.points.append(found)
+        return self.points[i]
+
+    def _draw(self):
+        p, N, r = self.p, self.graph.n, len(self.kept)
+        for _ in range(8):
+            words = self.rng.integers(0, 2**63, size=(N, 3))
+            z = [((int(a) << 126) | (int(b) << 63) | int(c)) % p for a, b, c in words]
+            ev = graph_exact.ModularEvaluator(self.graph, [z])
+            try:
+                ev.evaluate(self.kept + self.atoms)
+            except graph_exact.Singular:
+                continue
+            K = [[int(v) % p for v in ev.row(k, 0)] for k in self.kept]
+            V = kernel(K, N, p)
+            values = [int(ev.V[a][0]) % p for a in self.atoms]
+            if len(V) == N - r and all(z) and all(values):
+                grads = [{i: int(v) % p for i, v in enumerate(ev.row(a, 0)) if int(v) % p} for a in self.atoms]
+                return Point(z, K, V, values, grads)
+        return None
+
+    def solve(self, equations, unknowns: int, rows_per_point: int):
+        """The solutions ``c`` (residues) of ``equations(point) -> rows`` at enough points;
+        None when a point could not be drawn or the points ran out."""
+        ech, dims, i, count = graph_exact.Echelon(self.p), [], 0, 0
+        while i < MAX_POINTS:
+            found = self.point(i)
+            if found is None:
+                return None
+            for row in equations(found):
+                ech.add(row)
+                count += 1
+            i += 1
+            if count < unknowns:
+                continue
+            dims.append(unknowns - ech.rank)
+            if dims[-1] == 0 or (len(dims) >= 3 and dims[-1] == dims[-3]
+                                 and count >= unknowns + 2 * rows_per_point):
+                return kernel(ech, unknowns, self.p)
+        return None
+
+
+def polynomial_functions(span: ModularSpan, degree: int):
+    """Integer coefficient vectors of observable polynomials in the span's atoms of degree at
+    most ``degree`` (no constant term), with the exponent list: ``(monos, vectors)``; None when
+    the ansatz is too large or cannot be solved."""
+    q = len(span.atoms)
+    monos = monomials(q, degree)
+    if not q or len(monos) > MAX_UNKNOWNS:
+        return None
+    p = span.p
+
+    def equations(pt):
+        rows = []
+        grads = []
+        for e in monos:  # d m = sum_t (d m / d a_t) d a_t
+            g = {}
+            for t, dm in _monomial_gradient(e, pt.values, p).items():
+                for i, v in pt.grads[t].items():
+                    g[i] = (g.get(i, 0) + dm * v) % p
+            grads.append(g)
+        for v in pt.V:
+            rows.append([sum(g[i] * v[i] for i in g) % p for g in grads])
+        return rows
+
+    sol = span.solve(equations, len(monos), max(1, span.graph.n - len(span.kept)))
+    if sol is None:
+        return None
+    return monos, _readable(sol, p)
+
+
+def laurent_monomials(span: ModularSpan, m: int):
+    """Integer exponent vectors ``a`` (length ``m``) of the observable Laurent monomials
+    ``prod z_i^(a_i)`` of the first ``m`` coordinates (a basis of their lattice, read back
+    from the reduced echelon form), or None."""
+    if m > MAX_UNKNOWNS:
+        return None
+    p = span.p
+
+    def equations(pt):
+        inv = [pow(pt.z[i], -1, p) for i in range(m)]
+        return [[v[i] * inv[i] % p for i in range(m)] for v in pt.V]
+
+    sol = span.solve(equations, m, max(1, span.graph.n - len(span.kept)))
+    return None if sol is None else _readable(sol, p)
+
+
+def polynomial_fields(span: ModularSpan, degree: int):
+    """Integer coefficient vectors of the polynomial vector fields of degree at most ``degree``
+    (constant fields included) that every kept gradient annihilates, on all ``N``
+    coordinates: ``(monos, vectors)``, unknown ``(i, a)`` at ``i * len(monos) + a``; or None."""
+    N = span.graph.n
+    monos = monomials(N, degree, low=0)
+    if len(monos) * N > MAX_UNKNOWNS:
+        return None
+    p = span.p
+
+    def equations(pt):
+        values = [_monomial_value(e, pt.z, p) for e in monos]
+        return [[k[i] * mv % p for i in range(N) for mv in values] for k in pt.K]
+
+    sol = span.solve(equations, len(monos) * N, max(1, len(span.kept)))
+    if sol is None:
+        return None
+    return monos, _readable(sol, p, order=_field_order(monos, N))
+
+
+def _field_order(monos, N):
+    """Unknowns of a field ansatz, most complex first: by the degree of their monomial."""
+    M = len(monos)
+    return sorted(range(M * N), key=lambda u: (-sum(monos[u % M]), u))
+
+
+def _readable(solutions, p, order=None):
+    """The solution space's simplest basis as integer vectors (those without small fractions
+    dropped). ``order``: the unknowns from the most complex (default: as given)."""
+    if not solutions:
+        return []
+    n = len(solutions[0])
+    order = list(range(n)) if order is None else list(order)
+    permuted = [[v[j] for j in order] for v in solutions]
+    out = []
+    for row in simplest_basis(permuted, p):
+        back = [0] * n
+        for pos, j in enumerate(order):
+            back[j] = row[pos]
+        vec = integer_vector(back, p)
+        if vec is not None:
+            out.append(vec)
+    return out
+
+
+def _monomial_value(e, z, p):
+    out = 1
+    for i, k in enumerate(e):
+        if k:
+            out = out * pow(z[i], k, p) % p
+    return out
+
+
+def _monomial_gradient(e, z, p):
+    """``{i: d m / d z_i}`` of the monomial with exponents ``e`` at ``z`` (mod p)."""
+    out = {}
+    for i, k in enumerate(e):
+        if k:
+            rest = list(e)
+            rest[i] -= 1
+            out[i] = k * _monomial_value(rest, z, p) % p
+    return out
+
+
+__all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
+           "polynomial_functions", "laurent_monomials", "polynomial_fields", "MAX_UNKNOWNS",
+           "MAX_POINTS", "MAX_COEFFICIENT"]
