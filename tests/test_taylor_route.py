@@ -159,3 +159,13 @@ def test_singular_points_are_drawn_again():
     series = taylor.TaylorSeries(g, [f0], [], [h], taylor.Modular([[0, 5]], draws), 3)
     with pytest.raises(graph_elementary.Singular):
         series.coefficient(h, 2)
+
+
+def test_report_text_and_names_on_the_taylor_route():
+    report = uj.analyze(_chain(12, "mul", hidden=True))
+    text = str(report)
+    assert "Taylor series" in text and "symmetries found: not searched" in text
+    named = report.named_functions
+    assert set(named.texts) == {v for v, seen in {**report.observable, **report.identifiable}.items() if seen}
+    assert not named.complete  # a0 * b is observable, neither factor: given only as generators
+    assert report.to_dict()["dim"] == report.dim

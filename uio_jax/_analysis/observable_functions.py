@@ -145,6 +145,21 @@ class ObservableFunctions:
                 "error_bound": self.error_bound}
 
 
+def coordinate_functions(verdicts, dim: int, generators) -> ObservableFunctions:
+    """The observable coordinates as the named functions, where the analysis keeps no
+    symbolic generators to test other candidates against (the Taylor route,
+    :mod:`uio_jax._analysis.taylor_route`): each one's membership was decided exactly by the
+    analysis itself (its bound is in the certificate).
+
+    Args:
+        verdicts: coordinate name -> observable (states and parameters).
+        dim: the observable dimension.
+        generators: labels of the kept generators.
+    """
+    functions = tuple(NamedFunction(name, Source.VARIABLE, (name,)) for name, seen in verdicts.items() if seen)
+    return ObservableFunctions(functions, (), dim, tuple(generators), "exact mod p", 0.0, 0.0)
+
+
 def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions:
     """Name observable functions of a finished analysis.
 
@@ -306,5 +321,5 @@ def _monomial(g, e, atoms):
     return node
 
 
-__all__ = ["Source", "NamedFunction", "ObservableFunctions", "name_functions", "MAX_SUBEXPRESSIONS",
-           "PAIR_POOL"]
+__all__ = ["coordinate_functions", "Source", "NamedFunction", "ObservableFunctions", "name_functions",
+           "MAX_SUBEXPRESSIONS", "PAIR_POOL"]

@@ -19,7 +19,7 @@ from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
 from .found_symmetries import FoundSymmetries, find_symmetries
 from .functions_of_z import function_of_z
-from .observable_functions import ObservableFunctions, name_functions
+from .observable_functions import ObservableFunctions, coordinate_functions, name_functions
 from .reparametrise import reparametrised_model
 from .report_text import report_text
 
@@ -243,6 +243,9 @@ class Report:
         checked exactly (:mod:`uio_jax._analysis.observable_functions`: candidates, ranking,
         checks). Computed on first access (it costs about as much as a small analysis) and
         kept."""
+        if not self._named and not hasattr(self._space, "parts"):  # the Taylor route: no symbolic generators
+            self._named.append(coordinate_functions({**self.observable, **self.identifiable}, self.dim,
+                                                    self.generators))
         if not self._named:
             inputs = len(self.details.get("extended_state", ())) - self.n if self.method == "eorc" else 0
             self._named.append(name_functions(self._space.parts(), inputs=max(inputs, 0)))
@@ -254,6 +257,9 @@ class Report:
         fields of degree at most 1 (translations, rotations, scalings) found by an exact
         ansatz and verified by the symmetry check of declared symmetries
         (:mod:`uio_jax._analysis.found_symmetries`). Computed on first access and kept."""
+        if not self._found and not hasattr(self._space, "parts"):
+            self._found.append(FoundSymmetries((), self.n - self.dim, "" if self.n == self.dim else
+                                               "the Taylor route keeps no symbolic generators to search against"))
         if not self._found:
             parts = self._space.parts()
             self._found.append(find_symmetries(parts, parts.system))
