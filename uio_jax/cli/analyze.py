@@ -52,10 +52,12 @@ def run(args) -> int:
         if initial:
             rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
                           max_order=args.max_order, prob_threshold=args.prob_threshold)
-            return _print_initial(rep, args.json)
-        rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                      known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
+        else:
+            rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
+                          rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
+                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
+    if initial:
+        return _print_initial(rep, args.json)
     print(rep)
     directions = _print_directions(rep)
     if args.json:
