@@ -23,9 +23,11 @@ certificate gained its arithmetic and counts, the screen of an exact analysis st
 decision samples, the general solution's zero tests count the extension's chain tests, a
 report keeps its StopReason member as ``stop``; every verdict, dimension and step unchanged,
 57 of 57 analysed reports exact in arithmetic), then when every answer for switchable known
-inputs gained the note on the other meaning (issue 40). Entries added, no report moved: the
-Vi-SfM with partial input knowledge at the paper's orders (``visual_inertial_no_offset.py``)
-and the standard Vi-SfM with a full IMU (``visual_inertial_standard.py``). A change that
+inputs gained the note on the other meaning (issue 40), and when every report gained
+``question`` (``generic_states``; issue 39: the known-initial-state analysis answers another).
+Entries added, no report moved: the Vi-SfM with partial input knowledge at the paper's orders
+(``visual_inertial_no_offset.py``) and the standard Vi-SfM with a full IMU
+(``visual_inertial_standard.py``). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
 strings and labels compare exactly; floats (singular-value margins of the certificate) to a
 relative 1e-9, so that a new XLA build's last-bit differences do not fail the test while any

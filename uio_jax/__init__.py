@@ -30,10 +30,14 @@ from ._model.experiment import Experiment as Experiment
 from ._model.experiment import Measurement as Measurement
 from ._model.experiment import Quantity as Quantity
 from ._model.experiment import TimeScaleWarning as TimeScaleWarning
+from ._model.experiments import Experiments as Experiments
 
 # the analyses and their report
 from ._analysis.analyze import analyze as analyze
 from ._analysis.report import Report as Report
+from ._analysis.report import Question as Question
+from ._analysis.identifiability_report import IdentifiabilityReport as IdentifiabilityReport
+from ._analysis.identifiability_report import Verdict as Verdict
 from ._analysis.evidence import Step as Step
 from ._analysis.evidence import Certificate as Certificate
 from ._analysis.plots import plot_analysis as plot_analysis
@@ -70,8 +74,9 @@ from ._errors import LoadError as LoadError
 from ._errors import ExpressionError as ExpressionError
 
 __all__ = [
-    "System", "Experiment", "Measurement", "Quantity",
+    "System", "Experiment", "Measurement", "Quantity", "Experiments",
     "analyze", "Report", "Step", "Certificate", "plot_analysis",
+    "Question", "IdentifiabilityReport", "Verdict",
     "run_montecarlo", "trajectories", "MonteCarloResult",
     "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
     "load_system", "save_model", "load_experiment", "system_from_sympy", "system_from_dynamics",

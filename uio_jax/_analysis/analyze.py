@@ -19,12 +19,14 @@ import dataclasses
 import jax
 
 from .._errors import OptionError
+from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
 from .._model.system import System
 from .context import Context
 from .eorc import eorc_report
 from .general_ui import check_applicable as general_ui_applicable
 from .general_ui import general_ui_report
+from .identifiability import analyze_experiments, analyze_initial
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
@@ -46,23 +48,23 @@ def analyze(
     k_max: int | None = DEFAULTS["k_max"],
     known_inputs: str = DEFAULTS["known_inputs"],
     prob_threshold: float = DEFAULTS["prob_threshold"],
+    initial=None,
+    shared=None,
 ):
     """Which states of ``system`` are observable: the observable codistribution.
 
     Main arguments:
-        system: a :class:`~uio_jax.System`.
+        system: a :class:`~uio_jax.System`; or several experiments (a sequence of Systems, or
+            :class:`~uio_jax.Experiments`): then, as with ``initial=``, see below.
 
     Other arguments:
         method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"general_ui"``,
             ``"eorc"``, ``"series"`` or ``"fast"``: how ``"auto"`` and ``"fast"`` choose is in
             the module docstring; ``Report.method`` records the choice.
-        samples: number S of random states of the domain drawn for the float64 screen:
-            the recursion's votes are taken at the first decision samples where the model
-            is defined (:func:`~uio_jax._analysis.memory.decision_count`, 128 for most
-            models), the final span's margins and the figure at as many of the S as fit in
-            memory (``Certificate.capped`` says how many did not). The verdicts do not rest
-            on these votes: every decision is settled again modulo p (or in extended
-            precision where the model is not made rational, :attr:`Certificate.arithmetic`).
+        samples: number S of random states drawn for the float64 screen (votes at the first
+            decision samples, :func:`~uio_jax._analysis.memory.decision_count`; margins and the
+            figure at as many as fit in memory, ``Certificate.capped``). The verdicts do not rest
+            on these votes: every decision is settled again modulo p (or in extended precision).
         prob_threshold: the probability of correctness the exact decisions must reach
             (StructuralIdentifiability.jl's ``prob_threshold``; default 0.999999): each
             decision modulo ``p = 2^127 - 1`` is wrong with probability at most
@@ -74,17 +76,17 @@ def analyze(
         rtol: relative tolerance on ``s_i / s_1`` after scaling (default
             :func:`uio_jax.default_rtol`, 1e-8).
         max_order: optional cap on the number of steps m of the ORC / single_ui recursion.
-        k_max: highest order k of the EORC (default n + 2, and the EORC stops earlier once
-            every unknown input is observable and the states reach the rank they have with
-            every input known: no later order changes a verdict); given, every order up to
-            it is run. The other methods do not use it (their report notes it when given).
-        known_inputs: what a known input is: ``"switchable"`` (default; it may be chosen
-            freely and may jump, the meaning of Martinelli's single-input papers and of the
-            classical ORC/EORC) or ``"smooth"`` (a generic smooth function of time, known
-            with its derivatives: TUIO6's meaning). They can give different, legitimate
-            answers: the polar unicycle of 004 section 11.1.1 has dim 2 switchable, 1
-            smooth. Systems without known inputs have one meaning. ``Report.known_inputs``
-            records it.
+        k_max: highest order k of the EORC (default n + 2; it stops earlier once every unknown
+            input is observable and the states reach their rank with every input known); given,
+            every order up to it is run. Other methods do not use it (their report notes it).
+        known_inputs: ``"switchable"`` (default; a known input may be chosen freely and may
+            jump: Martinelli's papers, the classical ORC/EORC) or ``"smooth"`` (a generic smooth
+            function of time, known with its derivatives: TUIO6's); the answers can differ (004
+            11.1.1: dim 2 switchable, 1 smooth). ``Report.known_inputs`` records it.
+        initial, shared: a known initial state ``state -> value`` (a number in the state's box,
+            a parameter's name, a function of ``p``; one per experiment for several) and the shared
+            parameters (default: those common to all): then the question is local identifiability
+            at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`, :func:`_identifiability`).
 
     Returns:
         :class:`~uio_jax.Report`. For a System with ``params``, the analysis runs on
@@ -103,8 +105,8 @@ def analyze(
     References:
         Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
-    if not isinstance(system, System):
-        raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
+    if initial is not None or shared is not None or not isinstance(system, System):
+        return _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
                          max_order=max_order, k_max=k_max, known_inputs=known_inputs,
                          prob_threshold=prob_threshold)
@@ -115,6 +117,30 @@ def analyze(
     system = system.autonomous()
     report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, opts["prob_threshold"])
     return _with_notes(report, system, k_max, seed)
+
+
+def _identifiability(system, initial, shared, method, seed, max_order, prob_threshold):
+    """The known-initial-state or several-experiment analysis (:mod:`.identifiability`,
+    ``docs/initial_conditions.md``): local identifiability of the parameters and observability
+    of the unknown initial states at ``t = 0`` from the output's Taylor coefficients, decided
+    exactly. ``max_order`` caps the order of the coefficients (default ``2 u + 2``, ``u`` the
+    number of unknowns); ``method`` must be ``"auto"``; ``samples``, ``rtol``, ``k_max`` and
+    ``known_inputs`` do not apply (known inputs are generic, there is no float64 screen)."""
+    opts = check_options(method=method, seed=seed, max_order=max_order, prob_threshold=prob_threshold)
+    if opts["method"] != "auto":
+        raise OptionError(f"method {method!r} does not apply with initial= or several experiments (use 'auto')")
+    kw = {"seed": opts["seed"], "prob_threshold": opts["prob_threshold"], "max_order": opts["max_order"]}
+    if isinstance(system, Experiments):
+        if initial is not None or shared is not None:
+            raise OptionError("give initial= and shared= inside uj.Experiments, not to analyze")
+        return analyze_experiments(system.systems, system.initial, shared=system.shared, **kw)
+    if isinstance(system, System):
+        if shared is not None:
+            raise OptionError("shared= applies to several experiments (a sequence of Systems)")
+        return analyze_initial(system, initial, **kw)
+    if isinstance(system, (list, tuple)):
+        return analyze_experiments(system, initial, shared=shared, **kw)
+    raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
 
 
 def _with_notes(report, system, k_max, seed):

@@ -6,6 +6,7 @@ checked by :mod:`uio_jax._analysis.functions_of_z`, its text written by
 :mod:`uio_jax._analysis.report_text`.
 """
 
+import enum
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -41,6 +42,54 @@ SEMANTICS_SMOOTH = (
     "STRIKE-GOLDD/StrikePy by default model an unknown input as a polynomial in time of "
     "fixed degree, which answers a different question."
 )
+
+
+class Question(str, enum.Enum):
+    """Which question a report answers (a ``str``: written as its value in JSON).
+
+    ``GENERIC_STATES``: the observable codistribution at generic states (every
+    :class:`Report`). The others are answered by :func:`uio_jax.analyze` with ``initial=``
+    or several experiments (:mod:`uio_jax._analysis.initial`): local identifiability of
+    the parameters and of the unknown initial states at the given initial state, from the
+    output's Taylor coefficients at ``t = 0``; ``*_FREE_INPUT_JETS``: with unknown inputs,
+    whose derivatives at ``t = 0`` are free unknowns (sufficient only: "determined" is
+    proven, the rest is not shown).
+    """
+
+    GENERIC_STATES = "generic_states"
+    KNOWN_INITIAL_STATE = "known_initial_state"
+    KNOWN_INITIAL_STATE_FREE_INPUT_JETS = "known_initial_state_free_input_jets"
+    EXPERIMENTS = "experiments"
+    EXPERIMENTS_FREE_INPUT_JETS = "experiments_free_input_jets"
+
+    @property
+    def sufficient_only(self) -> bool:
+        """Whether only "determined" verdicts are proofs (unknown inputs with free jets)."""
+        return self.value.endswith("free_input_jets")
+
+    @property
+    def description(self) -> str:
+        """The question in words."""
+        return _QUESTIONS[self]
+
+
+_QUESTIONS = {
+    Question.GENERIC_STATES: "the observable functions at generic states (the observable codistribution)",
+    Question.KNOWN_INITIAL_STATE: (
+        "local identifiability of the parameters and observability of the unknown initial states "
+        "at the given initial state (its known components at the given values, not generic ones), "
+        "from the output's Taylor coefficients at t = 0; known inputs generic"),
+    Question.KNOWN_INITIAL_STATE_FREE_INPUT_JETS: (
+        "local identifiability of the parameters and observability of the unknown initial states "
+        "at the given initial state, with the unknown inputs' derivatives at t = 0 free unknowns: "
+        "sufficient only ('determined' is proven, 'not determined up to order K' is not a proof)"),
+    Question.EXPERIMENTS: (
+        "local identifiability from several experiments: parameters shared, states, inputs and "
+        "initial states per experiment; from the outputs' Taylor coefficients at t = 0"),
+    Question.EXPERIMENTS_FREE_INPUT_JETS: (
+        "local identifiability from several experiments with the unknown inputs' derivatives at "
+        "t = 0 free unknowns: sufficient only"),
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,6 +151,12 @@ class Report:
         object.__setattr__(self, "observable", MappingProxyType(observable))
         object.__setattr__(self, "identifiable", MappingProxyType(identifiable))
         object.__setattr__(self, "details", MappingProxyType(dict(self.details)))
+
+    @property
+    def question(self) -> Question:
+        """The question answered: :attr:`Question.GENERIC_STATES` (the observable
+        codistribution at generic states)."""
+        return Question.GENERIC_STATES
 
     @property
     def stop_reason(self) -> str:
@@ -309,6 +364,7 @@ class Report:
         return jsonable({
             "system": self.system_name,
             "method": self.method,
+            "question": self.question.value,
             "states": list(self.states),
             "dim": self.dim,
             "n": self.n,

@@ -8,7 +8,8 @@ def report_text(report) -> str:
     verdicts per state and parameter (UNDECIDED where the certificate leaves one open),
     certificate and notes."""
     title = f"uio_jax report: {printable(report.system_name or 'system')} ({report.method})"
-    lines = [title, "=" * len(title), f"answer: {report.answer_kind()}"]
+    lines = [title, "=" * len(title), f"answer: {report.answer_kind()}",
+             f"question: {report.question.value} ({report.question.description})"]
     obs = [s for s in report.states if report.observable[s]]
     of = f"{report.n}" + (" (states and parameters)" if report.params else "")
     lines.append(f"observable codistribution: dim {report.dim} of {of}"

@@ -23,7 +23,7 @@ Stopping: the increments ``r_K - r_(K-1)`` never increase (the observability ind
 the output filtration), so the first order that adds nothing closes the span; otherwise
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
-Cost: the coefficients are expressions of the System's graph (:class:`_GraphCoefficients`:
+Cost: the coefficients are expressions of the System's graph (:class:`GraphCoefficients`:
 ``y^(k) = L_F^k h`` on ``[x; t]`` by symbolic forward mode with shared subexpressions, then
 ``t = 0``), their gradients evaluated by numpy over the samples: only the combinations in
 ``y^(K)`` are formed, so models whose ORC grows with every field (tens of states and
@@ -65,7 +65,7 @@ def input_coefficients(system, orders: int, seed: int) -> np.ndarray:
 
 class _Series:
     """Nodes ``y_k[h]`` of one System and generic input (expressions of its graph, built
-    order by order on demand: :class:`_GraphCoefficients`)."""
+    order by order on demand: :class:`GraphCoefficients`)."""
 
     def __init__(self, ctx: Context, seed: int, cap: int):
         self.system = ctx.system
@@ -75,7 +75,7 @@ class _Series:
         self.outs = ctx.output_nodes()
         self.ctx = ctx
         self.nodes = {}
-        self.coefficients = _GraphCoefficients.of(ctx, self.a, cap)
+        self.coefficients = GraphCoefficients.of(ctx, self.a, cap)
 
     def node(self, k, i):
         """The node ``y_k[h_i]`` (memoized by the builder)."""
@@ -97,7 +97,7 @@ class _Series:
         return nodes, ctx.gradients(nodes)
 
 
-class _GraphCoefficients:
+class GraphCoefficients:
     """The coefficients ``y_k`` of every output as expressions of the System's graph,
     built order by order on demand.
 
@@ -235,4 +235,5 @@ def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
     return ctx.report("series", history, reason, notes=notes, details={"order": k})
 
 
-__all__ = ["series_report", "run_series", "input_coefficients", "check_applicable", "SERIES_NOTE"]
+__all__ = ["series_report", "run_series", "input_coefficients", "check_applicable", "SERIES_NOTE",
+           "GraphCoefficients"]

@@ -16,7 +16,7 @@ from .._errors import ExpressionError, ModelError
 from .expressions import ALIASES, CONSTANTS, FUNCTIONS, parse_expression
 
 _TOP_KEYS = ("name", "description", "notes", "states", "angles", "time", "params", "constants", "domain",
-             "outputs", "drift", "known", "unknown", "inputs", "dynamics")
+             "outputs", "drift", "known", "unknown", "inputs", "dynamics", "initial")
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,7 @@ class ModelSpec:
     inputs_known: tuple = ()
     inputs_unknown: tuple = ()
     time: str | None = None
+    initial: Mapping = field(default_factory=dict)
 
     @property
     def general(self) -> bool:
@@ -85,6 +86,8 @@ class ModelSpec:
                 d["known"] = {k: dict(v) for k, v in self.known.items()}
             if self.unknown:
                 d["unknown"] = {k: dict(v) for k, v in self.unknown.items()}
+        if self.initial:
+            d["initial"] = dict(self.initial)
         return d
 
 
@@ -168,6 +171,7 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
                 _identifier(inp, kind, w)
                 _claim(inp, "input", taken, kind, w)
                 out[inp] = _exprs(fld, f"{kind}.{inp}", w, base_names, rows=states)
+    initial = _initial(data.get("initial", {}), w, states, tuple(params) + tuple(constants))
     ro = MappingProxyType
     notes = tuple(notes) + _shadow_notes(taken)
     return ModelSpec(
@@ -175,7 +179,28 @@ def spec_from_dict(data, source: str = "model") -> ModelSpec:
         angles=angles, params=ro(params), constants=ro(constants), domain=ro(domain), drift=ro(drift),
         known=ro({k: ro(v) for k, v in known.items()}), unknown=ro({k: ro(v) for k, v in unknown.items()}),
         dynamics=None if dynamics is None else ro(dynamics), inputs_known=ik, inputs_unknown=iu, time=time,
+        initial=ro(initial),
     )
+
+
+def _initial(v, w, states, names) -> dict:
+    """The ``[initial]`` table: state -> a finite number or an expression in the parameters and
+    constants (kept as text; the analysis reads it, :mod:`uio_jax._io.initial_values`)."""
+    out = {}
+    for k, val in _table(v, "initial", w).items():
+        if k not in states:
+            raise w.error(f"initial.{k}", f"{k!r} is not a state (states: {', '.join(states)})")
+        if isinstance(val, bool) or not isinstance(val, (int, float, str)):
+            raise w.error(f"initial.{k}", f"must be a number or an expression text, got {type(val).__name__}")
+        if isinstance(val, str):
+            try:
+                parse_expression(val, names, what=f"initial.{k}")
+            except ExpressionError as exc:
+                raise w.error("", str(exc)) from None
+        elif not math.isfinite(val):
+            raise w.error(f"initial.{k}", f"must be finite, got {val!r}")
+        out[k] = val
+    return out
 
 
 def _general_form_inputs(data, w, taken):

@@ -4,7 +4,7 @@ import json
 
 from .._errors import UioJaxError
 from .._output import printable
-from .common import add_cache_options, check_writable, model_prints_on_stderr, write_output
+from .common import UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
 
 
 def add_parser(subparsers, analysis_options):
@@ -13,6 +13,10 @@ def add_parser(subparsers, analysis_options):
     a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System, a .toml/.json model file, "
                    "or a StrikePy model module (FILE.py)")
     analysis_options(a)
+    a.add_argument("--initial", action="append", default=[], metavar="STATE=VALUE",
+                   help="a known initial state (repeat for several): a number, a parameter, or an expression "
+                        "in the parameters; answers identifiability at t = 0 at that initial state "
+                        "(a model file's [initial] table is used too)")
     a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
     a.add_argument("--plot", metavar="FILE", help="also draw dims per step and the rank evidence "
                                                   "(png, pdf, svg by suffix)")
@@ -26,12 +30,16 @@ def run(args) -> int:
     """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
     from .._analysis.analyze import analyze
     from .._analysis.options import check_options
+    from .._io.initial_values import file_initial, initial_values
     from .._io.loading import load_system
     from .._progress import StepPrinter, step_listener
 
     check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
                   max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
                   known_inputs=args.known_inputs)  # before loading the model
+    given = _initial_pairs(args.initial)
+    if args.plot and given:
+        raise UsageError("--plot draws the codistribution's steps; it does not apply with --initial")
     if args.plot:
         from .._analysis.plots import check_figure_path
 
@@ -40,9 +48,16 @@ def run(args) -> int:
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with model_prints_on_stderr(), step_listener(printer):
         system = load_system(args.model)
-        rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                      rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                      known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
+        initial = {**file_initial(system), **given}
+        if initial:
+            rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
+                          max_order=args.max_order, prob_threshold=args.prob_threshold)
+        else:
+            rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
+                          rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
+                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
+    if initial:
+        return _print_initial(rep, args.json)
     print(rep)
     directions = _print_directions(rep)
     if args.json:
@@ -56,6 +71,29 @@ def run(args) -> int:
 
         plot_analysis(rep, args.plot)
         print(f"figure written to {args.plot}")
+    return 0
+
+
+def _initial_pairs(items) -> dict:
+    """``{state: text}`` from ``--initial STATE=VALUE`` arguments (UsageError on a bad one)."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise UsageError(f"--initial needs STATE=VALUE, got {item!r}")
+        if name in out:
+            raise UsageError(f"--initial gives {name} twice")
+        out[name] = value
+    return out
+
+
+def _print_initial(rep, json_path) -> int:
+    """Print an identifiability report at t = 0 (and write its JSON); exit code 0."""
+    print(rep)
+    if json_path:
+        write_output(json_path, json.dumps(rep.to_dict(), indent=2))
+        print(f"report written to {json_path}")
     return 0
 
 
