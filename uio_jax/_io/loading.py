@@ -49,15 +49,7 @@ def load_system(spec, *args, **kwargs) -> System:
     if isinstance(spec, str):
         suffix = os.path.splitext(spec)[1].lower()
         if suffix in (".xml", ".sbml"):
-            if args:
-                raise LoadError(f"{spec}: an SBML model takes keyword arguments only (outputs=, known=, ...)")
-            from .sbml_import import SBML_OPTIONS, load_sbml
-
-            bad = [k for k in kwargs if k not in SBML_OPTIONS]
-            if bad:
-                raise OptionError(f"{spec}: unknown option {bad[0]!r} for an SBML model (options: "
-                                  f"{', '.join(SBML_OPTIONS)})")
-            return load_sbml(spec, **kwargs)
+            return _sbml(spec, args, kwargs)
         if suffix in (".toml", ".json"):
             if args or kwargs:
                 raise LoadError(f"{spec}: a model file takes no arguments")
@@ -102,6 +94,19 @@ def load_system(spec, *args, **kwargs) -> System:
     if not obj.name:
         object.__setattr__(obj, "name", f"{os.path.basename(path)}:{name}")
     return obj
+
+
+def _sbml(spec, args, kwargs) -> System:
+    """An SBML model with its declarations (keyword arguments only, checked by name)."""
+    if args:
+        raise LoadError(f"{spec}: an SBML model takes keyword arguments only (outputs=, known=, ...)")
+    from .sbml_import import SBML_OPTIONS, load_sbml
+
+    bad = [k for k in kwargs if k not in SBML_OPTIONS]
+    if bad:
+        raise OptionError(f"{spec}: unknown option {bad[0]!r} for an SBML model (options: "
+                          f"{', '.join(SBML_OPTIONS)})")
+    return load_sbml(spec, **kwargs)
 
 
 def model_functions(path) -> list[str]:
