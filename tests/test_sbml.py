@@ -446,3 +446,70 @@ def test_sbml_options_for_another_model_are_a_usage_error(tmp_path, capsys):
     toml.write_text('states = ["x"]\n[outputs]\ny = "x"\n')
     assert main(["analyze", str(toml), "--outputs", "y=x"]) == 2
     assert "SBML models" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- other SBML features
+@pytest.fixture
+def enzyme(tmp_path):
+    """E + S <-> ES -> E + P through a function definition, S fed from a boundary species S0,
+    an assignment rule reading a reaction's rate; species E (the name of Euler's constant)."""
+    b = (Builder("enzyme").compartment("c", 2).species("E", "c").species("S", "c").species("ES", "c")
+         .species("P", "c").species("S0", "c", init=4, boundary=True)
+         .parameter("kf", 1).parameter("kr", 1).parameter("kcat", 1).parameter("kin", 1)
+         .parameter("v_cat", constant=False))
+    fd = b.m.createFunctionDefinition()
+    fd.setId("mass_action2")
+    fd.setMath(_formula("lambda(k, a, b, k*a*b)"))
+    b.reaction("bind", {"E": 1, "S": 1}, {"ES": 1}, "c*(mass_action2(kf, E, S) - kr*ES)")
+    b.reaction("cat", {"ES": 1}, {"E": 1, "P": 1}, "c*kcat*ES")
+    b.reaction("feed", {}, {"S": 1}, "c*kin*S0")
+    b.assignment("v_cat", "cat")
+    return b.write(tmp_path / "enzyme.xml")
+
+
+def test_function_definitions_boundary_species_and_reaction_rates(enzyme):
+    system = uj.load_system(enzyme, outputs={"y": "P", "v": "v_cat"})
+    E, S, ES, P, kf, kr, kcat, kin = sp.symbols("E S ES P kf kr kcat kin")
+    bind, cat = kf * E * S - kr * ES, kcat * ES
+    dyn = {"E": cat - bind, "S": 4 * kin - bind, "ES": bind - cat, "P": cat}
+    got, outs = equations(system)
+    same_equations(got, dyn)
+    same_equations(outs, {"y": P, "v": 2 * kcat * ES})  # the rate in amount per time: times c = 2
+    assert dict(system.source.constants) == {"c": 2.0, "S0": 4.0}  # fixed at their file values
+    hand = uj.System.from_sympy([E, S, ES, P], {"y": P, "v": 2 * kcat * ES}, dynamics=list(dyn.values()),
+                                params=[kf, kr, kcat, kin])
+    same_report(system, hand)
+
+
+def test_boundary_species_as_known_input_or_estimated(enzyme):
+    system = uj.load_system(enzyme, outputs={"y": "P"}, known=["S0"])
+    assert system.source.inputs_known == ("S0",)
+    estimated = uj.load_system(enzyme, outputs={"y": "P"}, estimate=["S0", "c"])
+    assert estimated.source.params["S0"] == (2.0, 6.0) and "c" in estimated.source.params
+
+
+def test_level_2_local_parameters_and_compartment_without_size(tmp_path):
+    doc = libsbml.SBMLDocument(2, 4)
+    m = doc.createModel()
+    m.setId("l2")
+    c = m.createCompartment()
+    c.setId("v")  # no size: a parameter to identify, with a note
+    s = m.createSpecies()
+    s.setId("A")
+    s.setCompartment("v")
+    r = m.createReaction()
+    r.setId("deg")
+    ref = r.createReactant()
+    ref.setSpecies("A")
+    ref.setStoichiometry(2)
+    law = r.createKineticLaw()
+    lp = law.createParameter()
+    lp.setId("k")
+    lp.setValue(0.5)
+    law.setMath(_formula("k*A"))
+    path = str(tmp_path / "l2.xml")
+    assert libsbml.writeSBMLToFile(doc, path) == 1
+    system = uj.load_system(path, outputs=["A"])
+    A, k, v = sp.symbols("A deg_k v")
+    same_equations(equations(system)[0], {"A": -2 * k * A / v})
+    assert any("'v' has no value" in n for n in system.notes)

@@ -1,8 +1,8 @@
 """An SBML file read into exact sympy equations: :func:`read_sbml` (the first half of
 :func:`uio_jax._io.sbml_import.load_sbml`; the rules are stated in ``docs/sbml.md``).
 
-python-libsbml reads and checks the file (its function definitions expanded by libsbml's own
-converter); sbmlmath turns each MathML formula into sympy, with every number an exact
+python-libsbml reads and checks the file (function definitions are expanded in each formula by
+libsbml's ``SBMLTransforms.replaceFD``); sbmlmath turns each MathML formula into sympy, with every number an exact
 rational (``<cn> 0.1 </cn>`` is ``1/10``; a double of the file, such as a parameter's
 ``value``, is the decimal it prints as). The result, :class:`SbmlModel`, holds
 
@@ -92,7 +92,8 @@ def libraries():
 
 
 def read_document(path):
-    """The libsbml Model of ``path`` (function definitions expanded), or a one-line LoadError."""
+    """``(document, model)`` of ``path`` read by libsbml (the document keeps the model
+    alive), or a one-line LoadError."""
     libsbml, _, _ = libraries()
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -106,13 +107,7 @@ def read_document(path):
     model = doc.getModel()
     if model is None:
         raise LoadError(f"{path}: the SBML document has no model")
-    if model.getNumFunctionDefinitions():
-        props = libsbml.ConversionProperties()
-        props.addOption("expandFunctionDefinitions", True)
-        if doc.convert(props) != libsbml.LIBSBML_OPERATION_SUCCESS:
-            raise ModelError(f"{path}: its function definitions could not be expanded")
-        model = doc.getModel()
-    return model
+    return doc, model
 
 
 def read_sbml(path) -> SbmlModel:
@@ -123,11 +118,13 @@ def read_sbml(path) -> SbmlModel:
             unreadable or invalid file.
         ModelError: one line naming the SBML element that uses an unsupported feature.
     """
-    model = read_document(path)
+    doc, model = read_document(path)
     where = os.fspath(path)
     _refuse_structure(model, where)
     reader = _Reader(model, where)
-    return reader.build(model.getName() or model.getId() or os.path.basename(where))
+    out = reader.build(model.getName() or model.getId() or os.path.basename(where))
+    del doc  # the model's objects were read: the document may go
+    return out
 
 
 def _refuse_structure(model, where):
@@ -168,8 +165,10 @@ class _Reader:
     def math(self, obj, what, local=None):
         """The exact sympy expression of ``obj``'s math (``local``: renamings of its ids)."""
         sp = self.sp
+        ast = obj.getMath().deepCopy()  # function definitions expanded by libsbml, in the copy
+        self.libsbml.SBMLTransforms.replaceFD(ast, self.model.getListOfFunctionDefinitions())
         try:
-            expr = self.sbmlmath.sbml_math_to_sympy(obj, ignore_units=True, evaluate=True)
+            expr = self.sbmlmath.sbml_math_to_sympy(ast, ignore_units=True, evaluate=True)
         except (NotImplementedError, ValueError, AssertionError, TypeError) as exc:
             text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise ModelError(f"{self.where}: {what}: formula not supported ({text})") from None
