@@ -109,6 +109,15 @@ def fresh_cli(folder):
     return wall, cpu, after.ru_maxrss / 1024
 
 
+def machine() -> str:
+    """The CPU's model name (Linux), else the platform's."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            return next(line.split(":", 1)[1].strip() for line in fh if line.startswith("model name"))
+    except (OSError, StopIteration):
+        return platform.processor() or platform.machine()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--count", type=int, default=10)
@@ -129,7 +138,11 @@ def main():
         first, first_cpu, result = timed_batch(folder)
         warm = [timed_batch(folder)[:2] for _ in range(args.repeats)]
         wall, cpu, peak = fresh_cli(folder)
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
+    import libsbml
+    import sbmlmath
+
+    print(f"machine: {machine()}, {os.cpu_count()} CPUs, libsbml {libsbml.getLibSBMLDottedVersion()}, "
+          f"sbmlmath {sbmlmath.__version__}, "
           f"Python {platform.python_version()}, load {os.getloadavg()[0]:.2f}")
     print(result.table())
     print(f"conversion (load_system) per file: median {statistics.median(loads) * 1e3:.0f} ms, "
