@@ -303,11 +303,8 @@ def test_cli_analyze_and_save_model(michaelis_menten, tmp_path, capsys):
 
 
 def test_batch_over_a_folder_with_one_rule(michaelis_menten, amount_species, tmp_path):
-    folder = tmp_path / "models"
-    folder.mkdir()
-    for src in (michaelis_menten, amount_species):
-        os.replace(src, folder / os.path.basename(src))
-    result = uj.batch_analyze(str(folder), sbml={"outputs": {"y": "P"}}, samples=SAMPLES, progress=False)
+    folder = _folder_of_two(tmp_path, michaelis_menten, amount_species)
+    result = uj.batch_analyze(folder, sbml={"outputs": {"y": "P"}}, samples=SAMPLES, progress=False)
     rows = {os.path.basename(r.model): r for r in result}
     assert rows["mm.xml"].error is None and "P" in rows["mm.xml"].observable
     assert "'P'" in rows["amount.xml"].error  # the rule names an id the file does not have
@@ -513,3 +510,30 @@ def test_level_2_local_parameters_and_compartment_without_size(tmp_path):
     A, k, v = sp.symbols("A deg_k v")
     same_equations(equations(system)[0], {"A": -2 * k * A / v})
     assert any("'v' has no value" in n for n in system.notes)
+
+
+def _folder_of_two(tmp_path, michaelis_menten, amount_species):
+    folder = tmp_path / "models"
+    folder.mkdir()
+    for src in (michaelis_menten, amount_species):
+        os.replace(src, folder / os.path.basename(src))
+    return str(folder)
+
+
+def test_cli_batch_with_one_rule(michaelis_menten, amount_species, tmp_path, capsys):
+    folder = _folder_of_two(tmp_path, michaelis_menten, amount_species)
+    assert main(["batch", folder, "--outputs", "y=P", "--unknown", "k_in", "--no-progress", "--samples",
+                 str(SAMPLES)]) == 1  # amount.xml has no k_in: its row is an error, the batch goes on
+    rows = [line for line in capsys.readouterr().out.splitlines() if ".xml" in line]
+    assert len(rows) == 2 and rows[1].split()[1] == "general_ui" and "'k_in' in unknown is no id" in rows[0]
+
+
+@pytest.mark.slow
+def test_batch_rule_travels_to_worker_processes(michaelis_menten, amount_species, tmp_path):
+    folder = _folder_of_two(tmp_path, michaelis_menten, amount_species)
+    rule = {"outputs": {"y": "P"}}
+    here = uj.batch_analyze(folder, sbml=rule, samples=SAMPLES, progress=False)
+    there = uj.batch_analyze(folder, sbml=rule, samples=SAMPLES, progress=False, timeout=120)
+    assert [(r.model, r.dim, r.observable, r.error is None) for r in here] == \
+        [(r.model, r.dim, r.observable, r.error is None) for r in there]
+    assert [r.error is None for r in here] == [False, True]  # amount.xml (no P), mm.xml

@@ -144,18 +144,18 @@ class _Roles:
     def _check(self, nm, role) -> str:
         m = self.model
         if nm in m.states:
-            raise OptionError(f"{self.where}: {role} names {nm!r}, a state of the model (changed by "
+            raise OptionError(f"{self.where}: {nm!r} in {role} is a state of the model (changed by "
                               "reactions or a rate rule)")
         if nm in m.assigned:
-            raise OptionError(f"{self.where}: {role} names {nm!r}, which the model defines by a formula "
+            raise OptionError(f"{self.where}: {nm!r} in {role} is defined by a formula of the model "
                               "(an assignment rule or a reaction rate)")
         ent = m.entities.get(nm)
         if ent is None:
-            raise OptionError(f"{self.where}: {role} names {nm!r}, which is no id of the model "
+            raise OptionError(f"{self.where}: {nm!r} in {role} is no id of the model "
                               f"({_listing(m.entities)})")
         if role in ("known", "unknown") and ent.kind == "compartment":
-            raise OptionError(f"{self.where}: {role} names compartment {nm!r}: a compartment's size cannot "
-                              "be an input")
+            raise OptionError(f"{self.where}: {nm!r} in {role} is a compartment: a compartment's size "
+                              "cannot be an input")
         return nm
 
     def split(self, used, extra):
@@ -168,7 +168,7 @@ class _Roles:
             if nm in self.fixed:
                 value = self.fixed[nm] if self.fixed[nm] is not None else ent.value
                 if value is None:
-                    raise OptionError(f"{self.where}: fixed names {nm!r}, which has no value in the file: "
+                    raise OptionError(f"{self.where}: {nm!r} in fixed has no value in the file: "
                                       "give one (NAME=VALUE)")
                 constants[nm] = float(value)
             elif ent.kind in ("parameter", "local") or nm in self.estimate or ent.value is None:
