@@ -26,7 +26,7 @@ A path may be
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
 * ``FILE.xml`` / ``FILE.sbml``: one SBML model, loaded by ``load_system(FILE, **sbml)`` with
   the batch's one rule of outputs and inputs (``sbml``, see :func:`discover`);
-* a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
+* a directory: every ``.py``, ``.toml``, ``.json``, ``.xml`` and ``.sbml`` file below it (recursively, sorted;
   names starting with ``_`` or ``.`` are ignored);
 * a glob (``systems/*.py``, ``models/**/*.toml``): every match, as above.
 
