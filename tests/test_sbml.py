@@ -537,3 +537,16 @@ def test_batch_rule_travels_to_worker_processes(michaelis_menten, amount_species
     assert [(r.model, r.dim, r.observable, r.error is None) for r in here] == \
         [(r.model, r.dim, r.observable, r.error is None) for r in there]
     assert [r.error is None for r in here] == [False, True]  # amount.xml (no P), mm.xml
+
+
+def test_a_constant_no_decimal_writes_stays_exact(tmp_path):
+    """A boundary species given as an amount 1 in a compartment of size 3: its concentration
+    is 1/3 exactly, substituted as a rational (a float's decimal is not 1/3)."""
+    path = (Builder().compartment("c", 3).species("S", "c").species("B", "c", init=None, boundary=True)
+            .parameter("k", 1).reaction("R", {}, {"S": 1}, "c*k*B").write(tmp_path / "third.xml"))
+    doc = libsbml.readSBMLFromFile(path)
+    doc.getModel().getSpecies("B").setInitialAmount(1)
+    libsbml.writeSBMLToFile(doc, path)
+    system = uj.load_system(path, outputs=["S"])
+    assert "B" not in system.source.constants
+    same_equations(equations(system)[0], {"S": sp.Symbol("k") / 3})

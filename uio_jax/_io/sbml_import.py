@@ -101,16 +101,35 @@ def load_sbml(path, outputs=None, *, observables=None, known=(), unknown=(), fix
     used = set().union(*(e.free_symbols for e in (*model.odes.values(), *outs.values())))
     used = {s.name for s in used}
     params, constants = roles.split(used, extra)
+    constants, odes, outs = _exact_constants(sp, constants, model.odes, outs)
     inputs = [v for v in (*roles.known, *roles.unknown) if v in used]
-    _check_affine(sp, model.odes, outs, [sp.Symbol(v) for v in inputs], where)
+    _check_affine(sp, odes, outs, [sp.Symbol(v) for v in inputs], where)
     notes += roles.notes(used)
     from .sympy_import import system_from_sympy
 
     return system_from_sympy(
-        list(model.states), outs, dynamics=[model.odes[s] for s in model.states],
+        list(model.states), outs, dynamics=[odes[s] for s in model.states],
         known=list(roles.known), unknown=list(roles.unknown), params=params or None,
         constants=constants or None, name=model.name, notes=notes,
         time=model.time if model.time_used else None)
+
+
+def _exact_constants(sp, constants, odes, outs):
+    """``(constants, odes, outs)`` with every constant a float whose decimal is its exact
+    value; a value of the file that no float's decimal equals (a species' initial amount
+    over its compartment's size, ``1/3``) is substituted into the equations as a rational
+    instead (a constant of a model file is the decimal of its float)."""
+    exact = {}
+    out = {}
+    for nm, v in constants.items():
+        if isinstance(v, sp.Rational) and sp.Rational(repr(float(v))) != v:
+            exact[sp.Symbol(nm)] = v
+        else:
+            out[nm] = float(v)
+    if exact:
+        odes = {k: e.xreplace(exact) for k, e in odes.items()}
+        outs = {k: e.xreplace(exact) for k, e in outs.items()}
+    return out, odes, outs
 
 
 def _sympy():
@@ -160,7 +179,8 @@ class _Roles:
 
     def split(self, used, extra):
         """``(params, constants)`` of the identifiers ``used``: name -> sampling box, name ->
-        value (``extra``: PEtab's observable parameters, identified)."""
+        value (a sympy Rational from the file, or the user's number; ``extra``: PEtab's
+        observable parameters, identified)."""
         params, constants = {}, {}
         for nm, ent in self.model.entities.items():
             if nm not in used or nm in self.known or nm in self.unknown:
@@ -170,11 +190,11 @@ class _Roles:
                 if value is None:
                     raise OptionError(f"{self.where}: {nm!r} in fixed has no value in the file: "
                                       "give one (NAME=VALUE)")
-                constants[nm] = float(value)
+                constants[nm] = value
             elif ent.kind in ("parameter", "local") or nm in self.estimate or ent.value is None:
                 params[nm] = _box(ent.value)
             else:
-                constants[nm] = float(ent.value)
+                constants[nm] = ent.value
         for nm in extra:
             params[nm] = _box(None)
         return params, constants
