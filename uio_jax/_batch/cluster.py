@@ -91,8 +91,8 @@ class DaskExecutor(Executor):
 
     def submit(self, i, task):
         """Send model ``i`` as a task (its spec made absolute for the workers)."""
-        label, spec, kind, kwargs, deferred = task
-        task = (label, absolute_spec(spec, kind), kind, kwargs, deferred)
+        label, spec, kind, kwargs, deferred, options = task
+        task = (label, absolute_spec(spec, kind), kind, kwargs, deferred, options)
         fut = self.client.submit(cluster_task, i, task, self.topic, self.cache_dir,
                                  key=f"uio_jax-model-{self.topic[-12:]}-{i}", pure=False)
         self.labels[i] = label

@@ -24,7 +24,9 @@ A path may be
   model module (recognised by :func:`uio_jax._io.strikepy_import.is_strikepy_module`) is
   one model;
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
-* a directory: every ``.py``, ``.toml`` and ``.json`` file below it (recursively, sorted;
+* ``FILE.xml`` / ``FILE.sbml``: one SBML model, loaded by ``load_system(FILE, **sbml)`` with
+  the batch's one rule of outputs and inputs (``sbml``, see :func:`discover`);
+* a directory: every ``.py``, ``.toml``, ``.json``, ``.xml`` and ``.sbml`` file below it (recursively, sorted;
   names starting with ``_`` or ``.`` are ignored);
 * a glob (``systems/*.py``, ``models/**/*.toml``): every match, as above.
 
@@ -59,7 +61,7 @@ from .._model.system import System
 from .rows import one_line
 
 #: Suffixes of model files collected from directories and globs.
-MODEL_SUFFIXES = (".py", ".toml", ".json")
+MODEL_SUFFIXES = (".py", ".toml", ".json", ".xml", ".sbml")
 #: The line that makes a ``.py`` file found in a directory or a glob a zoo file to import.
 ZOO_MARKER = "# uio-jax: models"
 #: The marker counts on one of a file's first lines (after a shebang, an encoding line...).
@@ -83,6 +85,7 @@ class Entry:
         error: why the model cannot be run (then it is a failed row).
         build_s: seconds spent building ``system`` during discovery (added to the row).
         deferred: a zoo function not called yet: called where the model runs.
+        options: keyword arguments of ``load_system`` (an SBML model's outputs and inputs).
     """
 
     label: str
@@ -92,6 +95,7 @@ class Entry:
     error: str | None = None
     build_s: float = 0.0
     deferred: bool = False
+    options: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,7 @@ class Skipped:
     why: str
 
 
-def discover(models, *, build: bool = True, import_python: bool = False, import_here: bool = True):
+def discover(models, *, build: bool = True, import_python: bool = False, import_here: bool = True, sbml=None):
     """Expand paths, globs, directories and zoo files into models.
 
     Args:
@@ -120,6 +124,9 @@ def discover(models, *, build: bool = True, import_python: bool = False, import_
             (:func:`listed_entries`) and imported only in the worker that runs one of its
             models, under the limit: top-level code that hangs, or ends the process
             (``os._exit``), costs that model's row, not the batch.
+        sbml: the keyword arguments of :func:`uio_jax.load_system` for every SBML file
+            (``outputs``, ``known``, ...: one rule for all; None: none, each SBML model's row
+            then says it declares no outputs).
 
     Returns:
         ``(entries, skipped)``: the :class:`Entry` of every model in order, and
@@ -142,7 +149,7 @@ def discover(models, *, build: bool = True, import_python: bool = False, import_
             item = os.fspath(item)
             named = _is_spec(item) or os.path.isfile(item)  # the user named this very file
             for path in expand(item):
-                e, s = _entries_of(path, build, named or import_python, import_here)
+                e, s = _entries_of(path, build, named or import_python, import_here, sbml)
                 entries += e
                 skipped += s
         else:
@@ -211,7 +218,7 @@ def has_zoo_marker(path) -> bool:
     return False
 
 
-def _entries_of(path: str, build: bool = True, may_import: bool = True, import_here: bool = True):
+def _entries_of(path: str, build: bool = True, may_import: bool = True, import_here: bool = True, sbml=None):
     """Entries (and skipped functions or files) of one file or ``FILE.py:NAME`` spec;
     ``may_import``: an unmarked ``.py`` file that is no StrikePy module is imported (the
     user named it, or asked for every Python file) instead of skipped."""
@@ -219,6 +226,8 @@ def _entries_of(path: str, build: bool = True, may_import: bool = True, import_h
         return [Entry(path, path, "spec")], []
     if path.endswith((".toml", ".json")):
         return [Entry(path, path, "file")], []
+    if path.lower().endswith((".xml", ".sbml")):
+        return [Entry(path, path, "sbml", options=dict(sbml or {}))], []
     if not path.endswith(".py"):
         return [Entry(path, error=f"not a model file (expected {', '.join(MODEL_SUFFIXES)}): {path}")], []
     zoo_entries = _zoo_entries if import_here or build else listed_entries

@@ -43,7 +43,7 @@ class Executor:
         raise NotImplementedError
 
     def submit(self, i, task):
-        """Run model ``i``: ``task = (label, spec, kind, analyze_kwargs, deferred)``."""
+        """Run model ``i``: ``task = (label, spec, kind, analyze_kwargs, deferred, options)``."""
         raise NotImplementedError
 
     def events(self, wait_s):
@@ -99,7 +99,7 @@ def drive(executor, entries, todo, timeout, analyze_kwargs, tracker, *, retries=
             while pending and executor.free() > 0:
                 i = pending.popleft()
                 e = entries[i]
-                executor.submit(i, (e.label, e.spec, e.kind, analyze_kwargs, e.deferred))
+                executor.submit(i, (e.label, e.spec, e.kind, analyze_kwargs, e.deferred, e.options))
                 runs[i] = _Run()
             for event in executor.events(_wait_s(runs, timeout)):
                 kind, rest = event[0], event[1:]

@@ -18,7 +18,7 @@ def load_entry(entry: Entry) -> System:
     """
     if entry.system is not None:
         return entry.system
-    return load_system(entry.spec)
+    return load_system(entry.spec, **(entry.options or {}))
 
 
 def run_entry(entry: Entry, analyze_kwargs, keep_report=True, on_system=None):

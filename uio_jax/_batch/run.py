@@ -54,7 +54,7 @@ class BatchInterrupted(KeyboardInterrupt):
 
 
 def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_reports: bool = True,
-                  import_python: bool = False, on_row=None, client=None, **analyze_kwargs) -> BatchResult:
+                  import_python: bool = False, on_row=None, client=None, sbml=None, **analyze_kwargs) -> BatchResult:
     """Analyse many models; one failing model is one row with its error, the others go on.
 
     Main arguments:
@@ -93,6 +93,10 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             longest first, with the same rows, time limits and progress as ``jobs``
             worker processes; the workers must see the model files and the cache directory
             at the same paths. Not with ``jobs > 1``. Needs the extra ``uio_jax[cluster]``.
+        sbml: one rule of outputs and inputs for every SBML file (``.xml``, ``.sbml``) of
+            the batch: the keyword arguments of :func:`uio_jax.load_system` for SBML
+            (``outputs``, ``observables``, ``known``, ``unknown``, ``fixed``, ``estimate``;
+            ``docs/sbml.md``). A file without an id the rule names is an error row.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
             ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``, ``prob_threshold``).
 
@@ -117,17 +121,17 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             client = stack.enter_context(cluster_client(client))
             slots = wait_for_workers(client)
         return _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row, client,
-                      slots if client is not None else jobs, analyze_kwargs)
+                      slots if client is not None else jobs, analyze_kwargs, _sbml_rule(sbml))
 
 
 def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row, client, slots,
-           analyze_kwargs):
+           analyze_kwargs, sbml=None):
     """:func:`batch_analyze` once its options are checked (``slots``: models at once)."""
     # models that may run in worker processes are built there: not here first as well
     # with a time limit, the zoo files are imported only in the workers, under it
     entries, skipped = discover(models, build=jobs == 1 and timeout is None and client is None,
                                 import_here=timeout is None,
-                                import_python=import_python)
+                                import_python=import_python, sbml=sbml)
     keys = [time_key(e, analyze_kwargs) for e in entries]
     recorded = recorded_seconds(keys)
     remote = sum(e.spec is not None and e.error is None for e in entries)
@@ -150,6 +154,25 @@ def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row,
         bar.close()
     record_seconds(keys, tracker.rows)
     return tracker.result()
+
+
+def _sbml_rule(sbml):
+    """The SBML rule checked (a mapping of ``load_system``'s SBML options), its observables
+    table made absolute (workers elsewhere read it)."""
+    import os
+
+    from .._io.sbml_import import SBML_OPTIONS
+
+    if sbml is None:
+        return None
+    if not isinstance(sbml, dict):
+        raise OptionError(f"sbml must be a dict of load_system's SBML options, got {type(sbml).__name__}")
+    bad = [k for k in sbml if k not in SBML_OPTIONS]
+    if bad:
+        raise OptionError(f"sbml: unknown option {bad[0]!r} (options: {', '.join(SBML_OPTIONS)})")
+    if sbml.get("observables") is not None:
+        sbml = {**sbml, "observables": os.path.abspath(os.fspath(sbml["observables"]))}
+    return sbml
 
 
 def _check_batch_options(jobs, timeout, analyze_kwargs, client=None):

@@ -25,6 +25,8 @@ def time_key(entry, analyze_kwargs):
     if entry.spec is None or entry.error is not None:
         return None
     opts = ",".join(f"{k}={v!r}" for k, v in sorted(analyze_kwargs.items()) if v is not None)
+    if entry.options:  # an SBML model's outputs and inputs: another model
+        opts += "|" + ",".join(f"{k}={v!r}" for k, v in sorted(entry.options.items()))
     return f"{entry.kind}|{entry.spec}|{opts}"
 
 

@@ -206,7 +206,7 @@ def step_text(step, n=None) -> str:
     return f"{name}={step.m}, dim {step.dim}" + (f"/{n}" if n is not None else "")
 
 
-def worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> dict:
+def worker_run(label, spec, kind, analyze_kwargs, deferred=False, options=None, conn=None) -> dict:
     """Analyse one model in a worker; returns the row's fields (no Report), or
     ``{"skipped": reason}`` for a deferred zoo function that gave no System. Every step
     the analysis decides is sent on ``conn`` as ``("step", step_text)``."""
@@ -223,8 +223,8 @@ def worker_run(label, spec, kind, analyze_kwargs, deferred=False, conn=None) -> 
         n.append(len(system.states) + len(system.param_names))
 
     with step_listener(send_step):
-        row = run_entry(Entry(label, spec, kind, deferred=deferred), analyze_kwargs, keep_report=False,
-                        on_system=loaded)
+        row = run_entry(Entry(label, spec, kind, deferred=deferred, options=options), analyze_kwargs,
+                        keep_report=False, on_system=loaded)
     if isinstance(row, Skipped):
         return {"skipped": row.why}
     return {k: getattr(row, k) for k in BatchRow.__dataclass_fields__ if k != "report"}

@@ -7,7 +7,9 @@ Three kinds of model files:
 * ``path/to/model.toml`` / ``path/to/model.json``: a declarative model (data only, see
   :mod:`uio_jax._io.model_file`);
 * ``path/to/model.py`` without ``:NAME``: a StrikePy / STRIKE-GOLDD model module, read
-  without executing it (see :mod:`uio_jax._io.strikepy_import`).
+  without executing it (see :mod:`uio_jax._io.strikepy_import`);
+* ``path/to/model.xml`` / ``.sbml``: an SBML model with the outputs and inputs given as
+  keyword arguments (see :mod:`uio_jax._io.sbml_import`; the extra ``uio_jax[sbml]``).
 """
 
 import importlib.util
@@ -15,7 +17,7 @@ import os
 import sys
 import traceback
 
-from .._errors import LoadError, UioJaxError, exit_message
+from .._errors import LoadError, OptionError, UioJaxError, exit_message
 from .._model.system import System
 
 
@@ -29,16 +31,25 @@ def load_system(spec, *args, **kwargs) -> System:
       (:func:`uio_jax.load_model_file`).
     * ``"path/to/model.py"`` (no ``:name``) that is a StrikePy model module
       (:func:`uio_jax.load_strikepy`; read, never executed).
+    * ``"path/to/model.xml"`` or ``.sbml``: an SBML model; SBML declares no outputs or
+      inputs, so the keyword arguments do: ``outputs={"y": "S1 + S2"}`` (or
+      ``observables="observables.tsv"``, a PEtab table), ``known=``/``unknown=`` (ids that
+      are inputs), ``fixed=`` (parameters fixed at a value), ``estimate=`` (compartments or
+      boundary species to identify). Rules and defaults: ``docs/sbml.md``.
 
     Raises:
         LoadError: bad spec, missing file, file that fails to import, missing name,
             or a name that does not give a System.
-        ModelError: a declarative model or StrikePy module with a bad entry.
+        ModelError: a declarative model or StrikePy module with a bad entry, an SBML
+            feature that is not supported.
+        OptionError: an SBML model without outputs, or with an unknown id in its options.
     """
     if isinstance(spec, os.PathLike):
         spec = os.fspath(spec)
     if isinstance(spec, str):
         suffix = os.path.splitext(spec)[1].lower()
+        if suffix in (".xml", ".sbml"):
+            return _sbml(spec, args, kwargs)
         if suffix in (".toml", ".json"):
             if args or kwargs:
                 raise LoadError(f"{spec}: a model file takes no arguments")
@@ -83,6 +94,19 @@ def load_system(spec, *args, **kwargs) -> System:
     if not obj.name:
         object.__setattr__(obj, "name", f"{os.path.basename(path)}:{name}")
     return obj
+
+
+def _sbml(spec, args, kwargs) -> System:
+    """An SBML model with its declarations (keyword arguments only, checked by name)."""
+    if args:
+        raise LoadError(f"{spec}: an SBML model takes keyword arguments only (outputs=, known=, ...)")
+    from .sbml_import import SBML_OPTIONS, load_sbml
+
+    bad = [k for k in kwargs if k not in SBML_OPTIONS]
+    if bad:
+        raise OptionError(f"{spec}: unknown option {bad[0]!r} for an SBML model (options: "
+                          f"{', '.join(SBML_OPTIONS)})")
+    return load_sbml(spec, **kwargs)
 
 
 def model_functions(path) -> list[str]:

@@ -1,4 +1,4 @@
-"""Command line: ``uio-jax analyze | batch | montecarlo``, one module per sub-command.
+"""Command line: ``uio-jax analyze | batch | montecarlo | save-model``, one module per sub-command.
 
 ``main(argv) -> int`` returns the exit code: 0 on success, 2 on bad input (one line on
 stderr, never a traceback from inside JAX), 1 when a batch has failures.
@@ -20,13 +20,13 @@ from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
 from .._analysis.rank import default_rtol
 from .._errors import UioJaxError, exit_message
 from .._output import printable
-from . import analyze, batch, montecarlo
+from . import analyze, batch, montecarlo, save_model
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
 
 #: Exit code when the reader of stdout left early (128 + SIGPIPE, as ``yes | head`` gives).
 EXIT_STDOUT_CLOSED = 141
 
-COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo}
+COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo, "save-model": save_model}
 
 
 def _build_parser():
@@ -35,6 +35,7 @@ def _build_parser():
     analyze.add_parser(sub, _analysis_options)
     batch.add_parser(sub, _analysis_options)
     add_cache_options(montecarlo.add_parser(sub))
+    add_cache_options(save_model.add_parser(sub))
     return p
 
 

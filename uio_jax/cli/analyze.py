@@ -5,13 +5,14 @@ import json
 from .._errors import UioJaxError
 from .._output import printable
 from .common import UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
+from .sbml_options import add_sbml_options, refuse_for, sbml_options
 
 
 def add_parser(subparsers, analysis_options):
     """Add the ``analyze`` sub-command; ``analysis_options(p)`` adds the shared analysis flags."""
     a = subparsers.add_parser("analyze", help="observability analysis of one model")
     a.add_argument("model", help="FILE.py:FUNCTION returning a uio_jax.System, a .toml/.json model file, "
-                   "or a StrikePy model module (FILE.py)")
+                   "a StrikePy model module (FILE.py), or an SBML model (.xml/.sbml, with --outputs)")
     analysis_options(a)
     a.add_argument("--initial", action="append", default=[], metavar="STATE=VALUE",
                    help="a known initial state (repeat for several): a number, a parameter, or an expression "
@@ -22,6 +23,7 @@ def add_parser(subparsers, analysis_options):
                                                   "(png, pdf, svg by suffix)")
     a.add_argument("--no-progress", action="store_true",
                    help="do not print each step as it is decided (printed on a terminal only)")
+    add_sbml_options(a)
     add_cache_options(a)
     return a
 
@@ -44,10 +46,12 @@ def run(args) -> int:
         from .._analysis.plots import check_figure_path
 
         check_figure_path(args.plot)
+    refuse_for(args.model, args)
+    load_options = sbml_options(args)
     check_writable(args.json, args.plot, names=("--json", "--plot"), inputs=[args.model])
     printer = StepPrinter(enabled=False if args.no_progress else None)
     with model_prints_on_stderr(), step_listener(printer):
-        system = load_system(args.model)
+        system = load_system(args.model, **load_options)
         initial = {**file_initial(system), **given}
         if initial:
             rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,

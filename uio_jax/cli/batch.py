@@ -14,6 +14,7 @@ from .common import (
     model_prints_on_stderr,
     write_output,
 )
+from .sbml_options import add_sbml_options, sbml_options
 
 #: Exit code after Ctrl-C (128 + SIGINT), the partial table printed and written.
 EXIT_INTERRUPTED = 130
@@ -32,7 +33,8 @@ def add_parser(subparsers, analysis_options):
                     "line (FILE.py, FILE.py:NAME) is always loaded.")
     b.add_argument("paths", nargs="*", metavar="PATH",
                    help="FILE.py:NAME, zoo files (every function returning a System), .toml/.json "
-                        "model files, StrikePy modules, directories, globs")
+                        "model files, StrikePy modules, SBML models (.xml/.sbml, with --outputs), "
+                        "directories, globs")
     analysis_options(b)
     b.add_argument("--json", metavar="FILE", help="write the table as JSON (rewritten after each model)")
     b.add_argument("--csv", metavar="FILE", help="write the table as CSV (rewritten after each model)")
@@ -53,6 +55,7 @@ def add_parser(subparsers, analysis_options):
     b.add_argument("--no-progress", action="store_true",
                    help="no progress on stderr (by default: a bar on a terminal, one line per finished "
                         "model elsewhere)")
+    add_sbml_options(b)
     add_cache_options(b)
     return b
 
@@ -94,7 +97,7 @@ def _run(args, outputs) -> int:
             result = batch_analyze(
                 args.paths, jobs=args.jobs, timeout=args.timeout, client=args.scheduler,
                 progress=False if args.no_progress else None, keep_reports=False,
-                import_python=args.import_python,
+                import_python=args.import_python, sbml=sbml_options(args) or None,
                 on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
                 method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
                 max_order=args.max_order, k_max=args.k_max, known_inputs=args.known_inputs,
