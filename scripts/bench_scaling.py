@@ -15,6 +15,7 @@ with the report's dimension and arithmetic.
 
     python scripts/bench_scaling.py chain 10 25 35 50 [--fn sin] [--repeat 3]
     python scripts/bench_scaling.py slam 10 40 100 200
+    python scripts/bench_scaling.py chain 6 8 12 16 [--symbolic]   # the engine's choice, A/B
 """
 
 import argparse
@@ -89,7 +90,13 @@ def main(argv=None):
     ap.add_argument("--fn", choices=("mul", "sin"), default="mul")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--one", action="store_true", help="run one size in this process, print JSON")
+    ap.add_argument("--symbolic", action="store_true",
+                    help="force the symbolic route (no Taylor route at any size): the A/B of the engine's choice")
     args = ap.parse_args(argv)
+    if args.symbolic:
+        from uio_jax._analysis import taylor_route
+
+        taylor_route.TAYLOR_MIN_VARIABLES = 10**9
     if args.one:
         print(json.dumps(one(args.family, args.sizes[0], args.fn)))
         return
@@ -98,8 +105,8 @@ def main(argv=None):
     for size in args.sizes:
         runs = []
         for _ in range(args.repeat):
-            out = subprocess.run([sys.executable, __file__, args.family, str(size), "--fn", args.fn, "--one"],
-                                 capture_output=True, text=True)
+            cmd = [sys.executable, __file__, args.family, str(size), "--fn", args.fn, "--one"]
+            out = subprocess.run(cmd + (["--symbolic"] if args.symbolic else []), capture_output=True, text=True)
             if out.returncode:
                 last = (out.stderr.strip().splitlines() or ["?"])[-1]
                 print(f"| {args.family} | {size} | failed: {last} |", flush=True)
