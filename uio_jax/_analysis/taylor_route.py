@@ -34,7 +34,7 @@ from .._engine.graph import exact_literal
 from .._engine.taylor import Modular, TaylorSeries, Unsupported, program
 from .._engine.taylor_degrees import TaylorDegrees
 from .._model.smooth_inputs import known_coordinates
-from .driver import StopReason
+from .driver import Recursion, StopReason, iterate
 from .evidence import Step
 from .series import SERIES_NOTE, input_coefficients
 from .taylor_space import TaylorSpace, taylor_certificate
@@ -168,44 +168,49 @@ class _Orders:
         self.error_bound += bound
 
 
-def _orc_stop(orders, m, frontier, n, cap):
-    if m > 0 and not frontier:
-        return StopReason.CONVERGED.stop(m=m, prev=m - 1)
-    if orders.echelon.rank >= n:
-        return StopReason.FULL_RANK.stop(n=n, m=m)
-    if cap is not None and m >= cap:
-        return StopReason.MAX_ORDER.stop(max_order=cap)
-    return None
+class TaylorOrders(Recursion):
+    """The orders ``k = 0, 1, ...`` of the Taylor route as a
+    :class:`~uio_jax._analysis.driver.Recursion`: step k offers ``d y_k[h_i]`` (the ORC only
+    for the outputs whose previous coefficient was kept: it differentiates the generators
+    kept at the last step) and stops as the ORC or the series test stops.
 
+    Args:
+        problem: the model (:class:`_Problem`).
+        orders: the decisions at the random point (:class:`_Orders`).
+        max_order: the ORC's cap on m (None: none but n); the series' cap is ``problem.cap``.
+    """
 
-def _series_stop(orders, k, added, n, cap):
-    if orders.echelon.rank >= n:
-        return StopReason.FULL_RANK_ORDER.stop(n=n, k=k)
-    if not added:
-        return StopReason.SPAN_CLOSED.stop(k=k)
-    if k >= cap:
-        return StopReason.MAX_ORDER.stop(max_order=cap)
-    return None
+    def __init__(self, problem, orders, max_order=None):
+        self.problem, self.orders, self.max_order = problem, orders, max_order
+        self.alive = list(range(len(problem.outputs)))
+        self.added = []
 
+    def init(self):
+        return self.step(0)
 
-def _run(problem, orders, max_order, progress):
-    """The orders until the recursion's own stop: ``(history, stop, k)``."""
-    n, history = problem.n, []
-    alive = list(range(len(problem.outputs)))
-    k = 0
-    while True:
-        added = orders.absorb(k, alive)
-        if problem.method == "orc":
-            alive = added  # the ORC differentiates the generators kept at the last step only
-        history.append(Step(k, orders.echelon.rank, tuple(problem.label(k, i) for i in added), 1.0))
-        progress(k, orders.echelon.rank)
-        if problem.method == "orc":
-            stop = _orc_stop(orders, k, added, n, max_order)
-        else:
-            stop = _series_stop(orders, k, added, n, problem.cap)
-        if stop is not None:
-            return history, stop, k
-        k += 1
+    def step(self, k):
+        self.added = self.orders.absorb(k, self.alive)
+        if self.problem.method == "orc":
+            self.alive = self.added
+        return Step(k, self.orders.echelon.rank, tuple(self.problem.label(k, i) for i in self.added), 1.0)
+
+    def terminate(self, k, history):
+        n, rank = self.problem.n, self.orders.echelon.rank
+        if self.problem.method == "orc":  # as orc.Orc.terminate
+            if k > 0 and not self.added:
+                return StopReason.CONVERGED.stop(m=k, prev=k - 1)
+            if rank >= n:
+                return StopReason.FULL_RANK.stop(n=n, m=k)
+            if self.max_order is not None and k >= self.max_order:
+                return StopReason.MAX_ORDER.stop(max_order=self.max_order)
+            return None
+        if rank >= n:  # as series.SeriesOrders.terminate
+            return StopReason.FULL_RANK_ORDER.stop(n=n, k=k)
+        if not self.added:
+            return StopReason.SPAN_CLOSED.stop(k=k)
+        if k >= self.problem.cap:
+            return StopReason.MAX_ORDER.stop(max_order=self.problem.cap)
+        return None
 
 
 def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None, notes=()):
@@ -221,7 +226,8 @@ def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None,
     cap = system.n if (method == "orc" or max_order is None) else int(max_order)
     problem = _Problem(ctx, method, seed, cap)
     orders = _Orders(problem, seed, ctx.settler.max_bound)
-    history, stop, k = _run(problem, orders, max_order if method == "orc" else None, lambda *_: None)
+    out = iterate(TaylorOrders(problem, orders, max_order if method == "orc" else None))
+    history, stop, k = out.history, out.stop, out.m
     observable = {}
     for j, name in enumerate(system.states):
         unit = [0] * system.n
