@@ -36,8 +36,19 @@ def _context(system):
     return Context(system.autonomous(), 16, 0, 1e-8)
 
 
-def test_coefficients_equal_the_symbolic_lie_derivatives():
-    ctx = _context(_small())
+def _logarithmic():
+    """The logarithmic kinds and roots: log, atan2, atan, asin, acosh, sqrt, a half power."""
+    def drift(x, p):
+        return jnp.stack([jnp.log(x[1]) + jnp.arctan2(x[2], x[0]), jnp.sqrt(x[0]) * p[0] - jnp.arcsin(0.5 * x[2]),
+                          jnp.arctan(x[1]) + x[0] ** 1.5 + jnp.arccosh(1.0 + x[2] ** 2)])
+
+    return uj.System(states=("x0", "x1", "x2"), params={"k": (0.5, 1.5)}, drift=drift,
+                     outputs={"y": lambda x, p: jnp.log1p(x[0]) + jnp.sqrt(x[1] + x[2])})
+
+
+@pytest.mark.parametrize("model", [_small, _logarithmic])
+def test_coefficients_equal_the_symbolic_lie_derivatives(model):
+    ctx = _context(model())
     g = ctx.builder.graph
     f0 = list(ctx.field_node("f0").expr)
     h = ctx.output_nodes()[0].expr
@@ -71,9 +82,9 @@ def test_degree_bounds_are_bounds():
     g = ctx.builder.graph
     f0 = list(ctx.field_node("f0").expr)
     h = ctx.output_nodes()[0].expr
-    ins, slot = taylor.program(g, [h] + [v for v in f0 if v is not None])
+    ins, slot, lagged = taylor.program(g, [h] + [v for v in f0 if v is not None])
     fields = [[None if v is None else slot[v] for v in f0]]
-    degrees = TaylorDegrees(ins, fields, [], 5)
+    degrees = TaylorDegrees(ins, fields, [], 5, lagged)
     for k in range(5):
         L, z = _sympy_lie(k)
         num, den = sympy.fraction(sympy.together(L))
@@ -88,7 +99,8 @@ def _chain(n_states, coupling="mul", hidden=False):
         nxt = jnp.concatenate([x[1:], jnp.zeros(1)])
         prev = jnp.concatenate([jnp.zeros(1), x[:-1]])
         rate = jnp.concatenate([a[:1] * a[n_states:], a[1:n_states]]) if hidden else a[:n_states]
-        other = jnp.sin(x) if coupling == "sin" else x / (1.0 + x ** 2) if coupling == "div" else x
+        other = {"sin": jnp.sin(x), "div": x / (1.0 + x ** 2), "atan2": jnp.arctan2(x, 1.0 + x ** 2),
+                 "log": jnp.log(x)}.get(coupling, x)
         return -rate * x + nxt + 0.5 * prev * other
 
     params = {f"a{i}": (0.5, 1.5) for i in range(n_states)}
@@ -113,7 +125,8 @@ def _same(a, b):
     assert a.exact and b.exact
 
 
-@pytest.mark.parametrize("coupling, hidden", [("mul", False), ("sin", False), ("div", True), ("mul", True)])
+@pytest.mark.parametrize("coupling, hidden", [("mul", False), ("sin", False), ("div", True), ("mul", True),
+                                             ("atan2", False), ("log", True)])
 def test_reports_equal_the_symbolic_route(monkeypatch, coupling, hidden):
     system = _chain(12, coupling, hidden)
     fast = uj.analyze(system)

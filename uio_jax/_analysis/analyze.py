@@ -2,7 +2,10 @@
 :mod:`uio_jax._analysis.options`).
 
 How ``method="auto"`` chooses, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
-``"general_ui"``'s closure along the drift when the known inputs are smooth); one unknown
+``"general_ui"``'s closure along the drift when the known inputs are smooth; with switchable
+known inputs on a model of :data:`~uio_jax._analysis.taylor_route.TAYLOR_MIN_VARIABLES`
+coordinates or more that the Taylor route evaluates, ``"series"``: the ORC's final span,
+decided on the output's Taylor series without symbolic brackets); one unknown
 input, no drift, and no known input or switchable ones -> ``"single_ui"`` (Martinelli's
 analytic solution); known inputs that are switchable with a drift or several unknown inputs
 -> ``"eorc"`` (extended observability rank criterion, sufficient only: no exact solution is
@@ -216,6 +219,9 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, pr
         elif chosen == "single_ui":
             check_applicable(system)
         ctx = Context(system, samples, seed, rtol, prob_threshold)
+        if method == "auto" and chosen == "orc" and system.known and taylor_applicable(ctx, "series"):
+            chosen, why = "series", (f"{why}; {system.n} variables with known inputs -> the series test on the "
+                                     "Taylor route (the ORC's final span; its orders are not the ORC's steps)")
         if chosen in ("orc", "series") and taylor_applicable(ctx, chosen):
             try:
                 return taylor_report(ctx, chosen, seed=seed, why=why, max_order=max_order)

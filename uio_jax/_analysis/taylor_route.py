@@ -129,7 +129,7 @@ class _Orders:
         else:
             raise NotTaken("every random point drawn is singular")
         self.problem, self.max_bound = problem, max_bound
-        self.degrees = TaylorDegrees(self.series.ins, self.series.fields, problem.inputs, problem.cap)
+        self.degrees = TaylorDegrees.of(self.series, problem.cap)
         self.echelon = graph_exact.Echelon()
         self.kept, self.kept_degree = [], 0  # (k, i) of the kept rows; sum of their degrees
         self.error_bound, self.decisions = 0.0, 0

@@ -106,7 +106,7 @@ class TaylorSpace(Space):
             raise ModelError(f"is_observable: {exc}") from None
         except graph_elementary.Singular:
             raise ModelError("is_observable: the function's denominator vanishes at the analysis' point") from None
-        degree = TaylorDegrees(series.ins, series.fields, self._problem.inputs, 0).degree(series.slot[node.expr], 0)
+        degree = TaylorDegrees.of(series, 0).degree(series.slot[node.expr], 0)
         return orders.member(row, degree)
 
     def sample_singular_values(self) -> np.ndarray:

@@ -34,10 +34,7 @@ import numpy as np
 from . import graph_elementary
 from .graph_elementary import Singular
 from .graph_exact import PRIME, const_mod
-
-
-class Unsupported(ValueError):
-    """A node the Taylor route does not evaluate (the symbolic route serves the model)."""
+from .taylor_program import Unsupported, program
 
 
 class Modular:
@@ -82,6 +79,15 @@ class Modular:
     def exponential(self, key, u0):
         return self.draws.get(key)
 
+    def sqrt(self, u0):
+        """Square roots of ``(P,)`` residues (:class:`~uio_jax._engine.graph_elementary.NotSquare`
+        where there is none: the point is drawn again)."""
+        return graph_elementary.sqrt_mod_p(u0, self.p)
+
+    def free(self, key, kind, values):
+        """The random value of a logarithmic kind's generator at the points."""
+        return self.draws.get(key)
+
 
 class Float:
     """float64 at real points ``(P, N)`` (the elementary functions at their real values)."""
@@ -105,6 +111,14 @@ class Float:
 
     def exponential(self, key, u0):
         return np.exp(u0)
+
+    def sqrt(self, u0):
+        return np.sqrt(u0)
+
+    def free(self, key, kind, values):
+        if kind == "atan2":
+            return np.arctan2(values[0], values[1])
+        return _NUMPY[kind](values[0])
 
 
 class Extended:
@@ -137,94 +151,28 @@ class Extended:
     def exponential(self, key, u0):
         return np.array([self.ctx.exp(v) for v in u0], dtype=object)
 
+    def sqrt(self, u0):
+        return np.array([self.ctx.sqrt(v) for v in u0], dtype=object)
 
-def program(graph, roots):
-    """The instructions that evaluate the graph nodes behind ``roots`` in Taylor mode:
-    ``(instructions, slot)`` with ``slot[node]`` the instruction of each node.
-
-    An instruction is ``(op, operands, param)`` on earlier instructions: ``x`` (coordinate
-    ``param``), ``c`` (exact constant ``param``), ``add``, ``neg``, ``mul``, ``div``,
-    ``sin``/``cos`` (the circle point of operand ``u``: the sine's ``param`` is ``(cosine
-    instruction, graph node of u)``, the cosine's the sine instruction), ``exp`` (``param``:
-    the graph node of ``u``; the generators are keyed by graph nodes, as in
-    :class:`~uio_jax._engine.graph_elementary.Draws`). Integer powers become products, ``tan``, ``sinh``, ``tanh``, ...
-    rational functions of the circle point or of ``exp``.
-
-    Raises:
-        Unsupported: a node outside these (the symbolic route serves such a model).
-    """
-    ins, slot, consts, generators = [], {}, {}, {}
-
-    def emit(op, operands=(), param=None):
-        ins.append((op, tuple(operands), param))
-        return len(ins) - 1
-
-    def const(value):
-        value = Fraction(value)
-        if value not in consts:
-            consts[value] = emit("c", (), value)
-        return consts[value]
-
-    def power(a, m):
-        out, base = None, a
-        while m:
-            if m & 1:
-                out = base if out is None else emit("mul", (out, base))
-            m >>= 1
-            if m:
-                base = emit("mul", (base, base))
-        return out
-
-    for k in graph.reachable(roots):
-        op, a = graph.op[k], [slot.get(b) for b in graph.args[k]]
-        if op == "x":
-            slot[k] = emit("x", (), graph.param[k])
-        elif op == "c":
-            value = graph.exact_value(k)
-            if value is None:
-                raise Unsupported("a constant known in float64 only")
-            slot[k] = const(value)
-        elif op in ("add", "mul", "div", "neg"):
-            slot[k] = emit(op, a)
-        elif op == "ipow":
-            m = graph.param[k]
-            pos = const(1) if m == 0 else power(a[0], abs(m))
-            slot[k] = pos if m >= 0 else emit("div", (const(1), pos))
-        elif op in graph_elementary.CIRCLE:
-            if ("circle", a[0]) not in generators:
-                s = emit("sin", (a[0],), None)
-                c = emit("cos", (a[0],), s)
-                ins[s] = ("sin", (a[0],), (c, graph.args[k][0]))
-                generators["circle", a[0]] = (s, c)
-            s, c = generators["circle", a[0]]
-            slot[k] = s if op == "sin" else c if op == "cos" else emit("div", (s, c))
-        elif op in graph_elementary.EXPONENTIAL:
-            if ("exp", a[0]) not in generators:
-                generators["exp", a[0]] = emit("exp", (a[0],), graph.args[k][0])
-            slot[k] = _exponential_kind(op, generators["exp", a[0]], emit, const)
-        else:
-            raise Unsupported(f"{op} has no Taylor rule here")
-    return ins, slot
+    def free(self, key, kind, values):
+        if kind == "atan2":
+            return np.array([self.ctx.atan2(a, b) for a, b in zip(*values)], dtype=object)
+        fn = getattr(self.ctx, kind)
+        return np.array([fn(v) for v in values[0]], dtype=object)
 
 
-def _exponential_kind(op, E, emit, const):
-    """``op(u)`` as a rational function of ``E = exp u`` (instructions emitted)."""
-    if op == "exp":
-        return E
-    if op == "expm1":
-        return emit("add", (E, const(-1)))
-    if op == "logistic":
-        return emit("div", (E, emit("add", (E, const(1)))))
-    E2 = emit("mul", (E, E))
-    if op == "tanh":
-        return emit("div", (emit("add", (E2, const(-1))), emit("add", (E2, const(1)))))
-    sign = 1 if op == "cosh" else -1  # (E^2 +- 1) / (2 E)
-    return emit("div", (emit("add", (E2, const(sign))), emit("mul", (const(2), E))))
+#: numpy's functions of the logarithmic kinds (float64 values at real points)
+_NUMPY = {"log": np.log, "log1p": np.log1p, "atan": np.arctan, "atanh": np.arctanh, "asin": np.arcsin,
+          "acos": np.arccos, "asinh": np.arcsinh, "acosh": np.arccosh}
 
 
 class TaylorSeries:
     """The Taylor coefficients of graph nodes along the flow of ``F``, order by order, with
     their gradients with respect to the ``N`` coordinates at ``t = 0``.
+
+    Coefficients are kept per order, ``C[k]`` of shape ``(instructions, P, N + 1)`` (the value
+    in column 0, the gradient after it), allocated when the order is computed: a model whose
+    span closes after two orders never holds more.
 
     Args:
         graph: the expression graph on ``N`` coordinates.
@@ -242,117 +190,168 @@ class TaylorSeries:
 
     def __init__(self, graph, fields, inputs, roots, arithmetic, orders: int):
         self.ar, self.K = arithmetic, int(orders)
-        N = graph.n
+        self.N = graph.n
         wanted = list(roots) + [v for f in fields for v in f if v is not None]
-        self.ins, self.slot = program(graph, wanted)
+        self.ins, self.slot, self.lagged = program(graph, wanted)
         self.fields = [[None if v is None else self.slot[v] for v in f] for f in fields]
         self.inputs = inputs
-        P = len(arithmetic.points)
-        self.C = np.zeros((len(self.ins), self.K + 1, P, N + 1), dtype=arithmetic.dtype)
-        if arithmetic.dtype is object:
-            self.C[...] = 0
-        self.done = -1  # the highest order computed
+        self.P = len(arithmetic.points)
+        self.C = []  # per order: (instructions, P, N + 1)
         self._inverse = {}  # instruction -> inverse of its order-0 value (P,)
 
     def coefficient(self, node, k: int):
         """``(P, N + 1)``: the value (column 0) and the gradient of coefficient ``k`` of a
         root node, computing the orders up to ``k`` on first request."""
-        while self.done < k:
+        while len(self.C) <= k:
             self._advance()
-        return self.C[self.slot[node], k]
+        return self.C[k][self.slot[node]]
+
+    def _zeros(self, *shape):
+        out = np.zeros(shape, dtype=self.ar.dtype)
+        if self.ar.dtype is object:
+            out[...] = 0
+        return out
+
+    def _orders(self, i, lo, hi, reverse=False):
+        """``(hi - lo + 1, P, N + 1)``: coefficients ``lo..hi`` of instruction ``i`` (reversed)."""
+        ks = range(hi, lo - 1, -1) if reverse else range(lo, hi + 1)
+        return np.stack([self.C[j][i] for j in ks])
 
     def _advance(self):
-        k = self.done + 1
+        k = len(self.C)
         if k > self.K:
             raise ValueError(f"order {k} beyond the {self.K} orders prepared")
+        self.C.append(self._zeros(len(self.ins), self.P, self.N + 1))
         for i, (op, a, param) in enumerate(self.ins):
             if op == "cos":
                 continue  # computed with its sine
-            self._order(i, op, a, param, k)
-        self.done = k
+            if i in self.lagged:
+                if k:  # one order behind: coefficient k - 1, which needs u_k
+                    self.C[k - 1][i] = self._order(i, op, a, param, k - 1)
+                continue
+            self.C[k][i] = self._order(i, op, a, param, k)
 
     def _order(self, i, op, a, param, k):
-        ar, C = self.ar, self.C
+        ar = self.ar
         if op == "x":
-            C[i, k] = self._coordinate(param, k)
-        elif op == "c":
+            return self._coordinate(param, k)
+        if op == "c":
+            out = self._zeros(self.P, self.N + 1)
             if k == 0:
-                C[i, 0, :, 0] = ar.constant(param)
-        elif op == "add":
-            C[i, k] = ar.reduce(C[a[0], k] + C[a[1], k])
-        elif op == "neg":
-            C[i, k] = ar.reduce(-C[a[0], k])
-        elif op == "mul":
-            C[i, k] = ar.reduce(_cauchy(C[a[0], :k + 1], C[a[1], k::-1]))
-        elif op == "div":
-            self._quotient(i, a, k)
-        elif op == "sin":
-            self._circle(i, param, a[0], k)
-        elif op == "exp":
-            self._exponential(i, param, a[0], k)
+                out[:, 0] = ar.constant(param)
+            return out
+        if op == "add":
+            return ar.reduce(self.C[k][a[0]] + self.C[k][a[1]])
+        if op == "neg":
+            return ar.reduce(-self.C[k][a[0]])
+        if op == "mul":
+            return ar.reduce(_cauchy(self._orders(a[0], 0, k), self._orders(a[1], 0, k, reverse=True)))
+        if op == "div":
+            rest = self.C[k][a[0]]
+            if k:
+                rest = rest - _cauchy(self._orders(i, 0, k - 1), self._orders(a[1], 1, k, reverse=True))
+            return self._over(rest, a[1])
+        if op == "deriv":
+            return ar.reduce(self.C[k + 1][a[0]] * ar.constant(Fraction(k + 1)))
+        if op == "sin":
+            return self._circle(i, param, a[0], k)
+        if op == "exp":
+            return self._exponential(i, param, a[0], k)
+        if op == "sqrt":
+            return self._root(i, a[0], k)
+        return self._free(param, a[0], k)
+
+    def _over(self, rest, b, factor=1):
+        """``c = rest / (factor b_0)`` of dual numbers: ``dc = (d rest - c factor d b_0) / (factor b_0)``."""
+        ar = self.ar
+        if b not in self._inverse:
+            self._inverse[b] = ar.inverse(ar.reduce(self.C[0][b][:, 0]))
+        inv = self._inverse[b]
+        if factor != 1:
+            inv = ar.reduce(inv * ar.constant(Fraction(1, factor)))
+        value = ar.reduce(rest[:, 0] * inv)
+        out = rest * inv[:, None]
+        out[:, 1:] = out[:, 1:] - (value * inv * factor)[:, None] * self.C[0][b][:, 1:]
+        out[:, 0] = value
+        return ar.reduce(out)
 
     def _coordinate(self, j, k):
         ar = self.ar
-        P, N1 = self.C.shape[2:]
+        out = self._zeros(self.P, self.N + 1)
         if k == 0:
-            out = np.zeros((P, N1), dtype=ar.dtype)
             out[:, 0] = ar.points[:, j]
             out[:, 1 + j] = 1
             return out
-        total = np.zeros((P, N1), dtype=ar.dtype)
         for f, field in enumerate(self.fields):
             s = field[j]
             if s is None:
                 continue
             if f == 0:
-                total = total + self.C[s, k - 1]
+                out = out + self.C[k - 1][s]
             else:  # u_f(t) f_f: the Cauchy product with the input's coefficients
                 for m in range(k):
-                    a = self.inputs[f - 1][m]
-                    if a:
-                        total = total + ar.constant(a) * self.C[s, k - 1 - m]
-        return ar.reduce(total * ar.constant(Fraction(1, k)))
-
-    def _quotient(self, i, a, k):
-        ar, C = self.ar, self.C
-        rest = C[a[0], k]
-        if k:
-            rest = rest - _cauchy(C[i, :k], C[a[1], k:0:-1])
-        if a[1] not in self._inverse:
-            self._inverse[a[1]] = ar.inverse(ar.reduce(C[a[1], 0, :, 0]))
-        inv = self._inverse[a[1]]
-        value = ar.reduce(rest[:, 0] * inv)
-        out = rest * inv[:, None]
-        out[:, 1:] = out[:, 1:] - (value * inv)[:, None] * C[a[1], 0, :, 1:]
-        out[:, 0] = value
-        C[i, k] = ar.reduce(out)
+                    if self.inputs[f - 1][m]:
+                        out = out + ar.constant(self.inputs[f - 1][m]) * self.C[k - 1 - m][s]
+        return ar.reduce(out * ar.constant(Fraction(1, k)))
 
     def _weighted(self, u, k):
         """``j u_j`` for ``j = 1..k`` (the derivative's coefficients times their order)."""
         w = np.arange(1, k + 1).reshape(-1, 1, 1)
-        return self.C[u, 1:k + 1] * (w.astype(object) if self.ar.dtype is object else w)
+        return self._orders(u, 1, k) * (w.astype(object) if self.ar.dtype is object else w)
 
     def _circle(self, s, param, u, k):
-        ar, C = self.ar, self.C
-        c, node = param
+        ar, (c, node) = self.ar, param
         if k == 0:
-            sv, cv = ar.circle(("circle", node), C[u, 0, :, 0])
-            C[s, 0, :, 0], C[c, 0, :, 0] = sv, cv
-            C[s, 0, :, 1:] = ar.reduce(cv[:, None] * C[u, 0, :, 1:])
-            C[c, 0, :, 1:] = ar.reduce(-sv[:, None] * C[u, 0, :, 1:])
-            return
+            sv, cv = ar.circle(("circle", node), self.C[0][u][:, 0])
+            out_c = self._zeros(self.P, self.N + 1)
+            out_c[:, 0] = cv
+            out_c[:, 1:] = ar.reduce(-sv[:, None] * self.C[0][u][:, 1:])
+            self.C[0][c] = out_c
+            out = self._zeros(self.P, self.N + 1)
+            out[:, 0] = sv
+            out[:, 1:] = ar.reduce(cv[:, None] * self.C[0][u][:, 1:])
+            return out
         du, inv_k = self._weighted(u, k), ar.constant(Fraction(1, k))
-        C[s, k] = ar.reduce(_cauchy(du, C[c, k - 1::-1]) * inv_k)
-        C[c, k] = ar.reduce(-_cauchy(du, C[s, k - 1::-1]) * inv_k)
+        self.C[k][c] = ar.reduce(-_cauchy(du, self._orders(s, 0, k - 1, reverse=True)) * inv_k)
+        return ar.reduce(_cauchy(du, self._orders(c, 0, k - 1, reverse=True)) * inv_k)
 
     def _exponential(self, e, node, u, k):
-        ar, C = self.ar, self.C
+        ar = self.ar
         if k == 0:
-            E = ar.exponential(("exp", node), C[u, 0, :, 0])
-            C[e, 0, :, 0] = E
-            C[e, 0, :, 1:] = ar.reduce(E[:, None] * C[u, 0, :, 1:])
-            return
-        C[e, k] = ar.reduce(_cauchy(self._weighted(u, k), C[e, k - 1::-1]) * ar.constant(Fraction(1, k)))
+            E = ar.exponential(("exp", node), self.C[0][u][:, 0])
+            out = self._zeros(self.P, self.N + 1)
+            out[:, 0] = E
+            out[:, 1:] = ar.reduce(E[:, None] * self.C[0][u][:, 1:])
+            return out
+        prod = _cauchy(self._weighted(u, k), self._orders(e, 0, k - 1, reverse=True))
+        return ar.reduce(prod * ar.constant(Fraction(1, k)))
+
+    def _root(self, r, u, k):
+        """``r = sqrt u``: ``r_0`` a root of ``u_0``, ``2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}``."""
+        ar = self.ar
+        if k == 0:
+            value = ar.sqrt(self.C[0][u][:, 0])
+            out = self._zeros(self.P, self.N + 1)
+            out[:, 0] = value
+            inv = ar.inverse(ar.reduce(2 * value))
+            out[:, 1:] = ar.reduce(self.C[0][u][:, 1:] * inv[:, None])
+            return out
+        rest = self.C[k][u]
+        if k > 1:
+            rest = rest - _cauchy(self._orders(r, 1, k - 1), self._orders(r, 1, k - 1, reverse=True))
+        return self._over(rest, r, factor=2)
+
+    def _free(self, param, R, k):
+        """A logarithmic kind: a free value at ``t = 0``, then ``a_k = R_{k-1} / k``."""
+        ar = self.ar
+        key, pairs, kind, operands = param
+        if k:
+            return ar.reduce(self.C[k - 1][R] * ar.constant(Fraction(1, k)))
+        out = self._zeros(self.P, self.N + 1)
+        out[:, 0] = ar.free(key, kind, [self.C[0][v][:, 0] for v in operands])
+        for c, u in pairs:  # d a_0 = sum c_i(u_0) d u_i
+            out[:, 1:] = out[:, 1:] + self.C[0][c][:, :1] * self.C[0][u][:, 1:]
+        return ar.reduce(out)
 
 
 def _cauchy(A, B):

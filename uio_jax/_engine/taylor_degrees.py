@@ -28,15 +28,21 @@ class TaylorDegrees:
         fields: per field, the instruction of each coordinate's entry (None: zero).
         inputs: the known inputs' coefficients (nonzero ones count as degree 0).
         orders: the highest order.
+        lagged: the lagged instructions (computed one order behind, as the engine does).
     """
 
-    def __init__(self, ins, fields, inputs, orders: int):
-        self.ins, self.fields, self.inputs = ins, fields, inputs
-        K = int(orders) + 1
+    def __init__(self, ins, fields, inputs, orders: int, lagged=()):
+        self.ins, self.fields, self.inputs, self.lagged = ins, fields, inputs, set(lagged)
+        K = int(orders) + 2  # a lagged derivative reads one order ahead
         self.e = np.full((len(ins), K), ZERO, dtype=np.int64)  # excess per order
         self.atoms = [[{} for _ in range(K)] for _ in ins]  # instruction -> order -> {atom: mult}
         self.atom_degree = {}  # atom (an instruction) -> degree of its order-0 numerator
         self.done = -1
+
+    @classmethod
+    def of(cls, series, orders: int) -> "TaylorDegrees":
+        """The bounds of a :class:`~uio_jax._engine.taylor.TaylorSeries`' program."""
+        return cls(series.ins, series.fields, series.inputs, orders, series.lagged)
 
     def degree(self, i: int, k: int) -> int:
         """``deg num + deg den`` of coefficient ``k`` of instruction ``i`` (the degree the
@@ -54,12 +60,15 @@ class TaylorDegrees:
         for i, (op, a, param) in enumerate(self.ins):
             if op == "cos":
                 continue  # the sine's bounds (the pair's recurrences are symmetric)
-            e, atoms = self._order(i, op, a, param, k)
-            if k and self.atoms[i][k - 1]:  # non-decreasing denominators
-                atoms = _lcm(atoms, self.atoms[i][k - 1])
+            m = k - 1 if i in self.lagged else k
+            if m < 0:
+                continue
+            e, atoms = self._order(i, op, a, param, m)
+            if m and self.atoms[i][m - 1]:  # non-decreasing denominators
+                atoms = _lcm(atoms, self.atoms[i][m - 1])
             for j in (i, param[0]) if op == "sin" else (i,):
-                self.e[j, k], self.atoms[j][k] = e, atoms
-                if k == 0:  # the degree of its numerator, should it become an atom
+                self.e[j, m], self.atoms[j][m] = e, atoms
+                if m == 0:  # the degree of its numerator, should it become an atom
                     self.atom_degree[j] = max(e + self._den(atoms), 0)
         self.done = k
 
@@ -77,11 +86,38 @@ class TaylorDegrees:
             return self._product(a[0], a[1], 0, k)
         if op == "div":
             return self._quotient(i, a, k)
-        u = a[0]  # a generator: sin (with its cosine) or exp of u
-        if k == 0:  # a new variable, of degree 2 (1 + deg num u + deg den u), as graph_exact.degrees
-            return 2 * (1 + max(int(E[u, 0]) + 2 * self._den(self.atoms[u][0]), 0)), {}
+        if op == "deriv":  # D_m = (m + 1) u_{m+1}
+            return int(E[a[0], k + 1]), self.atoms[a[0]][k + 1]
+        if op == "free" and k:  # a_k = R_{k-1} / k
+            return int(E[a[0], k - 1]), self.atoms[a[0]][k - 1]
+        if k == 0:  # a generator or a root: a new variable of degree 2 (1 + its operands'
+            # deg num + deg den), as graph_exact.degrees counts it
+            operands = param[3] if op == "free" else a
+            return 2 * (1 + sum(max(int(E[u, 0]) + 2 * self._den(self.atoms[u][0]), 0) for u in operands)), {}
+        if op == "sqrt":  # 2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}
+            return self._over([(int(E[a[0], k]), self.atoms[a[0]][k]), self._inner(i, k)], i)
         # s_k = (1/k) sum_{j>=1} j u_j c_{k-j} (and c_k alike); E_k = (1/k) sum j u_j E_{k-j}
-        return self._product(u, param[0] if op == "sin" else i, 1, k)
+        return self._product(a[0], param[0] if op == "sin" else i, 1, k)
+
+    def _inner(self, r, k):
+        """``sum_{0<j<k} r_j r_{k-j}``."""
+        if k < 2:
+            return ZERO, {}
+        er = self.e[r, 1:k]
+        both = (er > ZERO) & (er[::-1] > ZERO)
+        if not both.any():
+            return ZERO, {}
+        return int((er + er[::-1])[both].max()), _plus(self.atoms[r][k - 1], self.atoms[r][k - 1])
+
+    def _over(self, terms, b):
+        """The bound of ``(sum of terms) / b_0``: the denominator of ``b_0`` to the numerator,
+        its numerator a new atom."""
+        e, atoms = _sum(terms)
+        if e == ZERO:
+            return ZERO, {}
+        atoms = dict(atoms)
+        atoms[b] = atoms.get(b, 0) + 1
+        return e - int(self.e[b, 0]), atoms
 
     def _coordinate(self, j, k):
         """``x_{j,k} = F_{j,k-1} / k`` with ``F = f0 + sum_i u_i(t) f_i``."""
@@ -113,12 +149,7 @@ class TaylorDegrees:
         terms = [(int(self.e[a[0], k]), self.atoms[a[0]][k])]
         if k:
             terms.append(self._tail(i, a[1], k))
-        e, atoms = _sum(terms)
-        if e == ZERO:
-            return ZERO, {}
-        atoms = dict(atoms)
-        atoms[a[1]] = atoms.get(a[1], 0) + 1
-        return e - int(self.e[a[1], 0]), atoms
+        return self._over(terms, a[1])
 
     def _tail(self, c, b, k):
         """``sum_{j<k} c_j b_{k-j}``."""
