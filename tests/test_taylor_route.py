@@ -182,3 +182,19 @@ def test_report_text_and_names_on_the_taylor_route():
     assert set(named.texts) == {v for v, seen in {**report.observable, **report.identifiable}.items() if seen}
     assert not named.complete  # a0 * b is observable, neither factor: given only as generators
     assert report.to_dict()["dim"] == report.dim
+
+
+def test_auto_runs_the_series_on_large_models_with_known_inputs():
+    """A planar robot with known speed and turn rate, range and bearing (atan2) to 11
+    landmarks (25 states): auto runs the series test on the Taylor route; its verdicts equal
+    the symbolic ORC's (the rigid motions of the plane hidden: dim n - 3)."""
+    from helpers import script_module
+
+    system = script_module("bench_scaling").slam(11)
+    fast = uj.analyze(system)
+    assert fast.method == "series" and any("Taylor series" in note for note in fast.notes)
+    orc = uj.analyze(system, method="orc")
+    assert orc.method == "orc" and not any("Taylor series" in note for note in orc.notes)
+    assert fast.dim == orc.dim == system.n - 3
+    assert dict(fast.observable) == dict(orc.observable)
+    assert fast.exact and orc.exact
