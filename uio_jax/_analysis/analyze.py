@@ -219,19 +219,30 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, pr
         elif chosen == "single_ui":
             check_applicable(system)
         ctx = Context(system, samples, seed, rtol, prob_threshold)
-        if method == "auto" and chosen == "orc" and system.known and taylor_applicable(ctx, "series"):
-            chosen, why = "series", (f"{why}; {system.n} variables with known inputs -> the series test on the "
-                                     "Taylor route (the ORC's final span; its orders are not the ORC's steps)")
-        if chosen in ("orc", "series") and taylor_applicable(ctx, chosen):
-            try:
-                return taylor_report(ctx, chosen, seed=seed, why=why, max_order=max_order)
-            except NotTaken:
-                pass  # the symbolic route decides it
+        report = _taylor_report(ctx, method, chosen, why, seed, max_order)
+        if report is not None:
+            return report
         if chosen == "orc":
             return _orc_report(ctx, why, max_order)
         if chosen == "series":
             return series_report(ctx, seed=seed, why=why, max_order=max_order)
         return single_ui_report(ctx, why=why, max_order=max_order)
+
+
+def _taylor_report(ctx, method, chosen, why, seed, max_order):
+    """The report of the Taylor route where the engine takes it (:mod:`.taylor_route`), else
+    None: ``"orc"`` and ``"series"`` on large models; for ``"auto"`` on a large model with
+    switchable known inputs, the series test in place of the ORC (its final span)."""
+    system = ctx.system
+    if method == "auto" and chosen == "orc" and system.known and taylor_applicable(ctx, "series"):
+        chosen, why = "series", (f"{why}; {system.n} variables with known inputs -> the series test on the "
+                                 "Taylor route (the ORC's final span; its orders are not the ORC's steps)")
+    elif chosen not in ("orc", "series") or not taylor_applicable(ctx, chosen):
+        return None
+    try:
+        return taylor_report(ctx, chosen, seed=seed, why=why, max_order=max_order)
+    except NotTaken:
+        return None  # the symbolic route decides it (the ORC where auto chose it)
 
 
 def _choose(system, method, known_inputs="switchable"):
