@@ -14,13 +14,18 @@ coefficient):
     (a / b)_k = (a_k - sum_{j<k} c_j b_{k-j}) / b_0
     s = sin u, c = cos u:  s_k =  (1/k) sum_{j=1..k} j u_j c_{k-j},  c_k = -(1/k) sum j u_j s_{k-j}
     E = exp u:             E_k =  (1/k) sum_{j=1..k} j u_j E_{k-j}
+    r = sqrt u:            2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}
+    a = log u, atan2(u, v), ...:  a_k = R_{k-1} / k,  R = a' = sum_i c_i(u) u_i'
+
+(the instructions, and which of them run one order behind: :mod:`.taylor_program`).
 
 Cost: ``O(|graph| K^2 N P)`` for ``K`` orders, ``N`` coordinates and ``P`` points, where the
 symbolic route builds ``L_F^k h`` as graph nodes whose number grows with every order (a
 single-output chain of 60 variables: 500 000 nodes). Modulo ``p`` the generators of the
 elementary functions take random values at ``t = 0`` (:mod:`.graph_elementary`: a point of
-the circle for ``sin``/``cos`` of one argument, a random ``exp u``), which is the rank of the
-model made rational; in float64 and mpmath they are the real values.
+the circle for ``sin``/``cos`` of one argument, a random ``exp u``, a random value of a
+logarithmic kind, a square root of the argument's value), which is the rank of the model
+made rational; in float64 and mpmath they are the real values.
 
 The arithmetic is an object (:class:`Modular`, :class:`Float`, :class:`Extended`) with the
 few operations the recurrences need, so that one program serves the exact decision, the
