@@ -198,3 +198,14 @@ def test_auto_runs_the_series_on_large_models_with_known_inputs():
     assert fast.dim == orc.dim == system.n - 3
     assert dict(fast.observable) == dict(orc.observable)
     assert fast.exact and orc.exact
+
+
+def test_several_outputs_equal_the_symbolic_route(monkeypatch):
+    """Two outputs of the chain (x0 and x0 * x5): the ORC differentiates only the generators
+    kept at the last step, per output; the dims per step and the generators are the same."""
+    base = _chain(12, "mul", hidden=True)
+    system = uj.System(states=base.states, params=base.params, drift=base.drift, name="chain2",
+                       outputs={"y": lambda x, a: x[0], "z": lambda x, a: x[0] * x[5]})
+    fast = uj.analyze(system)
+    assert any("Taylor series" in note for note in fast.notes)
+    _same(fast, _symbolic(monkeypatch, system))
