@@ -316,24 +316,78 @@ def laurent_monomials(span: ModularSpan, m: int):
     return out
 
 
-def polynomial_fields(span: ModularSpan, degree: int):
-    """Integer coefficient vectors of the polynomial vector fields of degree at most ``degree``
-    (constant fields included) that every kept gradient annihilates, on all ``N``
-    coordinates: ``(monos, vectors)``, unknown ``(i, a)`` at ``i * len(monos) + a``; or None."""
+def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
+    """Integer coefficient vectors of the polynomial vector fields ``X`` of degree at most
+    ``degree`` (constant fields included) on the first ``n`` coordinates (default: all ``N``)
+    that the span annihilates: ``(monos, vectors)``, exponent vectors of length ``n``,
+    unknown ``(i, a)`` at ``i * len(monos) + a``; or None when the ansatz is too large or
+    cannot be solved.
+
+    For ``n = N`` every kept gradient annihilates ``X``: ``d k . X = 0``. For ``n < N`` (the
+    EORC's ``[x; w; ..]``, an extension) ``X`` lives on ``x`` and is tested against the
+    covectors of the span with no component on the other coordinates (``c^T K`` for ``c``
+    in the left kernel of ``K``'s last ``N - n`` columns): the covectors the report's ``dim``
+    counts. The unobservable directions of ``x`` are their annihilator, which is the
+    projection on ``x`` of the span's kernel (:func:`restricted_rows`).
+
+    The unknowns are structured by the directions at the first point: a component ``X_i``
+    where every direction has ``v_i = 0`` vanishes (generically, so ``X_i = 0``), and the
+    monomials are written in the moved coordinates only (a field times an observable
+    coordinate is no new direction). A rotation of 9 moved coordinates among 16 is 90
+    unknowns instead of 272."""
     N = span.graph.n
-    monos = monomials(N, degree, low=0)
-    if len(monos) * N > MAX_UNKNOWNS:
-        return None
+    n = N if n is None else int(n)
     p = span.p
+    first = span.point(0)
+    if first is None:
+        return None
+    moved = [i for i in range(n) if any(v[i] for v in first.V)]
+    small = monomials(len(moved), degree, low=0)
+    if len(small) * len(moved) > MAX_UNKNOWNS:
+        return None
+    if not moved:
+        return [], []
 
     def equations(pt):
-        values = [_monomial_value(e, pt.z, p) for e in monos]
-        return [[k[i] * mv % p for i in range(N) for mv in values] for k in pt.K]
+        values = [_monomial_value(e, [pt.z[i] for i in moved], p) for e in small]
+        return [[k[i] * mv % p for i in moved for mv in values] for k in restricted_rows(pt.K, n, p)]
 
-    sol = span.solve(equations, len(monos) * N, max(1, len(span.kept)))
+    rows = len(restricted_rows(first.K, n, p))
+    sol = span.solve(equations, len(small) * len(moved), max(1, rows))
     if sol is None:
         return None
-    return monos, _readable(sol, p, order=_field_order(monos, N))
+    M = len(small)
+    monos = []
+    for e in small:
+        full = [0] * n
+        for i, k in zip(moved, e):
+            full[i] = k
+        monos.append(tuple(full))
+    out = []
+    for vec in _readable(sol, p, order=_field_order(small, len(moved))):
+        full = [0] * (n * M)
+        for s_, i in enumerate(moved):
+            full[i * M:(i + 1) * M] = vec[s_ * M:(s_ + 1) * M]
+        out.append(full)
+    return monos, out
+
+
+def restricted_rows(K, n: int, p: int):
+    """The covectors of the span of the rows ``K (r, N)`` with no component past ``n``, as
+    rows ``(n,)``: ``c^T K[:, :n]`` for ``c`` in a basis of the left kernel of ``K[:, n:]``
+    (all of ``K`` when ``n = N``)."""
+    N = len(K[0]) if K else n
+    if n >= N:
+        return K
+    r = len(K)
+    C = kernel([[K[i][j] for i in range(r)] for j in range(n, N)], r, p)
+    return [[sum(c[i] * K[i][j] for i in range(r) if c[i]) % p for j in range(n)] for c in C]
+
+
+def readable_fields(solutions, monos, n: int, p: int) -> list:
+    """Residue vectors of fields (unknown ``(i, a)`` at ``i * len(monos) + a``) as the simplest
+    integer basis of their span (most complex monomials first, as :func:`polynomial_fields`)."""
+    return _readable(solutions, p, order=_field_order(monos, n))
 
 
 def _field_order(monos, N):
@@ -377,5 +431,5 @@ def _lower(e, t):
 
 
 __all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
-           "polynomial_functions", "laurent_monomials", "polynomial_fields", "MAX_UNKNOWNS",
-           "MAX_POINTS", "MAX_COEFFICIENT"]
+           "polynomial_functions", "laurent_monomials", "polynomial_fields", "restricted_rows", "readable_fields",
+           "MAX_UNKNOWNS", "MAX_POINTS", "MAX_COEFFICIENT", "CANDIDATE_PRIME"]

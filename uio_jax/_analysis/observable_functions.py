@@ -19,7 +19,8 @@ operators, calls and names of the printed text, then its length):
    coordinates only and prints as an expression (:mod:`.expression_text`);
 3. if these do not reach the dimension: polynomials of degree at most 2 in the coordinates
    and the elementary functions of one coordinate in the model (``cos(theta)``), found by
-   ansatz (:mod:`.ansatz`);
+   ansatz (:mod:`.ansatz`) in tiers, each solved only while short: the coordinates, then with
+   one coordinate's elementary functions at a time, then all of them;
 4. if still short: ratios and products of two of the simplest
    subexpressions, and polynomials of degree 3.
 
