@@ -300,4 +300,10 @@ case 2 and 10, 15, 22 for case 3. Case 1 (`visual_inertial_partial.py`, 12 state
 the gravity magnitude and an accelerometer bias) is reproduced at its published order
 k = 7, in its yaw-free form (the `k` row) and in its 12 global coordinates (every function
 but the yaw, first at k = 7).
+
+**Closed-form symmetries (`Report.symmetries`).** The yaw and the internal rotation are
+declared here and verified, but not found by the field ansatz: the unobservable directions
+of this formulation move most of its 23 coordinates (18 in case 2), and the degree-1 field
+ansatz on them is past its bound of 120 unknowns (`docs/observable_functions.md`); the
+report says "0 of 1" ("0 of 2") and the declared symmetries give the directions.
 """
