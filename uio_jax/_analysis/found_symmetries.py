@@ -167,6 +167,8 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
             break
         except graph_exact.Singular:
             ev = None
+        except ValueError:  # not made rational (a constant known in float64 only)
+            return vectors
     if ev is None:
         return vectors
     K, m = len(xis), len(G)

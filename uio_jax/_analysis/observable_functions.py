@@ -332,30 +332,44 @@ class _Run:
                 continue
             if not uses_inputs and len(self.chosen) >= dim:
                 continue
-            if rows is not None and not any(self.kept_rows.reduce(rows[node])):
+            row = None if rows is None else rows.get(node)
+            if row is not None and not any(self.kept_rows.reduce(row)):
                 continue
             nd = self.parts.builder.make(fn.text, "scalar", 0, node)
             if not self._holds(list(self.parts.nodes), nd, "dependent"):
                 continue
-            if rows is not None:
-                self.kept_rows.add(rows[node])
-            elif not self._holds([k for _, k in self.chosen + self.given], nd, "independent"):
+            if row is None and not self._holds([k for _, k in self.chosen + self.given], nd, "independent"):
                 continue
+            if row is None:  # the screen no longer reflects every kept function
+                self.screen, self.kept_rows = None, None
+            else:
+                self.kept_rows.add(row)
             (self.given if uses_inputs else self.chosen).append((fn, nd))
             if len(self.chosen) >= dim and len(self.given) >= inputs:
                 return
 
     def _screen_rows(self, nodes):
-        """``{node: gradient row}`` at the screen point, or None (no screen, or a candidate
-        singular there: the exact independence test then runs per candidate)."""
+        """``{node: gradient row}`` at the screen point of the candidates made rational, or
+        None (no screen, or a candidate singular there). A candidate without a row takes the
+        exact independence test of the Settler, and the screen is dropped once it keeps one."""
         if self.screen is None:
             return None
+        rational = [k for k in nodes if self.settler.exact_capable([k])]
         try:
-            self.screen.evaluate(nodes)
+            self.screen.evaluate(rational)
         except graph_exact.Singular:
             self.screen, self.kept_rows = None, None
             return None
-        return {k: self.screen.row(k, 0) for k in nodes}
+        except ValueError:  # a node without a value modulo p (a constant known in float64)
+            rational = [k for k in rational if self._evaluates(k)]
+        return {k: self.screen.row(k, 0) for k in rational}
+
+    def _evaluates(self, node) -> bool:
+        try:
+            self.screen.evaluate([node])
+        except (ValueError, graph_exact.Singular):
+            return False
+        return True
 
     def _holds(self, kept, nd, outcome) -> bool:
         esc = self.settler.settle(kept, nd, "not voted: a named function checked directly")
