@@ -456,7 +456,7 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     details = _details(run, history, k, k_used, first_seen, at_bound, sym, at_symmetry)
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
-    space = SampledSpace(ctx, n=run.n, dim=dim_all)
+    space = SampledSpace(ctx, n=run.n, dim=dim_all, original=run.analysed)
     return ctx.report("eorc", history, reason, notes=notes, details=details, system=view,
                       dim=dim_all, observable=observable, space=space,
                       known_inputs=known_inputs)

@@ -17,15 +17,24 @@ a component on at every order of every analysis (the proof is in :mod:`.symmetry
 The fields found need not span the whole unobservable distribution (a direction may be a
 symmetry of no polynomial form, or a field that annihilates the codistribution without
 commuting with the dynamics); the result says how many of ``n - dim`` directions they span.
-Searched only where the report's coordinates are those of the analysis (ORC, single_ui,
-general_ui without extension; no time coordinate) and the model is made rational.
+Where the analysis runs on more coordinates than the report's (the EORC's ``[x; w; w'; ..]``,
+the general solution's extension), the fields live on ``x`` and the ansatz tests them against
+the covectors of the span with no component on the other coordinates (those the report's
+``dim`` counts; :func:`uio_jax._analysis.ansatz.polynomial_fields`); the check runs on the
+System before the extension, its unknown inputs as unknown inputs, and its condition (S3)
+is the prolongation to the inputs: the proof in :mod:`.symmetry` covers every order of every
+extension. Not searched for a time-varying model (the report's states are not a System's)
+or one not made rational.
 """
 
 import dataclasses
 
 import jax.numpy as jnp
+import numpy as np
 
+from .._calculus.generators import builder_for
 from .._engine import graph_exact
+from .._errors import ModelError
 from .._model.system import System, derived_system
 from . import ansatz
 from .symmetry import verify_symmetries
@@ -87,31 +96,107 @@ class FoundSymmetries:
 
 
 def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
-    """Verified symmetries of the analysed System.
+    """Verified symmetries of the System a report is about.
 
     Args:
         parts: the final codistribution (:class:`~uio_jax._analysis.space.SpanParts`).
-        system: the analysed System (its coordinates are the codistribution's).
+        system: the System whose states are the report's (for the EORC and an extended
+            general solution: the System before the extension, its unknown inputs as unknown
+            inputs; the codistribution may live on more coordinates).
         seed: seed of the ansatz points.
     """
-    N = parts.builder.graph.n
-    hidden = parts.n - parts.dim
+    n = parts.n
+    hidden = n - parts.dim
     if hidden == 0:
         return FoundSymmetries((), 0)
-    if parts.n != N or system is None or system.n != N:
-        return FoundSymmetries((), hidden, "the analysis runs on more coordinates than the report's")
+    if system is None or system.n != n:
+        return FoundSymmetries((), hidden, "the report's states are not those of a System to verify "
+                                           "fields on (a time-varying model)")
     if not parts.settler.exact_capable([nd.expr for nd in parts.nodes]):
         return FoundSymmetries((), hidden, "the model is not made rational")
-    span = ansatz.ModularSpan(parts.builder.graph, [nd.expr for nd in parts.nodes], seed=seed)
+    span = ansatz.ModularSpan(parts.builder.graph, [nd.expr for nd in parts.nodes], seed=seed,
+                              p=ansatz.CANDIDATE_PRIME)
     found = None
     for degree in range(DEGREE, -1, -1):  # the largest ansatz that fits
-        found = ansatz.polynomial_fields(span, degree)
+        found = ansatz.polynomial_fields(span, degree, n)
         if found is not None:
             break
     if found is None:
         return FoundSymmetries((), hidden, "the field ansatz could not be solved")
     monos, vectors = found
-    fields = sorted((_Field(monos, v, N) for v in vectors), key=lambda f: f.size)
+    vectors = _symmetric(monos, vectors, system, n, seed)
+    fields = sorted((_Field(monos, v, n) for v in vectors), key=lambda f: f.size)
+    return FoundSymmetries(_verified(fields, system, span, hidden, seed), hidden)
+
+
+def _symmetric(monos, vectors, system, n, seed) -> list:
+    """The combinations of the annihilating fields ``vectors`` that satisfy the symmetry
+    conditions (S1)-(S3) of :mod:`.symmetry` at random points modulo the candidate prime.
+
+    The fields that annihilate the span include every function multiple of a symmetry
+    (``ry d/drx`` beside the translation ``d/drx``), so a basis of them splits a rotation
+    from the translations' multiples it needs. (S1) ``L_X h = 0``, (S2) ``[X, f] = 0`` and
+    (S3) ``[X, g_j] = sum_l b_jl g_l`` with constant ``b`` are linear in ``X`` and ``b``:
+    with ``X = sum_k a_k X_k`` they are linear equations in ``(a, b)`` at each point, whose
+    solutions are the candidate symmetries (checked exactly afterwards). Returns integer
+    vectors (the simplest basis of the combinations), or ``vectors`` unchanged where the
+    conditions cannot be evaluated."""
+    if not vectors:
+        return vectors
+    p = ansatz.CANDIDATE_PRIME
+    builder = builder_for(system)
+    outputs = [builder.scalar(k, fn) for k, fn in system.outputs.items()]
+    known = [builder.field(k, fn) for k, fn in system.fields().items() if k not in system.unknown]
+    unknown = [builder.field(k, fn) for k, fn in system.unknown.items()]
+    try:
+        xis = [builder.field(f"candidate field {i}", _Field(monos, v, n).callable()) for i, v in enumerate(vectors)]
+    except ModelError:
+        return vectors
+    conds = [[(builder.lie(xi, h).expr,) for h in outputs] + [builder.bracket(xi, f).expr for f in known]
+             for xi in xis]
+    mixes = [[builder.bracket(xi, g).expr for g in unknown] for xi in xis]
+    G = [g.expr for g in unknown]
+    roots = [e for c in conds for es in c for e in es] + [e for c in mixes for es in c for e in es] \
+        + [e for g in G for e in g]
+    rng = np.random.default_rng([int(seed), 0x5A7E])
+    for _ in range(4):
+        points = [[int(v) for v in rng.integers(1, p, size=builder.graph.n)] for _ in range(3)]
+        ev = graph_exact.ModularEvaluator(builder.graph, points, p)
+        try:
+            ev.evaluate(roots)
+            break
+        except graph_exact.Singular:
+            ev = None
+        except ValueError:  # not made rational (a constant known in float64 only)
+            return vectors
+    if ev is None:
+        return vectors
+    K, m = len(xis), len(G)
+    rows = []
+    for t in range(len(points)):
+        def at(e):
+            return int(ev.V[e][t]) % p
+        for c in range(len(conds[0])):
+            for e in range(len(conds[0][c])):
+                rows.append([at(conds[k][c][e]) for k in range(K)] + [0] * (m * m))
+        for j in range(m):
+            for e in range(len(G[j])):
+                row = [at(mixes[k][j][e]) for k in range(K)] + [0] * (m * m)
+                for l_ in range(m):
+                    row[K + j * m + l_] = (-at(G[l_][e])) % p
+                rows.append(row)
+    combos = ansatz.kernel(rows, K + m * m, p)
+    fields = [[sum(a[k] * vectors[k][u] for k in range(K)) % p for u in range(len(vectors[0]))]
+              for a in combos if any(a[:K])]
+    return ansatz.readable_fields(fields, monos, n, p)
+
+
+def _verified(fields, system, span, hidden, seed) -> tuple:
+    """The candidate fields that pass the symmetry check of declared symmetries on
+    ``system`` (:func:`uio_jax._analysis.symmetry.verify_symmetries`), independent of those
+    kept before (rank modulo p at the span's first point), at most ``hidden``."""
+    if not fields:
+        return ()
     names = tuple(system.states)
     declared = {f"found_{i}": f.callable() for i, f in enumerate(fields)}
     with derived_system():
@@ -124,7 +209,7 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
             kept.append(FoundSymmetry(f.kind(), f.components(names), check.how))
         if len(kept) == hidden:
             break
-    return FoundSymmetries(tuple(kept), hidden)
+    return tuple(kept)
 
 
 class _Field:

@@ -314,7 +314,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     if system.known:
         details["jet_order"] = jet
     notes = list(notes) + _report_notes(system, truncated, jet, weakest)
-    space = SampledSpace(omega, n=n, dim=dim)
+    space = SampledSpace(omega, n=n, dim=dim, original=system)
     omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
     return omega.report("general_ui", out.history, out.stop, notes=notes,
                         details=details, system=report_system or report_view(system, n),

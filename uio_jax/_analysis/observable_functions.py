@@ -19,7 +19,8 @@ operators, calls and names of the printed text, then its length):
    coordinates only and prints as an expression (:mod:`.expression_text`);
 3. if these do not reach the dimension: polynomials of degree at most 2 in the coordinates
    and the elementary functions of one coordinate in the model (``cos(theta)``), found by
-   ansatz (:mod:`.ansatz`);
+   ansatz (:mod:`.ansatz`) in tiers, each solved only while short: the coordinates, then with
+   one coordinate's elementary functions at a time, then all of them;
 4. if still short: ratios and products of two of the simplest
    subexpressions, and polynomials of degree 3.
 
@@ -44,6 +45,9 @@ import dataclasses
 import enum
 import time
 
+import numpy as np
+
+from .._engine import graph_exact
 from .._engine.graph_numpy import columns
 from . import ansatz
 from .expression_text import Printer, text_size
@@ -197,6 +201,13 @@ class _Run:
         self.tried = set()
         self.chosen, self.given = [], []  # (NamedFunction, Node)
         self.subexpressions = []
+        # the screen: every candidate's gradient at one random point modulo the candidate
+        # prime, reduced against the functions kept so far (an independence there is certain)
+        self.screen, self.kept_rows = None, graph_exact.Echelon(ansatz.CANDIDATE_PRIME)
+        if self.exact:
+            rng = np.random.default_rng([int(seed), 0x5C4EE2])
+            z = [int(v) for v in rng.integers(1, ansatz.CANDIDATE_PRIME, size=self.graph.n)]
+            self.screen = graph_exact.ModularEvaluator(self.graph, [z], ansatz.CANDIDATE_PRIME)
 
     def error_bound(self) -> float:
         return self.settler.error_bound - self.start_bound
@@ -213,25 +224,32 @@ class _Run:
         subs = [c for c in (self._candidate(k, Source.SUBEXPRESSION) for k in reach) if c is not None]
         subs.sort(key=_rank)
         self.subexpressions = subs[:MAX_SUBEXPRESSIONS]
-        self.atoms = list(g.coords[:self.m]) + [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
-        self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed)
+        elementary = [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
+        self.atoms = list(g.coords[:self.m]) + elementary
+        self.atom_cols = [None] * self.m + [next(iter(cols[k])) for k in elementary]
+        self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed,
+                                        ansatz.CANDIDATE_PRIME)
         hidden = self.exact and self.parts.dim < self.parts.n  # a scaling may hide something
         self._select(self.variables + self.subexpressions + (self._laurent() if hidden else []))
-        if self.short() and self.exact:
-            self._select(self._polynomials(2))
+        if self.exact:
+            self._tiers(2)
 
     def second_pass(self):
         """Ratios and products of two of the simplest subexpressions (or variables); the
         ansatz of degree 3."""
-        pool = self.variables + [c for c in self.subexpressions if c[0].source is Source.SUBEXPRESSION][:PAIR_POOL]
+        # a ratio or product with a variable named already is no new function: d(a/b) is in
+        # span{da, db}, so with da named it adds db only, which b itself would have added
+        named = {fn.text for fn, _ in self.chosen + self.given if fn.source is Source.VARIABLE}
+        pool = [c for c in self.variables if c[0].text not in named]
+        pool += [c for c in self.subexpressions if c[0].source is Source.SUBEXPRESSION][:PAIR_POOL]
         g, cands = self.graph, []
         for i, a in enumerate(pool):
             for b in pool[i + 1:]:
                 for node in (g.div(a[1], b[1]), g.div(b[1], a[1]), g.mul(a[1], b[1])):
                     cands.append(self._candidate(node, Source.COMBINATION))
-        if self.exact:
-            cands += self._polynomials(3)
         self._select([c for c in cands if c is not None])
+        if self.exact:
+            self._tiers(3)
 
     def short(self) -> bool:
         """Whether fewer functions than wanted are named so far."""
@@ -251,17 +269,35 @@ class _Run:
         names = self.parts.names
         return NamedFunction(text, source, tuple(names[i] for i in cols)), node
 
-    def _polynomials(self, degree):
-        found = ansatz.polynomial_functions(self.span, degree)
+    def _tiers(self, degree):
+        """The polynomial ansatz of ``degree`` in growing sets of atoms, each solved only while
+        the functions named are short (the cost of an ansatz grows as the cube of its
+        unknowns): the coordinates; the coordinates and the elementary functions of one
+        coordinate (``cos(theta)``, ``sin(theta)``), one coordinate at a time; all atoms."""
+        m = self.m
+        groups = {}
+        for t in range(m, len(self.atoms)):
+            groups.setdefault(self.atom_cols[t], []).append(t)
+        tiers = [list(range(m))] + [list(range(m)) + ts for ts in groups.values()]
+        if len(groups) > 1:
+            tiers.append(list(range(len(self.atoms))))
+        for tier in tiers:
+            if not self.short():
+                return
+            self._select(self._polynomials(degree, tier))
+
+    def _polynomials(self, degree, tier):
+        found = ansatz.polynomial_functions(self.span, degree, tier)
         if found is None:
             return []
         monos, vectors = found
         g, out = self.graph, []
+        atoms = [self.atoms[t] for t in tier]
         for vec in vectors:
             node = g.zero
             for c, e in zip(vec, monos):
                 if c:
-                    node = g.add(node, g.mul(g.const(c), _monomial(g, e, self.atoms)))
+                    node = g.add(node, g.mul(g.const(c), _monomial(g, e, atoms)))
             out.append(self._candidate(node, Source.POLYNOMIAL))
         return out
 
@@ -282,22 +318,58 @@ class _Run:
 
     # ---------------------------------------------------------------- the checks
     def _select(self, cands):
+        """Keep the candidates, simplest first, that lie in ``Omega`` and raise the rank of the
+        functions kept so far. Independence is tested first, on the screen (all candidates
+        evaluated in one walk of the graph; a candidate dependent there is passed over, which
+        never names a wrong function), then membership by the Settler, exactly."""
         dim, n = self.parts.dim, self.parts.n
         inputs = self.m - n
-        for fn, node in sorted((c for c in cands if c is not None), key=_rank):
+        cands = sorted((c for c in cands if c is not None), key=_rank)
+        rows = self._screen_rows([node for _, node in cands])
+        for fn, node in cands:
             uses_inputs = any(self.parts.names.index(v) >= n for v in fn.variables)
             if uses_inputs and len(self.given) >= inputs:
                 continue
             if not uses_inputs and len(self.chosen) >= dim:
                 continue
+            row = None if rows is None else rows.get(node)
+            if row is not None and not any(self.kept_rows.reduce(row)):
+                continue
             nd = self.parts.builder.make(fn.text, "scalar", 0, node)
             if not self._holds(list(self.parts.nodes), nd, "dependent"):
                 continue
-            kept = [k for _, k in self.chosen + self.given]
-            if self._holds(kept, nd, "independent"):
-                (self.given if uses_inputs else self.chosen).append((fn, nd))
+            if row is None and not self._holds([k for _, k in self.chosen + self.given], nd, "independent"):
+                continue
+            if row is None:  # the screen no longer reflects every kept function
+                self.screen, self.kept_rows = None, None
+            else:
+                self.kept_rows.add(row)
+            (self.given if uses_inputs else self.chosen).append((fn, nd))
             if len(self.chosen) >= dim and len(self.given) >= inputs:
                 return
+
+    def _screen_rows(self, nodes):
+        """``{node: gradient row}`` at the screen point of the candidates made rational, or
+        None (no screen, or a candidate singular there). A candidate without a row takes the
+        exact independence test of the Settler, and the screen is dropped once it keeps one."""
+        if self.screen is None:
+            return None
+        rational = [k for k in nodes if self.settler.exact_capable([k])]
+        try:
+            self.screen.evaluate(rational)
+        except graph_exact.Singular:
+            self.screen, self.kept_rows = None, None
+            return None
+        except ValueError:  # a node without a value modulo p (a constant known in float64)
+            rational = [k for k in rational if self._evaluates(k)]
+        return {k: self.screen.row(k, 0) for k in rational}
+
+    def _evaluates(self, node) -> bool:
+        try:
+            self.screen.evaluate([node])
+        except (ValueError, graph_exact.Singular):
+            return False
+        return True
 
     def _holds(self, kept, nd, outcome) -> bool:
         esc = self.settler.settle(kept, nd, "not voted: a named function checked directly")

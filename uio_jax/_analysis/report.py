@@ -317,7 +317,7 @@ class Report:
                                                "the Taylor route keeps no symbolic generators to search against"))
         if not self._found:
             parts = self._space.parts()
-            self._found.append(find_symmetries(parts, parts.system))
+            self._found.append(find_symmetries(parts, parts.original))
         return self._found[0]
 
     def reparametrised_model(self) -> dict | None:

@@ -58,6 +58,10 @@ class SpanParts:
         roots: the graph nodes of the analysed System's outputs and fields.
         box: ``(lo, hi)`` of the analysed coordinates.
         system: the analysed System (whose coordinates the span lives on).
+        original: the System whose states are the report's ``n`` coordinates (the analysed
+            System when ``n = N``; for the EORC and an extended general solution the System
+            before the extension, with its unknown inputs), on which a found symmetry is
+            verified; None where there is none (a time-varying model).
     """
 
     builder: object
@@ -69,6 +73,7 @@ class SpanParts:
     roots: tuple
     box: tuple
     system: object = None
+    original: object = None
 
 
 class Space(Protocol):
@@ -113,13 +118,16 @@ class SampledSpace(Space):
         n: coordinates of the original state (default: all of ``ctx.system``'s).
         dim: dimension of the span intersected with ``span{dx_1..dx_n}`` (default: the
             rank, the whole span when ``n = N``).
+        original: the System whose states are the first ``n`` coordinates
+            (:attr:`SpanParts.original`; default ``ctx.system`` when ``n = N``).
     """
 
-    def __init__(self, ctx, n=None, dim=None):
+    def __init__(self, ctx, n=None, dim=None, original=None):
         self._ctx = ctx
         self._nodes = tuple(ctx.codist.nodes)
         self._N = ctx.system.n
         self._n = self._N if n is None else int(n)
+        self._original = original if original is not None else (ctx.system if self._n == self._N else None)
         self._dim = len(self._nodes) if dim is None else int(dim)
         lo, hi = ctx.system.box()
         rng = np.random.default_rng(0x5FACE)
@@ -137,7 +145,7 @@ class SampledSpace(Space):
         nodes = [*ctx.output_nodes(), *(ctx.field_node(f) for f in ctx.system.fields())]
         roots = tuple(e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr))
         return SpanParts(ctx.builder, self._nodes, tuple(ctx.system.states), self._n, self._dim,
-                         ctx.settler, roots, ctx.system.box(), ctx.system)
+                         ctx.settler, roots, ctx.system.box(), ctx.system, self._original)
 
     def known_point(self) -> dict:
         """``{name: value}`` of the known coordinates the directions are computed at (the
