@@ -30,7 +30,6 @@ reported.
 import dataclasses
 import itertools
 import math
-from fractions import Fraction
 
 import numpy as np
 
@@ -76,16 +75,9 @@ def monomials(m: int, degree: int, low: int = 1) -> list[tuple[int, ...]]:
 
 
 def rational(a: int, p: int = graph_exact.PRIME):
-    """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
-    reconstruction, by the extended Euclidean algorithm), or None when there is none."""
-    bound = math.isqrt(p // 2)
-    r0, r1, s0, s1 = p, a % p, 0, 1
-    while r1 > bound:
-        q = r0 // r1
-        r0, r1, s0, s1 = r1, r0 - q * r1, s1, s0 - q * s1
-    if s1 == 0 or abs(s1) > bound:
-        return None
-    return Fraction(r1, s1)
+    """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)``, or None
+    (:func:`uio_jax._engine.graph_exact.rational_reconstruction`)."""
+    return graph_exact.rational_reconstruction(a, p)
 
 
 #: Largest numerator or denominator of a coefficient read back from a residue: a solution

@@ -48,9 +48,7 @@ point: the symmetry is reported unverified and not used.
 """
 
 import dataclasses
-import math
 import random
-from fractions import Fraction
 
 import numpy as np
 
@@ -334,14 +332,9 @@ def _rank_full(G0, p, m) -> bool:
 def _rational(a: int, p: int):
     """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
     reconstruction), else the residue."""
-    bound = math.isqrt(p // 2)
-    r0, r1, s0, s1 = p, a % p, 0, 1
-    while r1 > bound:
-        q = r0 // r1
-        r0, r1, s0, s1 = r1, r0 - q * r1, s1, s0 - q * s1
-    if s1 == 0 or abs(s1) > bound:
+    f = graph_exact.rational_reconstruction(a, p)
+    if f is None:
         return a
-    f = Fraction(r1, s1)
     return f.numerator if f.denominator == 1 else f
 
 

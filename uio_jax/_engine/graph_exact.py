@@ -20,6 +20,7 @@ points:
   while round-off shrinks with the precision.
 """
 
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -232,6 +233,19 @@ def solve_mod_p(A, y, p: int = PRIME):
     if _reduced_echelon(rows, p, m) != list(range(m)) or any(rows[i][m] for i in range(m, N)):
         return None
     return [rows[i][m] for i in range(m)]
+
+
+def rational_reconstruction(a: int, p: int = PRIME):
+    """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
+    reconstruction, by the extended Euclidean algorithm), or None when there is none."""
+    bound = math.isqrt(p // 2)
+    r0, r1, s0, s1 = p, a % p, 0, 1
+    while r1 > bound:
+        q = r0 // r1
+        r0, r1, s0, s1 = r1, r0 - q * r1, s1, s0 - q * s1
+    if s1 == 0 or abs(s1) > bound:
+        return None
+    return Fraction(r1, s1)
 
 
 class Echelon:
@@ -458,4 +472,5 @@ class ExtendedEvaluator:
 
 
 __all__ = ["PRIME", "Singular", "const_mod", "ModularEvaluator", "gradients_mod_p", "rank_mod_p", "Echelon",
+           "rational_reconstruction",
            "degrees", "ExtendedEvaluator"]
