@@ -41,7 +41,8 @@ class TaylorSpace(Space):
         self._width = hi - lo
         xs = ctx.xs[ctx.defined[:len(ctx.xs)]][:MARGIN_SAMPLES]
         self.samples = xs
-        self.grads = self._gradients(Float(xs)) if len(xs) else np.zeros((0, len(self._kept), ctx.system.n))
+        with np.errstate(all="ignore"):  # deep orders may overflow at a sample: dropped there
+            self.grads = self._gradients(Float(xs)) if len(xs) else np.zeros((0, len(self._kept), ctx.system.n))
 
     def _gradients(self, arithmetic):
         """``(P, r, N)``: the gradients of the kept coefficients at ``arithmetic``'s points."""
