@@ -32,20 +32,22 @@ change (at a high enough order k); the EORC is sufficient only, so lower orders 
 fewer.
 """
 
+import importlib.util
+import os
+
 import jax.numpy as jnp
 
 import uio_jax as uj
 
+_spec = importlib.util.spec_from_file_location(
+    "_uio_zoo_quaternion", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_quaternion.py"))
+_quaternion = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_quaternion)
+
 GRAVITY = 9.81
 
 
-def _rotation_columns(q):
-    """Columns of the rotation local -> global, homogeneous in q: three (3,) arrays."""
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    c1 = jnp.stack([qt**2 + qx**2 - qy**2 - qz**2, 2 * (qx * qy + qt * qz), 2 * (qx * qz - qt * qy)])
-    c2 = jnp.stack([2 * (qx * qy - qt * qz), qt**2 - qx**2 + qy**2 - qz**2, 2 * (qy * qz + qt * qx)])
-    c3 = jnp.stack([2 * (qx * qz + qt * qy), 2 * (qy * qz - qt * qx), qt**2 - qx**2 - qy**2 + qz**2])
-    return c1, c2, c3
+_rotation_columns = _quaternion.rotation_columns
 
 
 def _states(n_f):

@@ -62,25 +62,24 @@ on 31 coordinates at k = 2: only the yaw on the states. ``scripts/visfm_formulat
 repeats this in five other formulations with 2 to 6 features: case 2 never before k = 3.
 """
 
+import importlib.util
+import os
+
 import jax.numpy as jnp
 
 import uio_jax as uj
+
+_spec = importlib.util.spec_from_file_location(
+    "_uio_zoo_quaternion", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_quaternion.py"))
+_quaternion = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_quaternion)
 
 GRAVITY = 9.81
 #: Number of point features of the published dimension (23 = 11 + 3 * 4).
 N_FEATURES = 4
 
 
-def _rotation_columns(q):
-    """Columns of the rotation local -> global, homogeneous (quadratic) in q: three (3,) arrays.
-
-    ``R(q) = |q|^2 R(q / |q|)``: for a unit quaternion the usual rotation matrix.
-    """
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    c1 = jnp.stack([qt**2 + qx**2 - qy**2 - qz**2, 2 * (qx * qy + qt * qz), 2 * (qx * qz - qt * qy)])
-    c2 = jnp.stack([2 * (qx * qy - qt * qz), qt**2 - qx**2 + qy**2 - qz**2, 2 * (qy * qz + qt * qx)])
-    c3 = jnp.stack([2 * (qx * qz + qt * qy), 2 * (qy * qz - qt * qx), qt**2 - qx**2 - qy**2 + qz**2])
-    return c1, c2, c3
+_rotation_columns = _quaternion.rotation_columns
 
 
 def transpose_times(q, w):
@@ -88,11 +87,7 @@ def transpose_times(q, w):
     return jnp.stack([c @ w for c in _rotation_columns(q)])
 
 
-def right_pure(q, i):
-    """``q * [0, e_i]`` (quaternion product with a pure unit quaternion on the right), (4,)."""
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    return [jnp.stack([-qx, qt, qz, -qy]), jnp.stack([-qy, -qz, qt, qx]),
-            jnp.stack([-qz, qy, -qx, qt])][i]
+right_pure = _quaternion.right_pure
 
 
 def left_pure(q, i):

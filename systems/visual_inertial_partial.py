@@ -112,30 +112,23 @@ weak decisions and every kept generator settled exactly modulo p):
   difference is the meaning of the known accelerometer, not an error (a test shows both).
 """
 
+import importlib.util
+import os
+
 import jax.numpy as jnp
 
 import uio_jax as uj
 
+_spec = importlib.util.spec_from_file_location(
+    "_uio_zoo_quaternion", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_quaternion.py"))
+_quaternion = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_quaternion)
+
 GRAVITY = 9.81
 
 
-def _rotation_columns(q):
-    """Columns of the rotation local -> global, homogeneous (quadratic) in q: three (3,) arrays.
-
-    ``R(q) = |q|^2 R(q / |q|)``: for a unit quaternion the usual rotation matrix.
-    """
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    c1 = jnp.stack([qt**2 + qx**2 - qy**2 - qz**2, 2 * (qx * qy + qt * qz), 2 * (qx * qz - qt * qy)])
-    c2 = jnp.stack([2 * (qx * qy - qt * qz), qt**2 - qx**2 + qy**2 - qz**2, 2 * (qy * qz + qt * qx)])
-    c3 = jnp.stack([2 * (qx * qz + qt * qy), 2 * (qy * qz - qt * qx), qt**2 - qx**2 - qy**2 + qz**2])
-    return c1, c2, c3
-
-
-def _right_pure(q, i):
-    """``q * [0, e_i]`` (quaternion product with a pure unit quaternion on the right), (4,)."""
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    return [jnp.stack([-qx, qt, qz, -qy]), jnp.stack([-qy, -qz, qt, qx]),
-            jnp.stack([-qz, qy, -qx, qt])][i]
+_rotation_columns = _quaternion.rotation_columns
+_right_pure = _quaternion.right_pure
 
 
 def _left_z(q):

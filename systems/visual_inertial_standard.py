@@ -47,9 +47,17 @@ form's ORC reaches ``n`` with dims 2, 10, 17, 21 (0.1 s), the global one ``n - 1
 and 25 of 26, three: 27 of 27 and 28 of 29).
 """
 
+import importlib.util
+import os
+
 import jax.numpy as jnp
 
 import uio_jax as uj
+
+_spec = importlib.util.spec_from_file_location(
+    "_uio_zoo_quaternion", os.path.join(os.path.dirname(os.path.abspath(__file__)), "_quaternion.py"))
+_quaternion = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_quaternion)
 
 GRAVITY_BOX = (9.0, 10.5)
 N_FEATURES = 1
@@ -64,20 +72,8 @@ def gibbs_rotation(c):
     return (1.0 - c @ c) * jnp.eye(3) + 2.0 * jnp.outer(c, c) + 2.0 * cx
 
 
-def rotation_columns(q):
-    """Columns of the rotation local -> global, homogeneous (quadratic) in q: three (3,) arrays."""
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    c1 = jnp.stack([qt**2 + qx**2 - qy**2 - qz**2, 2 * (qx * qy + qt * qz), 2 * (qx * qz - qt * qy)])
-    c2 = jnp.stack([2 * (qx * qy - qt * qz), qt**2 - qx**2 + qy**2 - qz**2, 2 * (qy * qz + qt * qx)])
-    c3 = jnp.stack([2 * (qx * qz + qt * qy), 2 * (qy * qz - qt * qx), qt**2 - qx**2 - qy**2 + qz**2])
-    return c1, c2, c3
-
-
-def right_pure(q, i):
-    """``q * [0, e_i]`` (4,)."""
-    qt, qx, qy, qz = q[0], q[1], q[2], q[3]
-    return [jnp.stack([-qx, qt, qz, -qy]), jnp.stack([-qy, -qz, qt, qx]),
-            jnp.stack([-qz, qy, -qx, qt])][i]
+rotation_columns = _quaternion.rotation_columns
+right_pure = _quaternion.right_pure
 
 
 def _bearings(camera, n_f):
