@@ -94,7 +94,7 @@ def main(argv=None):
                     help="force the symbolic route (no Taylor route at any size): the A/B of the engine's choice")
     args = ap.parse_args(argv)
     if args.symbolic:
-        from uio_jax._analysis import taylor_route
+        from uio_jax._analysis.recursions import taylor_route
 
         taylor_route.TAYLOR_MIN_VARIABLES = 10**9
     if args.one:

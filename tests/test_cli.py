@@ -11,7 +11,7 @@ import pytest
 from helpers import one_line_error, zoo_path
 
 from uio_jax import cli
-from uio_jax._analysis import memory
+from uio_jax._analysis.decisions import memory
 
 #: the estimate of ``--samples 1e9`` on a 3-state model (the sampled states alone are 24 GB)
 HUGE = memory.format_bytes(sum(memory.analysis_bytes(10**9, 3).values()))
@@ -115,7 +115,7 @@ def test_each_decided_step_is_announced_once(spec, method):
 
 
 def _progress_step():
-    from uio_jax._analysis.evidence import Step
+    from uio_jax._analysis.results.evidence import Step
 
     return Step(3, 2, ("a",), 1.0)
 

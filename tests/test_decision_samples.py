@@ -13,8 +13,8 @@ import pytest
 from helpers import zoo_system
 
 import uio_jax as uj
-from uio_jax._analysis import memory
-from uio_jax._analysis.context import Context
+from uio_jax._analysis.decisions import memory
+from uio_jax._analysis.decisions.context import Context
 from uio_jax._engine import graph_numpy
 
 SAMPLES = 1024

@@ -1,11 +1,11 @@
-"""The recursion driver (uio_jax._analysis.driver) and the single_ui stopping rule as a
+"""The recursion driver (uio_jax._analysis.recursions.driver) and the single_ui stopping rule as a
 function of integer sequences."""
 
 import pytest
 
-from uio_jax._analysis.driver import Recursion, Stop, StopReason, iterate
-from uio_jax._analysis.evidence import Step
-from uio_jax._analysis.single_ui import stopping_rule
+from uio_jax._analysis.recursions.driver import Recursion, Stop, StopReason, iterate
+from uio_jax._analysis.recursions.single_ui import stopping_rule
+from uio_jax._analysis.results.evidence import Step
 from uio_jax._progress import step_listener
 
 R = StopReason
@@ -190,7 +190,7 @@ def test_vector_rank_uses_the_codistributions_rank_rule():
     on ``s_i / s_1`` as in :func:`decide_rank`."""
     import numpy as np
 
-    from uio_jax._analysis.single_ui import _vector_rank
+    from uio_jax._analysis.recursions.single_ui import _vector_rank
 
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=(2, 8, 3))

@@ -14,7 +14,7 @@ from conftest import ROOT, zoo
 from helpers import zoo_report
 
 import uio_jax as uj
-from uio_jax._analysis.rank import default_rtol
+from uio_jax._analysis.decisions.rank import default_rtol
 
 SAMPLES = 512  # compile time dominates; the rank decisions have gaps of > 6 decades
 
@@ -94,7 +94,7 @@ def test_children_gradients_equal_dense_jacobian_of_the_children():
     """The gradients of an order's children (``L_F0`` powers and ``L_{F_i}`` words, in the
     expression graph) against ``jacfwd`` of the children built by nested jvp, row for row:
     several generators (a power, a mixed word, an output), the drift and two known fields."""
-    from uio_jax._analysis.eorc import _Eorc
+    from uio_jax._analysis.recursions.eorc import _Eorc
 
     y_, z_ = (lambda s: s[0] * s[1]), (lambda s: jnp.sin(s[2]))
     u1 = lambda s: jnp.array([1.0, s[2], 0.0])  # noqa: E731

@@ -1,13 +1,13 @@
-"""The EORC's early stop at the known-input bound (``uio_jax._analysis.known_bound``)."""
+"""The EORC's early stop at the known-input bound (``uio_jax._analysis.recursions.known_bound``)."""
 
 import jax.numpy as jnp
 import pytest
 from conftest import zoo
 
 import uio_jax as uj
-from uio_jax._analysis.driver import StopReason
-from uio_jax._analysis.eorc import run_eorc
-from uio_jax._analysis.known_bound import known_input_bound
+from uio_jax._analysis.recursions.driver import StopReason
+from uio_jax._analysis.recursions.eorc import run_eorc
+from uio_jax._analysis.recursions.known_bound import known_input_bound
 
 SAMPLES = 256
 

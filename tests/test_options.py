@@ -15,11 +15,11 @@ import pytest
 from helpers import ROOT, zoo_system
 
 import uio_jax as uj
-from uio_jax._analysis import context as context_module
-from uio_jax._analysis import memory
-from uio_jax._analysis.eorc import check_eorc_memory, default_k_max, extended_system
+from uio_jax._analysis.decisions import context as context_module
+from uio_jax._analysis.decisions import memory
+from uio_jax._analysis.decisions.rank import Codistribution
 from uio_jax._analysis.options import check_options, check_seed
-from uio_jax._analysis.rank import Codistribution
+from uio_jax._analysis.recursions.eorc import check_eorc_memory, default_k_max, extended_system
 from uio_jax._filter import compile_cache
 
 SMALL = dict(samples=64)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from helpers import observable_set, published, zoo_module, zoo_report
 
-from uio_jax._analysis.driver import StopReason
+from uio_jax._analysis.recursions.driver import StopReason
 
 ORC_CASES = [
     ("vehicle_wind", "no_wind"),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import uio_jax as uj
-from uio_jax._analysis.rank import decide_increase, decide_rank, default_rtol
+from uio_jax._analysis.decisions.rank import decide_increase, decide_rank, default_rtol
 
 
 def _spectra(ranks, m=5, seed=0):
@@ -113,7 +113,7 @@ def test_samples_where_the_model_is_undefined_are_dropped_and_counted():
 def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
     """``test_units`` (residuals of every e_j from ``I - B^T B``) equals ``test`` of the
     unit covectors; ``contains`` and ``absorb`` accept either without re-testing."""
-    from uio_jax._analysis.rank import Codistribution
+    from uio_jax._analysis.decisions.rank import Codistribution
     from uio_jax._calculus.generators import Node
 
     rng = np.random.default_rng(1)
@@ -139,7 +139,7 @@ def test_unit_covectors_tested_in_one_product_equal_the_generic_test():
 def test_copy_is_independent_and_starts_without_decisions():
     """``Codistribution.copy``: the same span, absorbing into the copy leaves the original
     unchanged, and the copy's decision lists hold only its own decisions."""
-    from uio_jax._analysis.rank import Codistribution
+    from uio_jax._analysis.decisions.rank import Codistribution
     from uio_jax._calculus.generators import Node
 
     rng = np.random.default_rng(2)

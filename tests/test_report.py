@@ -100,7 +100,7 @@ def test_the_first_lines_say_which_question_is_answered():
     assert lines[2].startswith("answer: exact (observability rank condition")
     eorc = dataclasses.replace(rep, method="eorc")
     assert str(eorc).splitlines()[2].startswith("answer: sufficient only (EORC)")
-    from uio_jax._analysis.driver import StopReason
+    from uio_jax._analysis.recursions.driver import StopReason
 
     capped = dataclasses.replace(rep, stop=StopReason.MAX_ORDER.stop(max_order=1))
     assert "sufficient only (the recursion was capped" in capped.answer_kind()

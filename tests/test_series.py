@@ -9,7 +9,7 @@ from helpers import zoo_path, zoo_report
 
 import uio_jax as uj
 from uio_jax import cli
-from uio_jax._analysis.driver import StopReason
+from uio_jax._analysis.recursions.driver import StopReason
 
 SAMPLES = 512
 

@@ -15,8 +15,8 @@ import pytest
 from helpers import zoo_system
 
 import uio_jax as uj
-from uio_jax._analysis.evidence import Arithmetic
-from uio_jax._analysis.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
+from uio_jax._analysis.decisions.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
+from uio_jax._analysis.results.evidence import Arithmetic
 from uio_jax._engine import graph_exact
 from uio_jax._engine.graph import Graph
 
@@ -112,7 +112,7 @@ def erf_part(x):
 def unsettled(monkeypatch):
     """Extended precision cannot decide (as when its two precisions disagree): the weak
     decisions of a model that is not rational stay undecided."""
-    from uio_jax._analysis.settle import Escalation, Settler
+    from uio_jax._analysis.decisions.settle import Escalation, Settler
 
     monkeypatch.setattr(Settler, "_settle_extended",
                         lambda self, what, float64, exprs: Escalation(what, float64, "none: test", "undecided"))
@@ -250,7 +250,7 @@ def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkey
     """``d(x1^2)`` lies in ``span{d x1}``: modulo p the dependence holds at every point, with
     probability bound ``(D / p)^points``; where one point's bound exceeds ``MAX_BOUND``,
     points are added up to ``MAX_POINTS`` (else: undecided)."""
-    from uio_jax._analysis import settle as _settle
+    from uio_jax._analysis.decisions import settle as _settle
     from uio_jax._calculus.generators import Node
 
     g = Graph(2)

@@ -6,7 +6,7 @@ import pytest
 from helpers import SAMPLES, observable_set, published, zoo_module, zoo_report
 
 import uio_jax as uj
-from uio_jax._analysis.driver import StopReason
+from uio_jax._analysis.recursions.driver import StopReason
 
 POLAR = ["range_v_unknown", "range_omega_unknown", "bearing_v_unknown",
          "bearing_omega_unknown", "phi_v_unknown", "phi_omega_unknown"]

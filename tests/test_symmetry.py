@@ -1,5 +1,5 @@
 """Declared symmetries (``System(symmetries=...)``): verified exactly, then used as proofs of
-unobservability and as the EORC's stopping bound (uio_jax._analysis.symmetry).
+unobservability and as the EORC's stopping bound (uio_jax._analysis.decisions.symmetry).
 
 The examples are derived by hand in the docstrings: a point in the plane moved by two unknown
 inputs along the axes and measured by its squared range is invariant under rotation about the
@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import pytest
 
 import uio_jax as uj
-from uio_jax._analysis.driver import StopReason
+from uio_jax._analysis.recursions.driver import StopReason
 
 
 def rotation(x):

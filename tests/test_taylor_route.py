@@ -19,8 +19,8 @@ import pytest
 import sympy
 
 import uio_jax as uj
-from uio_jax._analysis import taylor_route
-from uio_jax._analysis.context import Context
+from uio_jax._analysis.decisions.context import Context
+from uio_jax._analysis.recursions import taylor_route
 from uio_jax._engine import graph_elementary, graph_exact, taylor
 from uio_jax._engine.taylor_degrees import TaylorDegrees
 

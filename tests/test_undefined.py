@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import pytest
 
 import uio_jax as uj
-from uio_jax._analysis.context import DROPPED_NOTE_FRACTION
+from uio_jax._analysis.decisions.context import DROPPED_NOTE_FRACTION
 
 
 def chain(output, **kw):
@@ -82,8 +82,8 @@ def test_the_recursion_decides_on_as_many_defined_states_on_a_partly_undefined_m
     outputs and fields are finite: that many where the model is defined on its whole box,
     about twice as many where on half of it, all that the certificate may use where fewer
     are defined."""
-    from uio_jax._analysis import memory
-    from uio_jax._analysis.context import Context
+    from uio_jax._analysis.decisions import memory
+    from uio_jax._analysis.decisions.context import Context
 
     D, S = memory.DECISION_SAMPLES, 1024
     for cut in (0.4, 1.0, 1.45):  # NaN for x1 < cut: none, half, 95 % of (0.5, 1.5)

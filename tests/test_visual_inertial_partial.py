@@ -14,7 +14,7 @@ import pytest
 from helpers import zoo_module
 
 import uio_jax as uj
-from uio_jax._analysis.driver import StopReason
+from uio_jax._analysis.recursions.driver import StopReason
 
 
 @pytest.fixture(scope="module")
@@ -287,7 +287,7 @@ def test_case_3_every_state_observable_at_k7(mod, cases):
 def test_case_2_every_derivative_of_an_observable_input_is_observable_one_order_later(cases):
     """Case 2 to ``k_max = n + 2 = 25`` (given: the run does not stop at its symmetry
     bound, k = 10): if ``w^(d)`` is observable at order k, so is
-    ``w^(d+1)`` at k + 1 (``L_F0 dw^(d) = dw^(d+1)``; :mod:`uio_jax._analysis.known_bound`).
+    ``w^(d+1)`` at k + 1 (``L_F0 dw^(d) = dw^(d+1)``; :mod:`uio_jax._analysis.recursions.known_bound`).
     A lemma the run must satisfy at every order, whatever its float64 evidence: from order
     15 on the genuine directions of the deep derivatives come out 5-6.5 decades under
     ``rtol``, below the weak band, and a run that took those clear float64 rejections at

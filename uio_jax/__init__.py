@@ -34,13 +34,13 @@ from ._model.experiments import Experiments as Experiments
 
 # the analyses and their report
 from ._analysis.analyze import analyze as analyze
-from ._analysis.report import Report as Report
-from ._analysis.report import Question as Question
-from ._analysis.identifiability_report import IdentifiabilityReport as IdentifiabilityReport
-from ._analysis.identifiability_report import Verdict as Verdict
-from ._analysis.evidence import Step as Step
-from ._analysis.evidence import Certificate as Certificate
-from ._analysis.plots import plot_analysis as plot_analysis
+from ._analysis.results.report import Report as Report
+from ._analysis.results.report import Question as Question
+from ._analysis.results.identifiability_report import IdentifiabilityReport as IdentifiabilityReport
+from ._analysis.results.identifiability_report import Verdict as Verdict
+from ._analysis.results.evidence import Step as Step
+from ._analysis.results.evidence import Certificate as Certificate
+from ._analysis.results.plots import plot_analysis as plot_analysis
 
 # Monte Carlo filtering
 from ._filter.montecarlo import run_montecarlo as run_montecarlo

@@ -3,7 +3,7 @@
 
 How ``method="auto"`` chooses, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
 ``"general_ui"``'s closure along the drift when the known inputs are smooth; with switchable
-known inputs on a model of :data:`~uio_jax._analysis.taylor_route.TAYLOR_MIN_VARIABLES`
+known inputs on a model of :data:`~uio_jax._analysis.recursions.taylor_route.TAYLOR_MIN_VARIABLES`
 coordinates or more that the Taylor route evaluates, ``"series"``: the ORC's final span,
 decided on the output's Taylor series without symbolic brackets); one unknown
 input, no drift, and no known input or switchable ones -> ``"single_ui"`` (Martinelli's
@@ -12,7 +12,7 @@ analytic solution); known inputs that are switchable with a drift or several unk
 known for that meaning); otherwise ``"general_ui"`` (Martinelli's general solution: any
 number of unknown inputs, drift, smooth known inputs; exact). ``"series"`` (every input
 known): rank of the output Taylor coefficients along a generic known input (STRIKE-GOLDD's
-test, :mod:`uio_jax._analysis.series`): the ORC's final verdict without nested brackets,
+test, :mod:`uio_jax._analysis.recursions.series`): the ORC's final verdict without nested brackets,
 much faster on large models, but per-order dims that are not the ORC's steps. ``"fast"``:
 like ``"auto"`` with ``"series"`` in place of ``"orc"``.
 """
@@ -25,19 +25,19 @@ from .._errors import OptionError
 from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
 from .._model.system import System
-from .context import Context
-from .eorc import eorc_report
-from .general_ui import check_applicable as general_ui_applicable
-from .general_ui import general_ui_report
-from .identifiability import analyze_experiments, analyze_initial
-from .memory import check_memory
+from .at_t0.identifiability import analyze_experiments, analyze_initial
+from .decisions.context import Context
+from .decisions.memory import check_memory
+from .decisions.symmetry import symmetry_notes, verify_symmetries
 from .options import DEFAULTS, check_options
-from .orc import run_orc
-from .series import check_applicable as series_applicable
-from .series import series_report
-from .single_ui import check_applicable, single_ui_report
-from .symmetry import symmetry_notes, verify_symmetries
-from .taylor_route import NotTaken, taylor_applicable, taylor_report
+from .recursions.eorc import eorc_report
+from .recursions.general_ui import check_applicable as general_ui_applicable
+from .recursions.general_ui import general_ui_report
+from .recursions.orc import run_orc
+from .recursions.series import check_applicable as series_applicable
+from .recursions.series import series_report
+from .recursions.single_ui import check_applicable, single_ui_report
+from .recursions.taylor_route import NotTaken, taylor_applicable, taylor_report
 
 
 def analyze(
@@ -65,7 +65,7 @@ def analyze(
             ``"eorc"``, ``"series"`` or ``"fast"``: how ``"auto"`` and ``"fast"`` choose is in
             the module docstring; ``Report.method`` records the choice.
         samples: number S of random states drawn for the float64 screen (votes at the first
-            decision samples, :func:`~uio_jax._analysis.memory.decision_count`; margins and the
+            decision samples, :func:`~uio_jax._analysis.decisions.memory.decision_count`; margins and the
             figure at as many as fit in memory, ``Certificate.capped``). The verdicts do not rest
             on these votes: every decision is settled again modulo p (or in extended precision).
         prob_threshold: the probability of correctness the exact decisions must reach
@@ -101,7 +101,7 @@ def analyze(
             outside ``[0, 2**64)``, rtol not in (0, 1), ...), a method that does not apply
             (``"series"`` on a model the Taylor engines cannot expand), or a request whose
             arrays cannot fit in memory: samples x n x n x 8 bytes and more, or, for the
-            EORC, samples x N x N with N = n + k_max m_w (:mod:`uio_jax._analysis.memory`;
+            EORC, samples x N x N with N = n + k_max m_w (:mod:`uio_jax._analysis.decisions.memory`;
             the limit is ``$UIO_JAX_MEMORY_LIMIT``, default half the physical memory).
         ModelError: a model that fails at the sampled states.
 
@@ -190,7 +190,7 @@ def _with_idle_outputs_note(report, system):
 
 def _with_symmetries(report, system, seed):
     """``report`` with the notes and ``details["symmetries"]`` of the System's verified
-    symmetries (:mod:`uio_jax._analysis.symmetry`): the coordinates they move are proved
+    symmetries (:mod:`uio_jax._analysis.decisions.symmetry`): the coordinates they move are proved
     unobservable, and a verdict that contradicts one is flagged."""
     bound = verify_symmetries(system, seed=seed)
     verdicts = {**report.observable, **report.identifiable}

@@ -6,8 +6,8 @@ import numbers
 from .._engine.threefry import check_seed
 from .._errors import OptionError
 from .._model.smooth_inputs import KNOWN_INPUT_MEANINGS
-from .rank import default_rtol
-from .settle import DEFAULT_PROB_THRESHOLD
+from .decisions.rank import default_rtol
+from .decisions.settle import DEFAULT_PROB_THRESHOLD
 
 #: The analyses ``method`` may name (``analyze``'s docstring says what each one does).
 METHODS = ("auto", "orc", "single_ui", "general_ui", "eorc", "series", "fast")
@@ -15,7 +15,7 @@ METHODS = ("auto", "orc", "single_ui", "general_ui", "eorc", "series", "fast")
 #: The meanings of a known input (``known_inputs``): may jump, or generic smooth in time.
 KNOWN_INPUTS = KNOWN_INPUT_MEANINGS
 
-#: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.rank.default_rtol`;
+#: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.decisions.rank.default_rtol`;
 #: ``max_order`` None: no cap; ``k_max`` None: ``n + 2``).
 DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None,
             "known_inputs": "switchable", "prob_threshold": DEFAULT_PROB_THRESHOLD}
@@ -31,11 +31,11 @@ def check_options(**options) -> dict:
             ``k_max``, ``known_inputs``, ``prob_threshold`` (those not given take
             :data:`DEFAULTS`). The memory a run needs
             depends on the model and is checked where the analysis knows its size
-            (:func:`~uio_jax._analysis.memory.check_memory`).
+            (:func:`~uio_jax._analysis.decisions.memory.check_memory`).
 
     Returns:
         dict of all eight: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
-        (float; None resolved to :func:`~uio_jax._analysis.rank.default_rtol`),
+        (float; None resolved to :func:`~uio_jax._analysis.decisions.rank.default_rtol`),
         ``max_order`` and ``k_max`` (int, or None), ``known_inputs`` (str),
         ``prob_threshold`` (float).
 

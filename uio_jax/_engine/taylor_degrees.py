@@ -46,7 +46,7 @@ class TaylorDegrees:
 
     def degree(self, i: int, k: int) -> int:
         """``deg num + deg den`` of coefficient ``k`` of instruction ``i`` (the degree the
-        rank decisions count per row, as :meth:`uio_jax._analysis.settle.Settler.count_bound`)."""
+        rank decisions count per row, as :meth:`uio_jax._analysis.decisions.settle.Settler.count_bound`)."""
         while self.done < k:
             self._advance()
         d = self._den(self.atoms[i][k])

@@ -15,7 +15,7 @@ class Experiments:
     (optionally) known initial state; a parameter not in ``shared`` is one unknown per
     experiment. ``uj.analyze(uj.Experiments(...))`` answers which parameters and initial
     states the experiments together determine, what each added experiment determines, and
-    how many generic experiments reach the maximal rank (:mod:`uio_jax._analysis.identifiability`).
+    how many generic experiments reach the maximal rank (:mod:`uio_jax._analysis.at_t0.identifiability`).
 
     Args:
         systems: the experiments' Systems (the same System twice: two experiments of one model).

@@ -3,7 +3,7 @@
 A symmetry is a vector field ``xi`` on the states and parameters, ``z = [x; p]``, along which
 the user believes the model invariant: rotating a frame about an axis nobody measures,
 scaling a state against a parameter. The analyses verify the claim before they use it
-(:mod:`uio_jax._analysis.symmetry`: the conditions, exactly modulo a prime); a verified one
+(:mod:`uio_jax._analysis.decisions.symmetry`: the conditions, exactly modulo a prime); a verified one
 proves that the coordinates it moves are not observable, and bounds the dimension of the
 observable space from above, so that the EORC can stop once it is reached.
 

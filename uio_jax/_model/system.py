@@ -108,7 +108,7 @@ class System:
             against a parameter). ``xi`` takes the arguments of the other callables and
             returns shape ``(n + len(params),)`` (states, then parameters; time never
             moves). The analyses verify each claim exactly before using it
-            (:mod:`uio_jax._analysis.symmetry`: ``L_xi h = 0``, ``[xi, f0] = [xi, f_i] = 0``,
+            (:mod:`uio_jax._analysis.decisions.symmetry`: ``L_xi h = 0``, ``[xi, f0] = [xi, f_i] = 0``,
             ``[xi, g_j]`` a constant combination of the unknown-input fields); a verified
             one proves the coordinates it moves unobservable and lets the EORC stop once its
             bound is reached. A claim that fails is reported, never used.

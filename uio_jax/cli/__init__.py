@@ -9,15 +9,15 @@ second Monte Carlo of the same experiment with as many trials skips XLA compilat
 analyses compile nothing). ``--no-cache`` with ``--cache-dir`` is a usage error.
 
 Every option is checked before any work (:func:`uio_jax._analysis.options.check_options`;
-the memory a run needs, :mod:`uio_jax._analysis.memory`, as soon as its size is known).
+the memory a run needs, :mod:`uio_jax._analysis.decisions.memory`, as soon as its size is known).
 """
 
 import os
 import sys
 
-from .._analysis.memory import ENV as MEMORY_ENV
+from .._analysis.decisions.memory import ENV as MEMORY_ENV
+from .._analysis.decisions.rank import default_rtol
 from .._analysis.options import DEFAULTS, KNOWN_INPUTS, METHODS, MIN_SAMPLES
-from .._analysis.rank import default_rtol
 from .._errors import UioJaxError, exit_message
 from .._output import printable
 from . import analyze, batch, montecarlo, save_model

@@ -43,7 +43,7 @@ def run(args) -> int:
     if args.plot and given:
         raise UsageError("--plot draws the codistribution's steps; it does not apply with --initial")
     if args.plot:
-        from .._analysis.plots import check_figure_path
+        from .._analysis.results.plots import check_figure_path
 
         check_figure_path(args.plot)
     refuse_for(args.model, args)
@@ -71,7 +71,7 @@ def run(args) -> int:
         write_output(args.json, json.dumps(d, indent=2))
         print(f"report written to {args.json}")
     if args.plot:
-        from .._analysis.plots import plot_analysis
+        from .._analysis.results.plots import plot_analysis
 
         plot_analysis(rep, args.plot)
         print(f"figure written to {args.plot}")

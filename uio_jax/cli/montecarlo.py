@@ -72,7 +72,7 @@ def check_options(args):
     if args.keep < 0:
         raise OptionError(f"--keep must be a non-negative integer, got {args.keep}")
     if args.plot:
-        from .._analysis.plots import check_figure_path
+        from .._analysis.results.plots import check_figure_path
 
         check_figure_path(args.plot)
     check_writable(args.json, args.plot, names=("--json", "--plot"), 
@@ -129,7 +129,7 @@ def run(args) -> int:
         write_output(args.json, json.dumps(d, indent=1))
         print(f"summary written to {args.json}")
     if args.plot:
-        from .._analysis.plots import check_figure_path
+        from .._analysis.results.plots import check_figure_path
         from .._filter.plots import plot_montecarlo
 
         fig, _ = plot_montecarlo(res)

@@ -1,0 +1,397 @@
+"""Observable functions, named: readable functions whose differentials span the observable
+codistribution (``Report.observable_functions``).
+
+The analyses keep *generators* (Lie derivatives, rescaled fields, ...) whose gradients span the
+observable codistribution ``Omega``: observable by construction, but not readable (``L_V_x
+h_u`` of the vehicle of 002 is a page of algebra). This module names functions of the states
+and parameters instead, in the model's own names, and keeps them only when the exact checks
+say so.
+
+**Candidates**, ranked by simplicity (:func:`uio_jax._analysis.followups.expression_text.text_size`:
+operators, calls and names of the printed text, then its length):
+
+1. the states and parameters themselves, and, when something is unobservable, the
+   observable Laurent monomials (the invariants of a scaling symmetry; an ansatz solved exactly
+   modulo p, :mod:`.ansatz`);
+2. the model's own subexpressions: every node of the expression graph of its outputs and
+   fields (``R(q)^T (p_f - p)`` in the vehicle's camera output, ``theta - phi`` in the
+   unicycle's field, ``a + b`` in ``x' = -(a + b) x``) that depends on the report's
+   coordinates only and prints as an expression (:mod:`.expression_text`);
+3. if these do not reach the dimension: polynomials of degree at most 2 in the coordinates
+   and the elementary functions of one coordinate in the model (``cos(theta)``), found by
+   ansatz (:mod:`.ansatz`) in tiers, each solved only while short: the coordinates, then with
+   one coordinate's elementary functions at a time, then all of them;
+4. if still short: ratios and products of two of the simplest
+   subexpressions, and polynomials of degree 3.
+
+**Kept** in that order when (a) the candidate's gradient lies in ``Omega`` and (b) it raises
+the rank of the functions kept so far, until their number is the observable dimension. Both
+are the exact test of :meth:`uio_jax.Report.is_observable`: the rank modulo
+``p = 2^127 - 1`` at random points of the analysis' own
+:class:`~uio_jax._analysis.decisions.settle.Settler` (a raise is certain; a membership is wrong with
+probability at most ``(D/p)^points``, summed into :attr:`ObservableFunctions.error_bound`).
+Where the graph is not made rational the same test runs in mpmath at two precisions and the
+result says so (:attr:`ObservableFunctions.arithmetic`). Independent functions in ``Omega``
+whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found
+the result says how many, and the kept generators remain a spanning set
+(:attr:`ObservableFunctions.generators`).
+
+For the EORC, whose augmented state holds the unknown inputs ``w``, functions of ``[x; w]``
+that use ``w`` are named apart (:attr:`ObservableFunctions.input_functions`): the inputs'
+reconstructions.
+"""
+
+import dataclasses
+import enum
+import time
+
+import numpy as np
+
+from ..._engine import graph_exact
+from ..._engine.graph_numpy import columns
+from . import ansatz
+from .expression_text import Printer, text_size
+
+#: Subexpressions tried at most (the simplest ones): bounds the cost on large models.
+MAX_SUBEXPRESSIONS = 400
+#: Elementary functions of one coordinate that the polynomial ansatz uses as atoms beside the
+#: coordinates (``cos(theta)``, ``sin(theta)``, ``exp(k)``, ...).
+ATOM_OPS = frozenset({"sin", "cos", "tan", "exp", "log", "sqrt", "atan", "tanh", "sinh", "cosh"})
+#: Subexpressions combined pairwise (ratios, products) when the first pass falls short.
+PAIR_POOL = 12
+
+
+class Source(enum.Enum):
+    """Where a named function comes from."""
+
+    VARIABLE = "variable"
+    SUBEXPRESSION = "subexpression"
+    POLYNOMIAL = "polynomial ansatz"
+    MONOMIAL = "monomial ansatz"
+    COMBINATION = "ratio or product of subexpressions"
+
+
+@dataclasses.dataclass(frozen=True)
+class NamedFunction:
+    """One observable function.
+
+    Attributes:
+        text: the function as an expression in the model's names (``sympy.sympify`` reads
+            it, with the names as symbols).
+        source: a :class:`Source`.
+        variables: the names it depends on.
+    """
+
+    text: str
+    source: Source
+    variables: tuple
+
+    def to_dict(self) -> dict:
+        return {"text": self.text, "source": self.source.value, "variables": list(self.variables)}
+
+
+@dataclasses.dataclass(frozen=True)
+class ObservableFunctions:
+    """The named observable functions of a report.
+
+    Attributes:
+        functions: independent observable functions of the report's states and parameters,
+            at most ``dim`` of them, simplest first.
+        input_functions: (EORC) observable functions that use the unknown inputs.
+        dim: the observable dimension they are counted against.
+        generators: labels of the kept generators: a spanning set of ``Omega`` in any case.
+        arithmetic: how the checks were decided: ``"exact mod p"`` or ``"mpmath"``.
+        error_bound: probability bound that one of the memberships is wrong (exact route).
+        seconds: time spent naming them (not in :meth:`to_dict`: the JSON of a report is
+            the same at every run).
+    """
+
+    functions: tuple
+    input_functions: tuple
+    dim: int
+    generators: tuple
+    arithmetic: str
+    error_bound: float
+    seconds: float
+
+    @property
+    def complete(self) -> bool:
+        """Whether the named functions span the observable codistribution (count = dim)."""
+        return len(self.functions) == self.dim
+
+    @property
+    def texts(self) -> tuple:
+        """The functions' texts."""
+        return tuple(f.text for f in self.functions)
+
+    def of_only(self, names) -> tuple:
+        """The named functions (states' and inputs') that use nothing but ``names``."""
+        names = set(names)
+        return tuple(f for f in self.functions + self.input_functions if set(f.variables) <= names)
+
+    def summary(self) -> str:
+        """One line: how many were named, against what, how decided."""
+        named = len(self.functions)
+        if self.complete:
+            head = f"{named} of {self.dim} named (they span the observable codistribution)"
+        else:
+            head = (f"{named} of {self.dim} named; the other {self.dim - named} given only as generators "
+                    f"(the kept generators span it: {', '.join(self.generators)})")
+        how = ("exact mod p, P(wrong) <= " f"{self.error_bound:.1e}" if self.arithmetic == "exact mod p"
+               else f"decided in {self.arithmetic}, not exact")
+        return f"{head}; {how}"
+
+    def to_dict(self) -> dict:
+        return {"functions": [f.to_dict() for f in self.functions],
+                "input_functions": [f.to_dict() for f in self.input_functions],
+                "dim": self.dim, "named": len(self.functions), "complete": self.complete,
+                "generators": list(self.generators), "arithmetic": self.arithmetic,
+                "error_bound": self.error_bound}
+
+
+def coordinate_functions(verdicts, dim: int, generators) -> ObservableFunctions:
+    """The observable coordinates as the named functions, where the analysis keeps no
+    symbolic generators to test other candidates against (the Taylor route,
+    :mod:`uio_jax._analysis.recursions.taylor_route`): each one's membership was decided exactly by the
+    analysis itself (its bound is in the certificate).
+
+    Args:
+        verdicts: coordinate name -> observable (states and parameters).
+        dim: the observable dimension.
+        generators: labels of the kept generators.
+    """
+    functions = tuple(NamedFunction(name, Source.VARIABLE, (name,)) for name, seen in verdicts.items() if seen)
+    return ObservableFunctions(functions, (), dim, tuple(generators), "exact mod p", 0.0, 0.0)
+
+
+def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions:
+    """Name observable functions of a finished analysis.
+
+    Args:
+        parts: the final codistribution (:class:`~uio_jax._analysis.decisions.space.SpanParts`).
+        inputs: how many coordinates after the report's ``n`` are unknown inputs whose
+            reconstructions are named too (the EORC's ``w``; 0 otherwise).
+        seed: seed of the ansatz points.
+
+    Returns:
+        :class:`ObservableFunctions`.
+    """
+    start = time.perf_counter()
+    run = _Run(parts, parts.n + inputs, seed)
+    run.first_pass()
+    if run.short():
+        run.second_pass()
+    state = tuple(f for f, _ in run.chosen)
+    given = tuple(f for f, _ in run.given)
+    return ObservableFunctions(state, given, parts.dim, tuple(nd.label for nd in parts.nodes),
+                               run.arithmetic, run.error_bound(), time.perf_counter() - start)
+
+
+class _Run:
+    """One naming: the candidates, the checks, the kept functions."""
+
+    def __init__(self, parts, m, seed):
+        self.parts, self.m, self.seed = parts, m, seed
+        self.graph = parts.builder.graph
+        self.printer = Printer(self.graph, parts.names[:m])
+        self.settler = parts.settler
+        self.start_bound = self.settler.error_bound
+        self.exact = self.settler.exact_capable([nd.expr for nd in parts.nodes])
+        self.arithmetic = "exact mod p" if self.exact else "mpmath"
+        self.tried = set()
+        self.chosen, self.given = [], []  # (NamedFunction, Node)
+        self.subexpressions = []
+        # the screen: every candidate's gradient at one random point modulo the candidate
+        # prime, reduced against the functions kept so far (an independence there is certain)
+        self.screen, self.kept_rows = None, graph_exact.Echelon(ansatz.CANDIDATE_PRIME)
+        if self.exact:
+            rng = np.random.default_rng([int(seed), 0x5C4EE2])
+            z = [int(v) for v in rng.integers(1, ansatz.CANDIDATE_PRIME, size=self.graph.n)]
+            self.screen = graph_exact.ModularEvaluator(self.graph, [z], ansatz.CANDIDATE_PRIME)
+
+    def error_bound(self) -> float:
+        return self.settler.error_bound - self.start_bound
+
+    # ---------------------------------------------------------------- candidates
+    def first_pass(self):
+        """The variables, the model's subexpressions and the Laurent monomials; then, if short,
+        the polynomial ansatz of degree 2 (over the atoms)."""
+        g = self.graph
+        self.variables = [c for c in (self._candidate(g.coords[i], Source.VARIABLE) for i in range(self.m)) if c]
+        order = g.reachable(self.parts.roots)
+        cols = columns(g, order)[0]
+        reach = [k for k in order if g.op[k] not in ("x", "c") and cols[k] and max(cols[k]) < self.m]
+        subs = [c for c in (self._candidate(k, Source.SUBEXPRESSION) for k in reach) if c is not None]
+        subs.sort(key=_rank)
+        self.subexpressions = subs[:MAX_SUBEXPRESSIONS]
+        elementary = [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
+        self.atoms = list(g.coords[:self.m]) + elementary
+        self.atom_cols = [None] * self.m + [next(iter(cols[k])) for k in elementary]
+        self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed,
+                                        ansatz.CANDIDATE_PRIME)
+        hidden = self.exact and self.parts.dim < self.parts.n  # a scaling may hide something
+        self._select(self.variables + self.subexpressions + (self._laurent() if hidden else []))
+        if self.exact:
+            self._tiers(2)
+
+    def second_pass(self):
+        """Ratios and products of two of the simplest subexpressions (or variables); the
+        ansatz of degree 3."""
+        # a ratio or product with a variable named already is no new function: d(a/b) is in
+        # span{da, db}, so with da named it adds db only, which b itself would have added
+        named = {fn.text for fn, _ in self.chosen + self.given if fn.source is Source.VARIABLE}
+        pool = [c for c in self.variables if c[0].text not in named]
+        pool += [c for c in self.subexpressions if c[0].source is Source.SUBEXPRESSION][:PAIR_POOL]
+        g, cands = self.graph, []
+        for i, a in enumerate(pool):
+            for b in pool[i + 1:]:
+                for node in (g.div(a[1], b[1]), g.div(b[1], a[1]), g.mul(a[1], b[1])):
+                    cands.append(self._candidate(node, Source.COMBINATION))
+        self._select([c for c in cands if c is not None])
+        if self.exact:
+            self._tiers(3)
+
+    def short(self) -> bool:
+        """Whether fewer functions than wanted are named so far."""
+        return len(self.chosen) < self.parts.dim or len(self.given) < self.m - self.parts.n
+
+    def _candidate(self, node, source):
+        """``(NamedFunction, graph node)`` of a printable node not tried yet, else None."""
+        if node in self.tried:
+            return None
+        self.tried.add(node)
+        text = self.printer.text(node)
+        if text is None:
+            return None
+        cols = columns(self.graph, self.graph.reachable([node]))[0][node]
+        if not cols:
+            return None
+        names = self.parts.names
+        return NamedFunction(text, source, tuple(names[i] for i in cols)), node
+
+    def _tiers(self, degree):
+        """The polynomial ansatz of ``degree`` in growing sets of atoms, each solved only while
+        the functions named are short (the cost of an ansatz grows as the cube of its
+        unknowns): the coordinates; the coordinates and the elementary functions of one
+        coordinate (``cos(theta)``, ``sin(theta)``), one coordinate at a time; all atoms."""
+        m = self.m
+        groups = {}
+        for t in range(m, len(self.atoms)):
+            groups.setdefault(self.atom_cols[t], []).append(t)
+        tiers = [list(range(m))] + [list(range(m)) + ts for ts in groups.values()]
+        if len(groups) > 1:
+            tiers.append(list(range(len(self.atoms))))
+        for tier in tiers:
+            if not self.short():
+                return
+            self._select(self._polynomials(degree, tier))
+
+    def _polynomials(self, degree, tier):
+        found = ansatz.polynomial_functions(self.span, degree, tier)
+        if found is None:
+            return []
+        monos, vectors = found
+        g, out = self.graph, []
+        atoms = [self.atoms[t] for t in tier]
+        for vec in vectors:
+            node = g.zero
+            for c, e in zip(vec, monos):
+                if c:
+                    node = g.add(node, g.mul(g.const(c), _monomial(g, e, atoms)))
+            out.append(self._candidate(node, Source.POLYNOMIAL))
+        return out
+
+    def _laurent(self):
+        vectors = ansatz.laurent_monomials(self.span, self.m)
+        g, out = self.graph, []
+        for vec in vectors or ():
+            if sum(1 for a in vec if a) < 2:
+                continue  # a single coordinate's power: the coordinate itself is tried
+            num, den = g.one, g.one
+            for i, a in enumerate(vec):
+                if a > 0:
+                    num = g.mul(num, g.ipow(g.coords[i], a))
+                elif a < 0:
+                    den = g.mul(den, g.ipow(g.coords[i], -a))
+            out.append(self._candidate(g.div(num, den), Source.MONOMIAL))
+        return out
+
+    # ---------------------------------------------------------------- the checks
+    def _select(self, cands):
+        """Keep the candidates, simplest first, that lie in ``Omega`` and raise the rank of the
+        functions kept so far. Independence is tested first, on the screen (all candidates
+        evaluated in one walk of the graph; a candidate dependent there is passed over, which
+        never names a wrong function), then membership by the Settler, exactly."""
+        dim, n = self.parts.dim, self.parts.n
+        inputs = self.m - n
+        cands = sorted((c for c in cands if c is not None), key=_rank)
+        rows = self._screen_rows([node for _, node in cands])
+        for fn, node in cands:
+            uses_inputs = any(self.parts.names.index(v) >= n for v in fn.variables)
+            if uses_inputs and len(self.given) >= inputs:
+                continue
+            if not uses_inputs and len(self.chosen) >= dim:
+                continue
+            row = None if rows is None else rows.get(node)
+            if row is not None and not any(self.kept_rows.reduce(row)):
+                continue
+            nd = self.parts.builder.make(fn.text, "scalar", 0, node)
+            if not self._holds(list(self.parts.nodes), nd, "dependent"):
+                continue
+            if row is None and not self._holds([k for _, k in self.chosen + self.given], nd, "independent"):
+                continue
+            if row is None:  # the screen no longer reflects every kept function
+                self.screen, self.kept_rows = None, None
+            else:
+                self.kept_rows.add(row)
+            (self.given if uses_inputs else self.chosen).append((fn, nd))
+            if len(self.chosen) >= dim and len(self.given) >= inputs:
+                return
+
+    def _screen_rows(self, nodes):
+        """``{node: gradient row}`` at the screen point of the candidates made rational, or
+        None (no screen, or a candidate singular there). A candidate without a row takes the
+        exact independence test of the Settler, and the screen is dropped once it keeps one."""
+        if self.screen is None:
+            return None
+        rational = [k for k in nodes if self.settler.exact_capable([k])]
+        try:
+            self.screen.evaluate(rational)
+        except graph_exact.Singular:
+            self.screen, self.kept_rows = None, None
+            return None
+        except ValueError:  # a node without a value modulo p (a constant known in float64)
+            rational = [k for k in rational if self._evaluates(k)]
+        return {k: self.screen.row(k, 0) for k in rational}
+
+    def _evaluates(self, node) -> bool:
+        try:
+            self.screen.evaluate([node])
+        except (ValueError, graph_exact.Singular):
+            return False
+        return True
+
+    def _holds(self, kept, nd, outcome) -> bool:
+        esc = self.settler.settle(kept, nd, "not voted: a named function checked directly")
+        if esc is None:
+            return False
+        if esc.how.startswith("mpmath"):
+            self.arithmetic = "mpmath"
+        return esc.result == outcome
+
+
+def _rank(candidate):
+    fn = candidate[0]
+    return (text_size(fn.text), len(fn.text), fn.text)
+
+
+def _monomial(g, e, atoms):
+    node = g.one
+    for i, k in enumerate(e):
+        if k:
+            node = g.mul(node, g.ipow(atoms[i], k))
+    return node
+
+
+__all__ = ["coordinate_functions", "Source", "NamedFunction", "ObservableFunctions", "name_functions",
+           "MAX_SUBEXPRESSIONS", "PAIR_POOL"]

@@ -1,0 +1,361 @@
+"""Martinelli's general analytic solution of unknown-input observability (several UIs, drift).
+
+System ``x' = g0(x, t) + sum_j w_j g_j(x)``, outputs ``h(x)`` (no feedthrough), where
+``g0 = f0 + sum_i u_i f_i`` holds the known inputs as generic smooth functions of time (their
+jets are known coordinates, :mod:`uio_jax._model.smooth_inputs`) and an explicit time
+dependence (the time coordinate, ``t' = 1``). ``D`` below is the Lie derivative along this
+augmented drift: the total time derivative. Every rank, zero test and membership is decided
+at the sampled states (:mod:`uio_jax._analysis.decisions.rank`), the jets and the time being known
+coordinates whose differentials are in every span. Sources: arXiv 2201.07610 (Algorithm
+5.1/6.1) and Martinelli's TUIO6; the algorithm as implemented is stated in
+``docs/general_ui.md``.
+
+**Close(Theta_0, [F_0, F_1..F_q]; guard, filter)**: insert Theta_0 (independent members, each
+its own *root*); pass r processes the generators added in pass r - 1 (pass 0: Theta_0): if
+``guard(theta)`` holds, abort with (root of theta, ``ord = r``); if ``filter(theta)`` fails,
+skip it; else absorb ``L_{F_a} theta`` for every field (children inherit the root). Stop when a
+pass adds nothing; without a guard also at full rank (with a guard, full rank is no
+certificate: every remaining generator must still pass the guard).
+
+**Reconstructability**: ``R_ij = L_{g_j} theta_i`` over the current Theta; ``m`` = its generic
+rank (degree of reconstructability); the first independent rows are the UI identifiers
+``h~``, the first independent columns among them the reconstructable UIs (moved first).
+Canonic: ``m = mw``. Rescaled fields ``g^0, g^_k, G~_k``: :mod:`uio_jax._calculus.rescaled`.
+
+**Main loop** (at most :data:`ITERATION_CAP` iterations)::
+
+    Theta <- Close(h, [])
+    loop:  m, identifiers;  Theta <- Close(Theta, [])
+      m = mw:               Omega = Close(Theta, [g^0, g^_1..g^_mw])            finish
+      every G~_k = 0:       Omega = Close(Theta, [g^0, g^_1..g^_m])             finish
+      guarded Close(Theta, [g^0, g^_1..g^_m]; guard: some L_{G~_k} theta != 0):
+          no abort:         Omega = its result                                   finish
+          abort (theta*, ord): its result is discarded;
+            m = 0:  Theta <- Close(Theta, [g0]; filter: every L_{g_j} theta = 0)
+            m >= 1: UI extension: states v_j^(0..ord) with x' = g^0 + sum_j v_j^(0) g^_j and
+                    v_j^(i)' = v_j^(i+1), theta_v = D^ord theta*; keep v_j^(0..i_j) (i_j: the
+                    highest one theta_v depends on; none: v_j is the new UI along (g^_j, 0));
+                    the new UIs are d v_j^(i_j)/dt (unit fields) and G~_k;
+                    Theta <- Theta + {kept v} + {theta_v}
+
+**Outputs**: the dimension of ``Omega`` on the original state, ``dim = rank(Omega) + n -
+rank([Omega; e_1..e_n])`` (every extension state and known coordinate is observable), the
+observable components, the degree of reconstructability, canonic or not, the extension, and
+which unknown inputs are reconstructable and observable. The answer is exact for known
+inputs that are generic smooth functions of time (``known_inputs="smooth"``); systems without
+known inputs have one meaning only.
+"""
+
+import dataclasses
+
+import jax
+import numpy as np
+
+from ..._calculus.rescaled import rescaled_fields
+from ..._errors import OptionError
+from ..._model.smooth_inputs import jet_names, known_coordinates
+from ..._model.system import System
+from ..._progress import announce_step
+from ..decisions.context import Context
+from ..decisions.settle import DEFAULT_PROB_THRESHOLD
+from ..decisions.space import SampledSpace, report_view
+from ..results.evidence import Step
+from ..results.report import Report
+from .driver import StopReason
+from .eorc import extended_system
+from .general_ui_steps import (
+    Working,
+    close,
+    decide_zero,
+    extend,
+    lift,
+    nonzero_votes,
+    partial_derivative,
+    reconstructability,
+    start_working,
+)
+
+#: At most this many iterations of the main loop (TUIO6's bound).
+ITERATION_CAP = 30
+
+#: Jets of the smooth known inputs are kept to order ``n + JET_MARGIN`` at first; when a
+#: generator that was differentiated depends on the highest jet, the analysis is run again
+#: with twice the order (the truncation ``u^(R+1) = 0`` could have mattered).
+JET_MARGIN = 3
+
+#: How many times the jet order is doubled before the report says it may be truncated.
+JET_RETRIES = 2
+
+def check_applicable(system: System, known_inputs: str):
+    """Raise OptionError when ``method='general_ui'`` does not answer the question asked.
+
+    The general solution is established for known inputs that are generic smooth functions
+    of time; for switchable known inputs (the default) no statement is known when there is
+    a drift or more than one unknown input, and with one unknown input and no drift the
+    switchable answer is ``single_ui``'s.
+    """
+    if system.known and known_inputs != "smooth":
+        raise OptionError(
+            "method 'general_ui' answers for known inputs that are generic smooth functions of "
+            "time: pass known_inputs='smooth'; for switchable known inputs (the default) use "
+            "method='single_ui' (one unknown input, no drift) or 'eorc' (sufficient only)")
+
+
+# ------------------------------------------------------------------ the main loop
+@dataclasses.dataclass
+class Outcome:
+    """The finished analysis: the final working system and span, and the trace."""
+
+    w: Working
+    omega: Context
+    trace: list
+    history: list
+    stop: object
+    initially_canonic: bool
+    canonic: bool
+    extended: bool
+    degree: int
+    spent: list  # Contexts whose decisions count for the certificate
+
+
+def _dim_step(w, ctx, it, added, extra):
+    """A Step of the main loop: the dimension of ``ctx``'s span on the original state."""
+    _, dim = ctx.coordinates(w.system.n, w.n0)
+    fraction = min((d.fraction for d in ctx.codist.acceptances), default=1.0)
+    labels = tuple(nd.label for nd in added if nd.label not in w.known)
+    return announce_step(Step(it, dim, labels, fraction, extra))
+
+
+def run(system, *, samples, seed, rtol, jet_order, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Outcome:
+    """The main loop of the module docstring on ``system`` (joint, autonomous)."""
+    w = start_working(system, jet_order, samples, seed, rtol, prob_threshold)
+    mw = len(w.uis)
+    trace, history, spent = [], [], []
+    c = close(w, w.theta, [])
+    w.theta = list(c.ctx.codist.nodes)
+    if mw == 0:
+        omega = close(w, w.theta, [w.drift]).ctx
+        history.append(_dim_step(w, omega, 0, omega.codist.nodes, {"action": "closure along g0"}))
+        return Outcome(w, omega, trace, history, StopReason.CLOSURE_CONVERGED.stop(m=0),
+                       True, True, False, 0, spent)
+    initially = None
+    extended = False
+    for it in range(ITERATION_CAP):
+        spent.append(c.ctx)
+        rec = reconstructability(w, w.theta)
+        w.rank_tests.append(rec.settled)
+        m = rec.m
+        if initially is None:
+            initially = m == mw
+        order_idx = list(rec.cols) + [i for i in range(mw) if i not in rec.cols]
+        ui_names = list(w.system.unknown)
+        entry = {"iteration": it, "m": m, "identifiers": [w.theta[i].label for i in rec.rows],
+                 "reconstructable": [ui_names[i] for i in rec.cols],
+                 "canonic": m == mw, "fraction": rec.fraction}
+        trace.append(entry)
+        fields_ordered = [w.uis[i] for i in order_idx]
+        if m >= 1:
+            hat0, hats, tildes = rescaled_fields(
+                w.ctx.builder, w.drift, fields_ordered, [w.theta[i] for i in rec.rows],
+                [ui_names[i] for i in order_idx])
+        else:
+            hat0, hats, tildes = w.drift, [], fields_ordered
+        if m == mw:
+            entry["action"] = "canonic: closure under the rescaled fields"
+            omega = close(w, w.theta, [hat0] + hats).ctx
+            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": True}))
+            return Outcome(w, omega, trace, history, StopReason.CANONIC_CLOSURE.stop(m=it),
+                           initially, True, extended, m, spent)
+        tilde_vals = w.field_values(tildes)
+        raw_norms = [np.linalg.norm(v, axis=-1) for v in w.field_values(fields_ordered[m:])]
+        if all(_field_zero(w, t, v, ref) for t, v, ref in zip(tildes, tilde_vals, raw_norms)):
+            entry["action"] = "every unreconstructed field vanishes: closure"
+            omega = close(w, w.theta, [hat0] + hats).ctx
+            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
+            return Outcome(w, omega, trace, history, StopReason.REMAINING_UIS_VANISH.stop(m=it),
+                           initially, False, extended, m, spent)
+        guarded = close(w, w.theta, [hat0] + hats, guard=tildes, guard_scale=raw_norms)
+        spent.append(guarded.ctx)
+        if not guarded.aborted:
+            entry["action"] = "guarded closure converged"
+            omega = guarded.ctx
+            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
+            return Outcome(w, omega, trace, history, StopReason.GUARD_PASSED.stop(m=it),
+                           initially, False, extended, m, spent)
+        entry.update({"aborted_at_order": guarded.order, "root": guarded.root.label})
+        if m == 0:
+            entry["action"] = "m = 0: closure of the UI-free generators along g0"
+            before = len(w.theta)
+            c = close(w, w.theta, [w.drift], filter_fields=w.uis)
+            w.theta = list(c.ctx.codist.nodes)
+            history.append(_dim_step(w, c.ctx, it, w.theta[before:], {"m": 0, "canonic": False}))
+            if len(w.theta) == before:  # no progress: cannot happen for a generic system
+                entry["action"] += " (added nothing)"
+                return Outcome(w, c.ctx, trace, history, StopReason.GENERAL_STALLED.stop(m=it),
+                               initially, False, extended, m, spent)
+            continue
+        extended = True
+        w, info = extend(w, guarded.root, guarded.order, hat0, hats, tildes, rec, samples, seed, rtol)
+        entry["action"] = "UI extension"
+        entry["extension"] = info
+        c = close(w, w.theta, [])
+        w.theta = list(c.ctx.codist.nodes)
+        history.append(_dim_step(w, c.ctx, it, w.theta, {"m": m, "canonic": False,
+                                                         "extension": len(info["new_states"])}))
+    return Outcome(w, c.ctx, trace, history, StopReason.GENERAL_CAP.stop(cap=ITERATION_CAP),
+                   initially, False, extended, trace[-1]["m"], spent)
+
+
+def _field_zero(w, field, val, ref) -> bool:
+    """A field ``G~_k`` (its Node ``field``) identically zero: the float64 vote
+    ``|G~_k| <= ZERO_ROW_RTOL |g_k|`` (``ref``: the ``(S,)`` norms of the raw field ``g_k`` it
+    was projected from) settled again on its expressions (:func:`decide_zero`)."""
+    norms = np.linalg.norm(val, axis=-1)
+    nz, frac = nonzero_votes(norms, ref, w.ctx.codist.valid)
+    return decide_zero(w, w.ctx, f"{field.label} vanishes", list(field.expr), nz, frac)
+
+
+# ------------------------------------------------------------------ observable UIs
+def observable_inputs(out: Outcome, full: bool = False) -> dict:
+    """Which final unknown inputs ``w~_k`` can be computed: ``dw~_k`` in
+    ``span{d theta, d(D theta + sum_j w~_j L_{g_j} theta): theta in Omega}`` on ``[z; w~]``.
+
+    ``full``: every original state is observable (then, with a canonic system, every final
+    unknown input is, without the test)."""
+    w = out.w
+    if not w.uis:
+        return {}
+    if out.canonic and full:
+        # canonic (B invertible, m = m_w) and every coordinate observable: D h~ = a + B w~
+        # gives w~ = B^-1 (D h~ - a), a function of observable quantities
+        return {k: True for k in w.system.unknown}
+    ext = extended_system(w.system, 1)
+    ctx = Context(ext, w.ctx.samples, 0, w.ctx.codist.rtol, w.ctx.prob_threshold)
+    N = w.system.n
+    b = ctx.builder
+    src = out.omega.builder.graph  # the working system's: Omega's nodes, lifted to [z; w~]
+    lifted = [b.node(("scalar", nd.label),
+                     lambda nd=nd: b.make(nd.label, "scalar", 0, lift(b.graph, src, nd.expr, b.graph.coords[:N])[0]))
+              for nd in out.omega.codist.nodes]
+    F0 = b.field("F0", ext.drift)
+    ctx.absorb(lifted)
+    ctx.absorb_lie(lifted, [F0])
+    members, _ = ctx.coordinates(ext.n, N)
+    out.spent.append(ctx)
+    return dict(zip(w.system.unknown, members[N:]))
+
+
+# ------------------------------------------------------------------ the report
+def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", notes=(),
+                      report_system=None, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
+    """Run the general solution on ``system`` (joint; time as a known coordinate) and build
+    the Report on the original state.
+
+    Args:
+        system: the System the analyses run on (:meth:`System.autonomous`).
+        samples, seed, rtol: the sampling certificate's options.
+        prob_threshold: the probability of correctness of the exact decisions.
+        known_inputs: the meaning of the known inputs (must be ``"smooth"`` when there are
+            any, :func:`check_applicable`).
+        notes: notes to carry.
+        report_system: the System whose states the Report lists (default ``system``
+            without its known coordinates).
+
+    Returns:
+        :class:`~uio_jax.Report` with ``method="general_ui"``; ``details``: ``m`` (final
+        degree of reconstructability), ``initially_canonic``, ``canonic``, ``ui_extension``,
+        ``unknown_inputs_reconstructable`` (original names), ``unknown_inputs_observable``
+        (final unknown inputs -> bool), ``final_unknown_inputs`` (final unknown input ->
+        the original one it stands for), ``trace`` (one entry per iteration),
+        ``jet_order`` (with known inputs).
+    """
+    check_applicable(system, known_inputs)
+    n = system.n - known_coordinates(system)
+    jet = n + JET_MARGIN
+    with jax.enable_x64(True):
+        for attempt in range(JET_RETRIES + 1):
+            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet, prob_threshold=prob_threshold)
+            if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
+                break
+            jet = 2 * jet
+        truncated = bool(system.known) and _top_jet_used(out, system, jet)
+        omega = out.omega
+        omega.certify()  # the final span at every sample; the verdicts read there
+        members, dim = omega.coordinates(out.w.system.n, n)
+        ui_obs = observable_inputs(out, full=all(members))
+        for spent in out.spent:
+            omega.memberships += [(False, d) for d in spent.codist.acceptances]
+            omega.memberships += [(True, d) for d in spent.codist.rejections]
+            omega.memberships += spent.memberships
+            if spent.codist is not omega.codist:
+                for esc in spent.codist.record.escalations:
+                    omega.codist.record.add(esc)
+    states = system.states[:n]
+    observable = dict(zip(states, members[:n]))
+    names = list(system.unknown)
+    reconstructable = sorted({names[out.w.origin[i]] for i in range(out.degree)},
+                             key=names.index) if out.degree else []
+    zero_tests = out.w.zero_tests
+    weakest = min((t.fraction for t in zero_tests), default=1.0)
+    details = {
+        "exact": not truncated and out.stop.reason.converged,
+        "known_inputs": known_inputs if system.known else "none",
+        "m": out.degree,
+        "initially_canonic": out.initially_canonic,
+        "canonic": out.canonic,
+        "ui_extension": out.extended,
+        "unknown_inputs_reconstructable": reconstructable,
+        "unknown_inputs_observable": ui_obs,
+        "final_unknown_inputs": {k: names[out.w.origin[i]] for i, k in enumerate(ui_obs)},
+        "zero_tests": len(zero_tests),
+        "zero_test_min_fraction": weakest,
+        "trace": out.trace,
+    }
+    if system.known:
+        details["jet_order"] = jet
+    notes = list(notes) + _report_notes(system, truncated, jet, weakest)
+    space = SampledSpace(omega, n=n, dim=dim, original=system)
+    omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
+    return omega.report("general_ui", out.history, out.stop, notes=notes,
+                        details=details, system=report_system or report_view(system, n),
+                        dim=dim, observable=observable, space=space,
+                        known_inputs=known_inputs)
+
+
+def _report_notes(system, truncated, jet, weakest) -> list:
+    """The general solution's own notes: the meaning of its known inputs, a jet that may
+    have been truncated, a weak zero test."""
+    notes = []
+    if system.known:
+        notes.append(
+            "known inputs taken as generic smooth functions of time (known_inputs='smooth'): "
+            "the exact answer of the general solution for that meaning")
+    if truncated:
+        notes.append(f"a differentiated generator depends on the highest jet u^({jet}) kept: "
+                     "the answer may be incomplete")
+    if weakest < 0.9:
+        notes.append(f"weak zero test: a 'vanishes identically' decision was backed by only "
+                     f"{100 * weakest:.0f}% of the samples")
+    return notes
+
+
+def _top_jet_used(out: Outcome, system, jet) -> bool:
+    """Whether a generator of Omega depends on a highest jet ``u_i^(jet)`` (other than that
+    coordinate itself)."""
+    ctx = out.omega
+    N0 = system.n
+    mu = len(system.known)
+    top = [N0 + i * (jet + 1) + jet for i in range(mu)]
+    coordinates = set(jet_names(system, jet))
+    nodes = [nd for nd in ctx.codist.nodes if nd.label not in coordinates]
+    if not nodes:
+        return False
+    grads = ctx.gradients(nodes)
+    norms = np.linalg.norm(grads, axis=-1)
+    for c in top:
+        for i in range(len(nodes)):
+            nz, frac = nonzero_votes(grads[:, i, c], norms[:, i], ctx.codist.valid)
+            expr = partial_derivative(ctx.builder.graph, nodes[i].expr, c)
+            if not decide_zero(out.w, ctx, f"d {nodes[i].label}/d u^({jet})", [expr], nz, frac):
+                return True
+    return False
