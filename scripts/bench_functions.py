@@ -37,7 +37,7 @@ def measure(system, samples):
     t0 = time.perf_counter()
     rep = uj.analyze(system, samples=samples)
     t1 = time.perf_counter()
-    rep.named_functions
+    uj.observable_functions(rep)
     return t1 - t0, time.perf_counter() - t1, rep
 
 
@@ -52,7 +52,7 @@ def main(argv=None):
         if args.only not in label or system is None:
             continue
         analysis, naming, rep = measure(system, args.samples)
-        nf = rep.named_functions
+        nf = uj.observable_functions(rep)
         print(f"{label:48s} {rep.dim:>3d}/{rep.n:<3d} {analysis:9.3f} {naming:8.3f}  "
               f"{len(nf.functions)}/{nf.dim}{'' if nf.complete else ' INCOMPLETE'}: {'; '.join(nf.texts)[:150]}")
 

@@ -101,7 +101,7 @@ def _compare(mod, name, pub, rep, system):
     if pub.get("symmetries"):
         # the unobservable directions as verified closed-form symmetries: complete, they span
         # the null space, so the paper's symmetries above are combinations of them
-        found = rep.symmetries
+        found = uj.find_symmetries(rep)
         kinds = ", ".join(f.kind for f in found.fields)
         ours = f"{len(found.fields)} of {found.hidden}" + (f": {kinds}" if kinds else "")
         rows.append(("closed-form symmetries found", f"{rep.n - rep.dim} directions", ours, found.complete))
@@ -138,7 +138,7 @@ def _function_rows(paper, rep):
 
     names = list(rep.variables)
     members = [rep.is_observable(to_function(parse_expression(t, names), names)) for t in paper]
-    named = rep.named_functions
+    named = uj.observable_functions(rep)
     return [("paper's observable functions in Omega", f"{len(paper)} functions",
              f"{sum(members)} of {len(paper)} observable", all(members)),
             ("named functions (ours)", f"dim {rep.dim}", "; ".join(named.texts), named.complete)]

@@ -33,6 +33,15 @@ def snapshot_label(label: str) -> str:
     return Path(path).name + sep + name if sep else Path(label).name
 
 
+def snapshot(system, samples: int = 256) -> dict:
+    """The snapshot of one model: ``Report.to_dict()`` at seed 0 with the follow-up answers
+    (observable functions named, symmetries found) asked first, as the CLI prints them."""
+    rep = uj.analyze(system, samples=samples, seed=0)
+    uj.observable_functions(rep)
+    uj.find_symmetries(rep)
+    return rep.to_dict()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
@@ -48,9 +57,8 @@ def main(argv=None):
         if entry.system is None:
             out[label] = {"error": entry.error}
             continue
-        rep = uj.analyze(entry.system, samples=args.samples, seed=0)
-        out[label] = rep.to_dict()
-        print(label, rep.dims, file=sys.stderr, flush=True)
+        out[label] = snapshot(entry.system, args.samples)
+        print(label, out[label].get("dims"), file=sys.stderr, flush=True)
     Path(args.out).write_text(json.dumps(out, indent=1, sort_keys=True))
     if args.compare:
         return compare(json.loads(Path(args.compare).read_text()), json.loads(json.dumps(out)))

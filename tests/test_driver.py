@@ -3,7 +3,7 @@ function of integer sequences."""
 
 import pytest
 
-from uio_jax._analysis.recursions.driver import Recursion, Stop, StopReason, iterate
+from uio_jax._analysis.recursions.driver import Cap, Recursion, Stop, StopReason, iterate
 from uio_jax._analysis.recursions.single_ui import stopping_rule
 from uio_jax._analysis.results.evidence import Step
 from uio_jax._progress import step_listener
@@ -68,10 +68,10 @@ def test_a_missing_value_fails_when_the_stop_is_made():
 
 # --------------------------------------------------------------- the driver
 class Counting(Recursion):
-    """dim_m = min(m + 1, top); stops when a step adds nothing or at ``cap``."""
+    """dim_m = min(m + 1, top); stops when a step adds nothing (the driver caps it)."""
 
-    def __init__(self, top, cap):
-        self.top, self.cap, self.finished = top, cap, None
+    def __init__(self, top):
+        self.top, self.finished = top, None
 
     def init(self):
         return Step(0, 1, ("a0",), 1.0, {})
@@ -83,18 +83,20 @@ class Counting(Recursion):
     def terminate(self, m, history):
         if m > 0 and not history[-1].added:
             return R.CONVERGED.stop(m=m, prev=m - 1)
-        if m >= self.cap:
-            return R.MAX_ORDER.stop(max_order=self.cap)
         return None
 
     def postprocess(self, history, stop):
         return [st.dim for st in history]
 
 
+def cap(steps):
+    return Cap(steps, R.MAX_ORDER.stop(max_order=steps))
+
+
 def test_iterate_records_announces_and_postprocesses():
     seen = []
     with step_listener(seen.append):
-        out = iterate(Counting(top=3, cap=10))
+        out = iterate(Counting(top=3), cap=cap(10))
     assert out.stop == R.CONVERGED.stop(m=3, prev=2)
     assert out.m == 3 and [st.m for st in out.history] == [0, 1, 2, 3]
     assert out.result == [1, 2, 3, 3]
@@ -102,9 +104,9 @@ def test_iterate_records_announces_and_postprocesses():
 
 
 def test_iterate_stops_at_the_cap_and_can_stop_at_init():
-    out = iterate(Counting(top=9, cap=2))
+    out = iterate(Counting(top=9), cap=cap(2))
     assert out.stop.reason is R.MAX_ORDER and out.m == 2 and len(out.history) == 3
-    out = iterate(Counting(top=9, cap=0))
+    out = iterate(Counting(top=9), cap=cap(0))
     assert out.m == 0 and len(out.history) == 1
 
 
@@ -116,10 +118,10 @@ def test_iterate_continues_a_given_history_without_announcing_it():
     before = [Step(0, 1, ("h",), 1.0, {})]
     seen = []
     with step_listener(seen.append):
-        out = iterate(FromHistory(top=2, cap=5), before)
+        out = iterate(FromHistory(top=2), before, cap=cap(5))
     assert out.history[0] is before[0] and seen == out.history[1:]
     with pytest.raises(ValueError):
-        iterate(FromHistory(top=2, cap=5))
+        iterate(FromHistory(top=2), cap=cap(5))
 
 
 def test_stop_is_a_value():

@@ -83,6 +83,16 @@ MAX_FUNCTION_LINES = 80
 #: (none left).
 LONG_FUNCTIONS = {}
 
+#: The analysis wing's floors, bottom first (README, "Layout"): a module imports its own floor
+#: and the floors below it, never one above. ``top`` is ``_analysis/`` itself (``analyze``,
+#: ``plan``, ``options``): check the options, plan, dispatch.
+ANALYSIS_FLOORS = ("results", "decisions", "recursions", "followups", "at_t0", "globally", "top")
+#: ``(importer, imported)`` module pairs allowed against the floors: the deprecated aliases of
+#: ``Report`` (``rep.named_functions``, ``rep.symmetries``, ``rep.reparametrised_model()``),
+#: imported inside the alias when it is called; release 0.2 removes them. They are not edges
+#: of the cycle check either.
+DEPRECATED_ALIASES = {("uio_jax._analysis.results.report", "uio_jax._analysis.followups.questions")}
+
 WINGS = {"_model": "model", "_engine": "engine", "_calculus": "calculus", "_analysis": "analysis",
          "_filter": "filter", "_io": "io", "_batch": "batch", "cli": "cli"}
 LEAVES = {"_errors", "_progress", "_output"}
@@ -98,6 +108,14 @@ def layer_of(module: str) -> str:
     if parts[1] == "__main__":
         return "cli"
     return WINGS[parts[1]]
+
+
+def floor_of(module: str) -> str | None:
+    """The floor of a module of the analysis wing (:data:`ANALYSIS_FLOORS`), None outside it."""
+    parts = module.split(".")
+    if len(parts) < 2 or parts[1] != "_analysis":
+        return None
+    return parts[2] if len(parts) > 3 and parts[2] in ANALYSIS_FLOORS else "top"
 
 
 def modules(root: Path, package: str):
@@ -155,7 +173,12 @@ def violations(root: Path, package: str) -> list[str]:
             if target not in known:
                 bad.append(f"{where}:{line} imports {target}, which is not a module of the package")
                 continue
+            if (mod, target) in DEPRECATED_ALIASES:
+                continue
             graph[mod].add(target)
+            below, above = floor_of(mod), floor_of(target)
+            if below and above and ANALYSIS_FLOORS.index(above) > ANALYSIS_FLOORS.index(below):
+                bad.append(f"{where}:{line}: floor {below} of the analysis wing imports {target} (floor {above})")
             there = layer_of(target)
             if there != here and there not in ALLOWED[here]:
                 bad.append(f"{where}:{line}: layer {here} imports {target} (layer {there})")
@@ -422,6 +445,15 @@ def _fake_package(tmp_path, files):
     # a private name of another module
     ({"_engine/flow.py": "from .taylor import _LINEAR\n", "_engine/taylor.py": "_LINEAR = 1\n"},
      r"private name _LINEAR"),
+    # the results are the bottom of the analysis wing: a report never imports a follow-up
+    ({"_analysis/results/report.py": "from ..followups.names import f\n", "_analysis/followups/names.py": "f = 1\n"},
+     r"floor results of the analysis wing imports uio_jax\._analysis\.followups\.names \(floor followups\)"),
+    # the decision core never imports a recursion, even inside a function
+    ({"_analysis/decisions/context.py": "def f():\n    from ..recursions import orc\n",
+      "_analysis/recursions/orc.py": ""}, r"floor decisions .* imports uio_jax\._analysis\.recursions\.orc"),
+    # a recursion never runs the top (the chooser)
+    ({"_analysis/recursions/orc.py": "from .. import plan\n", "_analysis/plan.py": ""},
+     r"floor recursions .* imports uio_jax\._analysis\.plan \(floor top\)"),
     # a cycle inside one layer
     ({"_engine/a.py": "from . import b\n", "_engine/b.py": "from .a import x\n"},
      r"import cycle: uio_jax\._engine\.a -> uio_jax\._engine\.b"),

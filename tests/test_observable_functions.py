@@ -195,6 +195,7 @@ def test_sum_of_rates_is_the_identifiable_combination():
 
 def test_report_text_json_and_batch_row_show_the_functions():
     rep = uj.analyze(load("unicycle_polar.py:range_v_unknown"), samples=S)
+    uj.observable_functions(rep)  # asked: the text and the JSON show the answer
     text = str(rep)
     assert "observable functions: 2 of 2 named" in text
     d = rep.to_dict()["observable_functions"]

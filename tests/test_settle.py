@@ -112,10 +112,12 @@ def erf_part(x):
 def unsettled(monkeypatch):
     """Extended precision cannot decide (as when its two precisions disagree): the weak
     decisions of a model that is not rational stay undecided."""
-    from uio_jax._analysis.decisions.settle import Escalation, Settler
+    from uio_jax._analysis.decisions.settle import Settler
+    from uio_jax._analysis.results.evidence import Escalation, Settlement
 
     monkeypatch.setattr(Settler, "_settle_extended",
-                        lambda self, what, float64, exprs: Escalation(what, float64, "none: test", "undecided"))
+                        lambda self, record, exprs: Escalation(**record, how=Settlement.NONE, detail="none: test",
+                                                               result="undecided"))
 
 
 def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided(unsettled):
@@ -123,7 +125,7 @@ def test_a_weak_decision_that_cannot_be_settled_is_reported_undecided(unsettled)
     cert = rep.certificate
     assert cert.status == "undecided" and cert.undecided >= 1
     undecided = [e for e in cert.escalations if e.result == "undecided"]
-    assert any(e.what.startswith("y2") and e.how.startswith("none") for e in undecided)
+    assert any(e.what.startswith("y2") and e.how_text.startswith("none") for e in undecided)
     assert any(n.startswith("UNDECIDED") for n in rep.notes)
     assert "UNDECIDED" in str(rep)
     d = rep.to_dict()["certificate"]
@@ -257,10 +259,10 @@ def test_a_dependence_takes_more_points_while_its_degree_bound_needs_them(monkey
     x1 = g.coords[0]
     kept, cand = [Node("x1", "scalar", expr=x1)], Node("x1^2", "scalar", expr=g.mul(x1, x1))
     one = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
-    assert one.result == "dependent" and one.how.endswith("at 1 point")
+    assert one.result == "dependent" and one.how_text.endswith("at 1 point")
     monkeypatch.setattr(_settle, "MAX_BOUND", one.bound ** 1.5)  # two points needed
     two = Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent")
-    assert two.result == "dependent" and two.how.endswith("at 2 points") and two.bound == one.bound ** 2
+    assert two.result == "dependent" and two.how_text.endswith("at 2 points") and two.bound == one.bound ** 2
     monkeypatch.setattr(_settle, "MAX_POINTS", 1)
     assert Settler(g, np.zeros(2), np.ones(2), 0).settle(kept, cand, "dependent").result == "undecided"
 
@@ -325,8 +327,8 @@ def test_clear_rejections_are_verified_exactly(monkeypatch):
     # the same model with clear votes left to float64: the clear rejection stands
     real = Settler.settle
 
-    def weak_only(self, kept, candidate, float64, exact_only=False):
-        return None if exact_only else real(self, kept, candidate, float64)
+    def weak_only(self, kept, candidate, float64, exact_only=False, vote=None):
+        return None if exact_only else real(self, kept, candidate, float64, vote=vote)
 
     monkeypatch.setattr(Settler, "settle", weak_only)
     assert uj.analyze(model, samples=256, method="orc").dims == (3, 4, 4)

@@ -41,6 +41,16 @@ from ._analysis.results.identifiability_report import Verdict as Verdict
 from ._analysis.results.evidence import Step as Step
 from ._analysis.results.evidence import Certificate as Certificate
 from ._analysis.results.plots import plot_analysis as plot_analysis
+from ._analysis.results.kinds import Method as Method
+from ._analysis.results.kinds import Route as Route
+from ._analysis.results.kinds import Answer as Answer
+from ._analysis.results.kinds import Plan as Plan
+from ._analysis.plan import plan as plan
+
+# follow-up questions of a report
+from ._analysis.followups.questions import observable_functions as observable_functions
+from ._analysis.followups.questions import find_symmetries as find_symmetries
+from ._analysis.followups.questions import reparametrise as reparametrise
 
 # Monte Carlo filtering
 from ._filter.montecarlo import run_montecarlo as run_montecarlo
@@ -76,7 +86,8 @@ from ._errors import ExpressionError as ExpressionError
 __all__ = [
     "System", "Experiment", "Measurement", "Quantity", "Experiments",
     "analyze", "Report", "Step", "Certificate", "plot_analysis",
-    "Question", "IdentifiabilityReport", "Verdict",
+    "Question", "IdentifiabilityReport", "Verdict", "Method", "Route", "Answer", "Plan", "plan",
+    "observable_functions", "find_symmetries", "reparametrise",
     "run_montecarlo", "trajectories", "MonteCarloResult",
     "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
     "load_system", "save_model", "load_experiment", "system_from_sympy", "system_from_dynamics",

@@ -1,20 +1,9 @@
-"""``analyze``: choice of the analysis and its context (the options are checked by
-:mod:`uio_jax._analysis.options`).
+"""``analyze``: check the options, plan, dispatch, add the notes.
 
-How ``method="auto"`` chooses, in order: no unknown input -> ``"orc"`` (Hermann-Krener;
-``"general_ui"``'s closure along the drift when the known inputs are smooth; with switchable
-known inputs on a model of :data:`~uio_jax._analysis.recursions.taylor_route.TAYLOR_MIN_VARIABLES`
-coordinates or more that the Taylor route evaluates, ``"series"``: the ORC's final span,
-decided on the output's Taylor series without symbolic brackets); one unknown
-input, no drift, and no known input or switchable ones -> ``"single_ui"`` (Martinelli's
-analytic solution); known inputs that are switchable with a drift or several unknown inputs
--> ``"eorc"`` (extended observability rank criterion, sufficient only: no exact solution is
-known for that meaning); otherwise ``"general_ui"`` (Martinelli's general solution: any
-number of unknown inputs, drift, smooth known inputs; exact). ``"series"`` (every input
-known): rank of the output Taylor coefficients along a generic known input (STRIKE-GOLDD's
-test, :mod:`uio_jax._analysis.recursions.series`): the ORC's final verdict without nested brackets,
-much faster on large models, but per-order dims that are not the ORC's steps. ``"fast"``:
-like ``"auto"`` with ``"series"`` in place of ``"orc"``.
+The options are checked by :mod:`uio_jax._analysis.options`; the method, the route and the
+arithmetic are chosen once, before any sample is drawn, by :func:`uio_jax._analysis.plan.plan`
+(its module docstring states the rules of ``method="auto"``); :func:`dispatch` runs the plan;
+the report keeps the plan (``Report.plan``, ``rep.plan.why``).
 """
 
 import dataclasses
@@ -28,32 +17,24 @@ from .._model.system import System
 from .at_t0.identifiability import analyze_experiments, analyze_initial
 from .decisions.context import Context
 from .decisions.memory import check_memory
+from .decisions.settle import new_settler
 from .decisions.symmetry import symmetry_notes, verify_symmetries
 from .options import DEFAULTS, check_options
+from .plan import plan
 from .recursions.eorc import eorc_report
-from .recursions.general_ui import check_applicable as general_ui_applicable
 from .recursions.general_ui import general_ui_report
 from .recursions.orc import run_orc
-from .recursions.series import check_applicable as series_applicable
 from .recursions.series import series_report
-from .recursions.single_ui import check_applicable, single_ui_report
-from .recursions.taylor_route import NotTaken, taylor_applicable, taylor_report
+from .recursions.single_ui import single_ui_report
+from .recursions.taylor_route import NotTaken, taylor_report
+from .results.kinds import Method, Route
 
 
-def analyze(
-    system: System,
-    *,
-    method: str = DEFAULTS["method"],
-    samples: int = DEFAULTS["samples"],
-    seed: int = DEFAULTS["seed"],
-    rtol: float | None = DEFAULTS["rtol"],
-    max_order: int | None = DEFAULTS["max_order"],
-    k_max: int | None = DEFAULTS["k_max"],
-    known_inputs: str = DEFAULTS["known_inputs"],
-    prob_threshold: float = DEFAULTS["prob_threshold"],
-    initial=None,
-    shared=None,
-):
+def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = DEFAULTS["samples"],
+            seed: int = DEFAULTS["seed"], rtol: float | None = DEFAULTS["rtol"],
+            max_order: int | None = DEFAULTS["max_order"], k_max: int | None = DEFAULTS["k_max"],
+            known_inputs: str = DEFAULTS["known_inputs"], prob_threshold: float = DEFAULTS["prob_threshold"],
+            initial=None, shared=None):
     """Which states of ``system`` are observable: the observable codistribution.
 
     Main arguments:
@@ -63,7 +44,8 @@ def analyze(
     Other arguments:
         method: ``"auto"`` (default), ``"orc"``, ``"single_ui"``, ``"general_ui"``,
             ``"eorc"``, ``"series"`` or ``"fast"``: how ``"auto"`` and ``"fast"`` choose is in
-            the module docstring; ``Report.method`` records the choice.
+            :mod:`uio_jax._analysis.plan`; ``Report.method`` records the choice and
+            ``Report.plan`` the whole plan (method, route, arithmetic, why).
         samples: number S of random states drawn for the float64 screen (votes at the first
             decision samples, :func:`~uio_jax._analysis.decisions.memory.decision_count`; margins and the
             figure at as many as fit in memory, ``Certificate.capped``). The verdicts do not rest
@@ -118,8 +100,11 @@ def analyze(
 
     # parameters -> states with zero derivative; time -> a known coordinate with t' = 1
     system = system.autonomous()
-    report = _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, opts["prob_threshold"])
-    return _with_notes(report, system, k_max, seed)
+    settler = new_settler(system, seed, opts["prob_threshold"])
+    chosen = plan(system, method, known_inputs, settler=settler)
+    report = dispatch(system, chosen, settler, samples=samples, seed=seed, rtol=rtol, max_order=max_order,
+                      k_max=k_max, known_inputs=known_inputs, prob_threshold=opts["prob_threshold"])
+    return _with_notes(dataclasses.replace(report, plan=chosen), system, k_max, seed)
 
 
 def _identifiability(system, initial, shared, method, seed, max_order, prob_threshold):
@@ -151,11 +136,11 @@ def _with_notes(report, system, k_max, seed):
     ``k_max`` given to a method that does not use it, the declared symmetries (verified;
     the EORC uses them itself), the meaning of switchable known inputs."""
     report = _with_idle_outputs_note(report, system)
-    if k_max is not None and report.method != "eorc":  # given, but not used: said, not silent
+    if k_max is not None and report.method is not Method.EORC:  # given, but not used: said, not silent
         report = dataclasses.replace(report, notes=tuple(report.notes) + (
             f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
             "not use it (max_order caps its steps)",))
-    if report.method != "eorc" and symmetry_fields(system):
+    if report.method is not Method.EORC and symmetry_fields(system):
         report = _with_symmetries(report, system, seed)
     if report.known_inputs == "switchable":
         report = dataclasses.replace(report, notes=tuple(report.notes) + (SWITCHABLE_NOTE,))
@@ -199,91 +184,33 @@ def _with_symmetries(report, system, seed):
     return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details)
 
 
-def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold):
-    """The report of the analysis ``method`` chooses on the autonomous ``system``."""
-    chosen, why = _choose(system, method, known_inputs)
-    notes = [why] if why else []
-    if chosen == "eorc":  # its size depends on k_max: checked by the EORC itself
+def dispatch(system, chosen, settler, *, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold):
+    """Run the :class:`~uio_jax._analysis.results.kinds.Plan` ``chosen`` on the autonomous
+    ``system`` (``settler``: the plan's, shared by the analysis) and return its Report.
+
+    Where the Taylor route cannot decide at its random points (``NotTaken``), the plan's
+    fallback runs and the report says so."""
+    notes = [chosen.note] if chosen.note else []
+    if chosen.method is Method.EORC:  # its size depends on k_max: checked by the EORC itself
         return eorc_report(system, samples=samples, seed=seed, rtol=rtol, k_max=k_max, prob_threshold=prob_threshold,
                            notes=notes, known_inputs=known_inputs)
-    if chosen == "general_ui":
-        check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
-                     advice="lower samples")
+    check_memory(samples, system.n, what=f"samples={samples} x {system.n} states", advice="lower samples")
+    if chosen.method is Method.GENERAL_UI:
         return general_ui_report(system, samples=samples, seed=seed, rtol=rtol, prob_threshold=prob_threshold,
                                  known_inputs=known_inputs, notes=notes)
-    check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
-                 advice="lower samples")
     with jax.enable_x64(True):
-        if chosen == "series":
-            series_applicable(system)
-        elif chosen == "single_ui":
-            check_applicable(system)
-        ctx = Context(system, samples, seed, rtol, prob_threshold)
-        report = _taylor_report(ctx, method, chosen, why, seed, max_order)
-        if report is not None:
-            return report
-        if chosen == "orc":
-            return _orc_report(ctx, why, max_order)
-        if chosen == "series":
-            return series_report(ctx, seed=seed, why=why, max_order=max_order)
-        return single_ui_report(ctx, why=why, max_order=max_order)
-
-
-def _taylor_report(ctx, method, chosen, why, seed, max_order):
-    """The report of the Taylor route where the engine takes it (:mod:`.taylor_route`), else
-    None: ``"orc"`` and ``"series"`` on large models; for ``"auto"`` on a large model with
-    switchable known inputs, the series test in place of the ORC (its final span)."""
-    system = ctx.system
-    if method == "auto" and chosen == "orc" and system.known and taylor_applicable(ctx, "series"):
-        chosen, why = "series", (f"{why}; {system.n} variables with known inputs -> the series test on the "
-                                 "Taylor route (the ORC's final span; its orders are not the ORC's steps)")
-    elif chosen not in ("orc", "series") or not taylor_applicable(ctx, chosen):
-        return None
-    try:
-        return taylor_report(ctx, chosen, seed=seed, why=why, max_order=max_order)
-    except NotTaken:
-        return None  # the symbolic route decides it (the ORC where auto chose it)
-
-
-def _choose(system, method, known_inputs="switchable"):
-    """The analysis to run on ``system`` (autonomous) and, for ``auto``, why."""
-    n_unknown = len(system.unknown)
-    smooth = known_inputs == "smooth" and bool(system.known)
-    if method == "fast":
-        if n_unknown == 0 and not smooth:
-            return "series", "fast: no unknown input -> series (generic-input output series; ORC's verdict)"
-        chosen, why = _choose(system, "auto", known_inputs)
-        return chosen, why.replace("auto:", "fast:", 1)
-    if method == "auto":
-        if n_unknown == 0:
-            if smooth:
-                return "general_ui", "auto: no unknown input, smooth known inputs -> general_ui"
-            return "orc", "auto: no unknown input -> ORC"
-        if n_unknown == 1 and system.drift is None and not smooth:
-            return "single_ui", "auto: one unknown input, no drift -> single_ui"
-        inputs = f"{n_unknown} unknown input{'s' if n_unknown != 1 else ''}" + (
-            " and a drift" if system.drift else "")
-        if system.known and not smooth:
-            return "eorc", (f"auto: {inputs} with switchable known inputs -> EORC (no exact "
-                            "solution is known for that meaning; known_inputs='smooth' gives "
-                            "the exact general solution for smooth ones)")
-        return "general_ui", f"auto: {inputs} -> general_ui"
-    if method == "single_ui" and smooth:
-        raise OptionError("method 'single_ui' answers for switchable known inputs; for "
-                          "known_inputs='smooth' use method='general_ui' (or 'auto')")
-    if method == "general_ui":
-        general_ui_applicable(system, known_inputs)
-    if method in ("orc", "series") and n_unknown:
-        raise OptionError(
-            f"method {method!r} needs every input known, but {', '.join(system.unknown)} "
-            "is unknown; use method='auto' (or treat it as known with "
-            "System.with_known([...]))"
-        )
-    return method, ""
-
-
-def _orc_report(ctx, why, max_order):
-    labels = [lbl for lbl in ctx.system.fields() if lbl not in ctx.system.unknown]
-    history, reason = run_orc(ctx, labels, max_steps=max_order)
-    notes = [why] if why else []
-    return ctx.report("orc", history, reason, notes=notes)
+        ctx = Context(system, samples, seed, rtol, prob_threshold, settler=settler)
+        if chosen.route is Route.TAYLOR:
+            try:
+                return taylor_report(ctx, chosen.method, seed=seed, why=chosen.note, max_order=max_order)
+            except NotTaken as exc:
+                chosen = chosen.fallback
+                notes = ([chosen.note] if chosen.note else []) + [
+                    f"the Taylor route could not decide ({exc}): the symbolic route ran"]
+        if chosen.method is Method.ORC:
+            labels = [lbl for lbl in system.fields() if lbl not in system.unknown]
+            history, reason = run_orc(ctx, labels, max_steps=max_order)
+            return ctx.report("orc", history, reason, notes=notes)
+        if chosen.method is Method.SERIES:
+            return series_report(ctx, seed=seed, notes=notes, max_order=max_order)
+        return single_ui_report(ctx, notes=notes, max_order=max_order)

@@ -7,6 +7,7 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from .._analysis.followups.questions import observable_functions
 from .._output import printable
 
 
@@ -40,7 +41,7 @@ class BatchRow:
             float64) or ``"undecided"`` (some could not be settled: the verdicts in
             ``undecided`` are not certified); None for a failed model.
         undecided: the states and parameters whose verdict is not certified.
-        functions: the named observable functions (``Report.observable_functions``).
+        functions: the named observable functions (:func:`uio_jax.observable_functions`).
         functions_complete: whether they span the observable codistribution (their number
             is ``dim``); None for a failed model.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
@@ -240,6 +241,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
     params = tuple(getattr(rep, "params", ()) or ())
     ident = getattr(rep, "identifiable", {}) or {}
     cert = rep.certificate
+    named = observable_functions(rep)  # the table's column: asked here, kept on the report
     fraction, gap = float(cert.fraction), float(cert.gap_decades)
     error = None
     if math.isnan(fraction) or math.isnan(gap):
@@ -251,7 +253,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
         exact=bool(rep.exact), inputs=_observable_inputs(rep),
         status=rep.certificate.status, undecided=tuple(rep.undecided),
-        functions=tuple(rep.observable_functions), functions_complete=rep.named_functions.complete,
+        functions=named.texts, functions_complete=named.complete,
     )
 
 

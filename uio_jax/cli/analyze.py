@@ -31,6 +31,7 @@ def add_parser(subparsers, analysis_options):
 def run(args) -> int:
     """Run the sub-command; returns the exit code (errors propagate as UioJaxError)."""
     from .._analysis.analyze import analyze
+    from .._analysis.followups.questions import find_symmetries, observable_functions
     from .._analysis.options import check_options
     from .._io.initial_values import file_initial, initial_values
     from .._io.loading import load_system
@@ -62,6 +63,9 @@ def run(args) -> int:
                           known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
     if initial:
         return _print_initial(rep, args.json)
+    # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
+    observable_functions(rep)
+    find_symmetries(rep)
     print(rep)
     directions = _print_directions(rep)
     if args.json:

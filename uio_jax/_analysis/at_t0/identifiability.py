@@ -31,8 +31,8 @@ from ..._engine import graph_exact
 from ..._engine.graph import Graph
 from ..._errors import OptionError
 from ..._model.system import System
-from ..decisions.settle import Outcome, Settler
-from ..results.evidence import Arithmetic
+from ..decisions.settle import Settler
+from ..results.evidence import Arithmetic, Finding, Settlement
 from ..results.identifiability_report import IdentifiabilityReport, StopKind, Verdict
 from ..results.report import Question
 from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial
@@ -135,7 +135,7 @@ def _absorb(ex, span, settler, coords, upto, determined, ranks, cap, many):
         own_grew = own.absorb(rows) if own is not None else grew
         ranks.append(span.rank)
         for i in targets:
-            if i not in determined and span.contains(i) is Outcome.DEPENDENT:
+            if i not in determined and span.contains(i) is Finding.DEPENDENT:
                 determined[i] = k
                 added.append(coords.names[i])
         if all(i in determined for i in targets):
@@ -181,7 +181,7 @@ def generic_experiments(system, shared, seed, prob_threshold):
         for k in range(closing + 1):
             joint.absorb(ex.order(k))
         ranks.append(joint.rank - m * rho)
-        determined.append([p for p, i in zip(shared, p_index) if joint.contains(i) is Outcome.DEPENDENT])
+        determined.append([p for p, i in zip(shared, p_index) if joint.contains(i) is Finding.DEPENDENT])
         if m > 1 and ranks[-1] == ranks[-2]:
             minimal = m - 1
             ranks, determined = ranks[:-1], determined[:-1]
@@ -191,7 +191,7 @@ def generic_experiments(system, shared, seed, prob_threshold):
             break
     return {"system": system.name or "system", "minimal": minimal, "ranks": ranks, "determined": determined,
             "closing_order": closing, "error_bound": settler.error_bound,
-            "exact": all(e.how.startswith("exact") for e in own.escalations + local.escalations + joint.escalations)}
+            "exact": all(e.how is Settlement.EXACT for e in own.escalations + local.escalations + joint.escalations)}
 
 
 def _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler, prob_threshold, many,
@@ -201,10 +201,10 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
     question = ((Question.EXPERIMENTS_FREE_INPUT_JETS if free else Question.EXPERIMENTS) if many else
                 (Question.KNOWN_INITIAL_STATE_FREE_INPUT_JETS if free else Question.KNOWN_INITIAL_STATE))
     hows = [e.how for e in escalations]
-    exact = all(h.startswith("exact") for h in hows) and all(g["exact"] for g in generic_rows)
+    exact = all(h is Settlement.EXACT for h in hows) and all(g["exact"] for g in generic_rows)
     arithmetic = Arithmetic.EXACT if exact else (
-        Arithmetic.EXTENDED if all(h.startswith(("exact", "mpmath")) for h in hows) else Arithmetic.FLOAT64)
-    undecided = sum(e.result is Outcome.UNDECIDED for e in escalations)
+        Arithmetic.EXTENDED if all(h in (Settlement.EXACT, Settlement.EXTENDED) for h in hows) else Arithmetic.FLOAT64)
+    undecided = sum(e.result is Finding.UNDECIDED for e in escalations)
     states = [i for i in coords.of(Role.STATE)]
     params = [i for i in coords.of(Role.PARAM)]
     stop = (StopKind.ALL_DETERMINED if all(v is Verdict.DETERMINED for v in verdict.values()) else

@@ -55,8 +55,8 @@ from ..._engine import graph_exact
 from ..._engine.graph import Graph, exact_literal
 from ..._engine.graph_elementary import Singular
 from ..._errors import ModelError, OptionError
-from ..decisions.settle import Outcome
 from ..recursions.series import GraphCoefficients
+from ..results.evidence import Finding
 
 #: The box in which extended-precision points draw an input's derivative at t = 0 (the
 #: modular points draw every coordinate uniformly in F_p).
@@ -302,12 +302,12 @@ class Span:
                 continue
             esc = self.settler.settle(self.kept, row, NO_VOTE)
             self.escalations.append(esc)
-            if esc.result is Outcome.INDEPENDENT:
+            if esc.result is Finding.INDEPENDENT:
                 self.kept.append(row)
                 added.append(row.label)
         return added
 
-    def contains(self, index: int) -> Outcome:
+    def contains(self, index: int) -> Finding:
         """Whether the unit covector of coordinate ``index`` lies in the span (DEPENDENT), not
         (INDEPENDENT), or could not be decided."""
         unit = Node(f"e_{index}", "scalar", 0, self.settler.graph.coords[index])

@@ -18,8 +18,10 @@ from ..._engine import graph_exact
 from ..._errors import ModelError
 from ..._model.sampling import sample_states
 from ..._model.smooth_inputs import known_coordinates
-from ..results.evidence import Certificate, Step
+from ..results.evidence import Certificate, Escalation, Finding, Settlement, Step
+from ..results.kinds import Arithmetic
 from ..results.report import SEMANTICS, SEMANTICS_SMOOTH, Report
+from .answer import decide_answer
 from .memory import (
     CERTIFY_BYTES,
     DECISION_SAMPLES,
@@ -30,7 +32,7 @@ from .memory import (
 )
 from .policy import DecisionPolicy
 from .rank import Codistribution
-from .settle import DEFAULT_PROB_THRESHOLD, Escalation, Settler
+from .settle import DEFAULT_PROB_THRESHOLD, model_roots, new_settler
 from .space import SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
@@ -53,21 +55,20 @@ class Context:
             (:class:`~uio_jax._analysis.decisions.settle.Settler`).
     """
 
-    def __init__(self, system, samples, seed, rtol, prob_threshold=DEFAULT_PROB_THRESHOLD):
+    def __init__(self, system, samples, seed, rtol, prob_threshold=DEFAULT_PROB_THRESHOLD, settler=None):
         self.system = system
         self.builder = builder_for(system)
         self.samples = samples
         self.seed = seed
-        lo, hi = system.box()
         #: one Settler per analysis, shared by its forks: each question is settled once, and
-        #: the error bound of the exact decisions is summed over all of them
-        self.settler = Settler(self.builder.graph, lo, hi, seed, prob_threshold)
+        #: the error bound of the exact decisions is summed over all of them (the plan's,
+        #: where the plan made one: :func:`uio_jax._analysis.plan.plan`)
+        self.settler = new_settler(system, seed, prob_threshold) if settler is None else settler
         self.prob_threshold = prob_threshold
         with jax.enable_x64(True):
             xs_all = sample_states(system, samples, seed)
-            nodes = [*self.output_nodes(), *(self.field_node(f) for f in system.fields())]
-            exprs = [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr)]
-            wanted = screen_samples(system.n) if self.settler.exact_capable(exprs) else DECISION_SAMPLES
+            exact = self.settler.arithmetic(model_roots(system, self.builder)) is Arithmetic.EXACT
+            wanted = screen_samples(system.n) if exact else DECISION_SAMPLES
             #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
             #: sample is dropped (counted in the certificate), even where their gradients are
             #: finite (a NaN chosen by a ``where``)
@@ -165,7 +166,8 @@ class Context:
                 if nd not in added:
                     full.record.add(Escalation(
                         f"{nd.label} (kept on {len(phase.valid)} samples)",
-                        f"dependent on the {count} certifying samples", f"{count} samples", "undecided"))
+                        f"dependent on the {count} certifying samples", Settlement.NONE, Finding.UNDECIDED,
+                        detail=f"{count} samples", vote=Finding.DEPENDENT))
         full.rejections = phase.rejections + full.rejections
         self.codist = full
 
@@ -459,7 +461,7 @@ class Context:
                 f"{certifying} of the {cert.samples} samples, where its arrays ({N} x {N} per "
                 f"sample) fit in {CERTIFY_BYTES / 2**20:.0f} MiB{exact}")
         if cert.undecided:
-            what = "; ".join(f"{e.what}: {e.how}" for e in cert.escalations if e.result == "undecided")
+            what = "; ".join(f"{e.what}: {e.how_text}" for e in cert.escalations if e.result is Finding.UNDECIDED)
             notes.append(
                 f"UNDECIDED: {cert.undecided} rank decision{'s' if cert.undecided > 1 else ''} could "
                 f"not be settled, in float64 nor beyond ({what}); the verdicts rest on the float64 "
@@ -470,6 +472,7 @@ class Context:
                 f"{100 * cert.min_fraction:.0f}% of the samples; try more samples or a "
                 "smaller domain away from singular states"
             )
+        details = details or {}
         return Report(
             method=method,
             states=system.states,
@@ -479,11 +482,12 @@ class Context:
             certificate=cert,
             generators=tuple(nd.label for nd in self.codist.nodes),
             stop=stop,
+            answer=decide_answer(method, stop, details, cert.arithmetic),
             notes=tuple(notes),
-            details=details or {},
+            details=details,
             system_name=system.name,
             params=system.joint_param_names,
             known_inputs=known_inputs if own.known or system_known(system) else "none",
             semantics=SEMANTICS_SMOOTH if known_inputs == "smooth" else SEMANTICS,
-            _space=SampledSpace(self) if space is None else space,
+            space=SampledSpace(self) if space is None else space,
         )

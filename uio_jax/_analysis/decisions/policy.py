@@ -24,6 +24,7 @@ import enum
 from collections.abc import Callable
 from dataclasses import replace
 
+from ..results.evidence import Finding
 from .sampled_rank import RankDecision, decide_increase
 from .settle import is_weak, median_decades
 
@@ -105,10 +106,11 @@ class DecisionPolicy:
         rises = d.rank > rank
         weak = (expect_rise and not rises) or is_weak(rho, valid, rtol, d.fraction)
         exact_only = not weak and self.reach is Reach.EXACT
-        esc = self.settle(kept, node, evidence(d, rho, valid, rtol, rank), exact_only=exact_only)
+        vote = Finding.INDEPENDENT if rises else Finding.DEPENDENT
+        esc = self.settle(kept, node, evidence(d, rho, valid, rtol, rank), exact_only=exact_only, vote=vote)
         if esc is None:  # neither exact nor asked beyond: the float64 vote stands
             return d
-        how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
+        how = esc.how
         confirmed = esc.result == ("independent" if rises else "dependent")
         if confirmed and not weak:  # a clear vote confirmed: counted, not an escalation
             if rises:
@@ -127,7 +129,7 @@ class DecisionPolicy:
         """A rejection of a step that keeps nothing, settled beyond float64 (modulo p, else in
         extended precision): the Escalation, None where neither applies. A confirmed
         dependence is counted; anything else is recorded."""
-        esc = self.settle(kept, node, text)
+        esc = self.settle(kept, node, text, vote=Finding.DEPENDENT)
         if esc is None:
             return None
         if esc.result == "dependent":

@@ -336,7 +336,7 @@ class Codistribution:
             esc = self.policy.settle_stop(self.nodes, node, text, self.record)
             if esc is None:
                 continue
-            how = "exact mod p" if esc.how.startswith("exact") else "mpmath"
+            how = esc.how
             if esc.result == "dependent":
                 self.rejections = [replace(r, settled=how) if r is d else r for r in self.rejections]
                 continue

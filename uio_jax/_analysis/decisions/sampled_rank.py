@@ -25,10 +25,11 @@ Everything here is numpy: a few batched products per call, which compiling would
 than they run on a first call.
 """
 
-import enum
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..results.evidence import Settlement
 
 
 def default_rtol() -> float:
@@ -73,22 +74,6 @@ def ratios(mats):
     s = np.linalg.svd(unit, compute_uv=False)
     top = s[..., :1]
     return s / np.where(top > 0, top, 1.0)
-
-
-class Settlement(str, enum.Enum):
-    """How a rank decision was made beyond its float64 vote (a ``str``: compares equal to
-    its value, and is written as it in JSON)."""
-
-    #: the float64 vote alone
-    NONE = ""
-    #: modulo p at random points (:mod:`uio_jax._analysis.decisions.settle`)
-    EXACT = "exact mod p"
-    #: in extended precision (mpmath at two precisions)
-    EXTENDED = "mpmath"
-    #: neither could settle it: the float64 majority kept, not certified
-    UNDECIDED = "undecided"
-    #: implied by the span: a span of every direction contains every covector
-    IMPLIED = "implied"
 
 
 @dataclass(frozen=True)

@@ -43,13 +43,14 @@ corrupts every later decision. A confirmation is counted (``Certificate.verified
 contradiction recorded as an escalation.
 """
 
-import dataclasses
-import enum
 import math
 
 import numpy as np
 
+from ..._calculus.generators import builder_for
 from ..._engine import graph_elementary, graph_exact, graph_independence
+from ..results.evidence import Escalation, Finding, Settlement
+from ..results.kinds import Arithmetic
 
 #: A decision is weak when the median ``log10 rho`` lies between ``log10 rtol`` minus
 #: :data:`WEAK_BELOW` and plus :data:`WEAK_ABOVE` decades: from 1e-13 (round-off of our
@@ -87,42 +88,6 @@ DEFAULT_PROB_THRESHOLD = 0.999999
 #: The number of modular dependences an analysis is assumed to decide at most: each gets
 #: ``1 / DECISIONS_BUDGET`` of the allowed error ``1 - prob_threshold``.
 DECISIONS_BUDGET = 10**6
-
-
-class Outcome(str, enum.Enum):
-    """What a decision settled beyond float64 found (a ``str``: compares equal to its value,
-    and is written as it in JSON)."""
-
-    INDEPENDENT = "independent"
-    DEPENDENT = "dependent"
-    UNDECIDED = "undecided"
-
-
-@dataclasses.dataclass(frozen=True)
-class Escalation:
-    """One weak decision settled again.
-
-    Attributes:
-        what: the candidate (label) and the rank of the span it was tested against.
-        float64: what the float64 vote said: ``"independent"`` or ``"dependent"``, with
-            its evidence (agreeing fraction, median ``log10 rho``).
-        how: ``"exact mod p"``, ``"mpmath"`` or ``"none"`` (and why).
-        result: an :class:`Outcome` (a plain string is taken as its value).
-        bound: for a dependence found modulo ``p``, the probability bound that it is wrong
-            (independence found there is certain: 0.0); None otherwise.
-    """
-
-    what: str
-    float64: str
-    how: str
-    result: "Outcome"
-    bound: float | None = None
-
-    def __post_init__(self):
-        object.__setattr__(self, "result", Outcome(self.result))
-
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
 
 
 def median_decades(rho, valid, rtol) -> float:
@@ -181,7 +146,8 @@ class Settler:
         self._extended = None  # per point, one ExtendedEvaluator per precision
         self._answers = {}  # (kept expressions, candidate expression) -> settled Escalation
 
-    def settle(self, kept, candidate, float64: str, exact_only: bool = False) -> Escalation | None:
+    def settle(self, kept, candidate, float64: str, exact_only: bool = False,
+               vote: Finding | None = None) -> Escalation | None:
         """Does ``candidate`` raise the generic rank of ``span{d k : k in kept}``?
 
         Args:
@@ -190,25 +156,35 @@ class Settler:
             float64: the float64 vote and its evidence, for the record.
             exact_only: settle only where exact modular arithmetic applies (a rational
                 graph); None otherwise (a clear float64 vote being verified).
+            vote: the float64 vote itself (:class:`Finding`), None where there was none.
         """
         what = f"{candidate.label} against rank {len(kept)}"
         exprs = [nd.expr for nd in kept] + [candidate.expr]
         known = self._answers.get(tuple(exprs))
         if known is not None:  # the same question again (the final span re-decided): the
             return known       # same answer, the same record (kept once in a certificate)
-        if self._rational(exprs):
-            answer = self._settle_modular(what, float64, exprs)
-        elif exact_only:
+        arithmetic = self.arithmetic(exprs)
+        if arithmetic is not Arithmetic.EXACT and exact_only:
             return None
+        coords = self.graph.coords  # a membership of d z_i (ctx.unit_nodes), not a generator that is z_i
+        unit = coords.index(candidate.expr) if candidate.expr in coords else None
+        unit = unit if unit is not None and candidate.label == f"e_{unit}" else None
+        record = {"what": what, "float64": float64, "vote": vote, "coordinate": unit}
+        if arithmetic is Arithmetic.EXACT:
+            answer = self._settle_modular(record, exprs)
         else:
-            answer = self._settle_extended(what, float64, exprs)
+            answer = self._settle_extended(record, exprs)
         self._answers[tuple(exprs)] = answer
         return answer
 
-    def exact_capable(self, exprs) -> bool:
-        """Whether decisions on the graph nodes ``exprs`` (and on what is built from them: every
-        derivative of a node made rational is made rational) are made modulo p."""
-        return self._rational([e for e in exprs if e is not None])
+    def arithmetic(self, exprs) -> Arithmetic:
+        """The arithmetic of decisions on the graph nodes ``exprs`` and on what is built from
+        them (every derivative of a node made rational is made rational): the one place where
+        it is chosen. :attr:`Arithmetic.EXACT` (modulo p) where every node behind them is
+        rational or an elementary function made rational by independent generators;
+        :attr:`Arithmetic.EXTENDED` (mpmath at two precisions) otherwise."""
+        rational = self._rational([e for e in exprs if e is not None])
+        return Arithmetic.EXACT if rational else Arithmetic.EXTENDED
 
     def vanishes(self, exprs) -> tuple[bool, str]:
         """Whether the graph nodes ``exprs`` all vanish identically (a zero test of the general
@@ -225,7 +201,7 @@ class Settler:
         exprs = [e for e in exprs if e is not None]
         if not exprs:
             return True, "exact mod p"
-        if self._rational(exprs):
+        if self.arithmetic(exprs) is Arithmetic.EXACT:
             p, degree = graph_exact.PRIME, None
             for point in range(MAX_POINTS):
                 ev = self._modular_evaluator(point, exprs)
@@ -256,7 +232,7 @@ class Settler:
     def values_mod_p(self, exprs):
         """The residues of the graph nodes ``exprs`` at the first random point modulo p, or
         None where the graph is not made rational (or every point drawn is singular)."""
-        if not self._rational(exprs):
+        if self.arithmetic(exprs) is not Arithmetic.EXACT:
             return None
         ev = self._modular_evaluator(0, exprs)
         return None if ev is None else [int(ev.V[e][0]) % graph_exact.PRIME for e in exprs]
@@ -325,7 +301,7 @@ class Settler:
         cache[kept] = ech
         return ech
 
-    def _settle_modular(self, what, float64, exprs):
+    def _settle_modular(self, record, exprs):
         """Independent at a point where the kept rows have full rank: certain. Dependent at
         every point so far: certified when ``(D / p)^points <= MAX_BOUND``, so points are
         added (up to :data:`MAX_POINTS`) while the degree bound ``D`` needs them. Kept rows
@@ -338,15 +314,16 @@ class Settler:
         while True:
             evaluator = self._modular_evaluator(point, exprs)
             if evaluator is None:
-                return Escalation(what, float64, "exact mod p: every point drawn was singular", "undecided")
+                return Escalation(**record, how=Settlement.EXACT, detail=": every point drawn was singular",
+                                  result=Finding.UNDECIDED)
             ech = self._echelon(point, kept, evaluator)
             point += 1
-            how = f"exact mod p = 2^127 - 1 at {point} point{'s' if point > 1 else ''}"
+            at = f" = 2^127 - 1 at {point} point{'s' if point > 1 else ''}"
             if ech.rank < r:
-                return Escalation(what, float64, how + f": the span has rank {ech.rank} < {r} there",
-                                  "undecided")
+                return Escalation(**record, how=Settlement.EXACT, result=Finding.UNDECIDED,
+                                  detail=at + f": the span has rank {ech.rank} < {r} there")
             if any(ech.reduce(evaluator.row(exprs[r], 0))):
-                return Escalation(what, float64, how, "independent", 0.0)
+                return Escalation(**record, how=Settlement.EXACT, detail=at, result=Finding.INDEPENDENT, bound=0.0)
             if point < needed:
                 continue
             if degree is None:
@@ -354,11 +331,11 @@ class Settler:
             bound = min(1.0, degree / p) ** point
             if bound <= self.max_bound:
                 self.error_bound += bound
-                return Escalation(what, float64, how, "dependent", bound)
+                return Escalation(**record, how=Settlement.EXACT, detail=at, result=Finding.DEPENDENT, bound=bound)
             needed = math.ceil(math.log(self.max_bound) / math.log(degree / p)) if degree < p else math.inf
             if needed > MAX_POINTS:
-                return Escalation(what, float64, how + f": degree bound {degree} too large", "undecided",
-                                  bound)
+                return Escalation(**record, how=Settlement.EXACT, detail=at + f": degree bound {degree} too large",
+                                  result=Finding.UNDECIDED, bound=bound)
 
     # ------------------------------------------------------------------ mpmath
     def _extended_points(self):
@@ -369,7 +346,7 @@ class Settler:
             self._extended = [[_Orthonormal(graph_exact.ExtendedEvaluator(self.graph, pt, d), scale)
                                for d in DIGITS] for pt in points]
 
-    def _settle_extended(self, what, float64, exprs):
+    def _settle_extended(self, record, exprs):
         r = len(exprs) - 1
         self._extended_points()
         independent = dependent = 0
@@ -383,12 +360,29 @@ class Settler:
             elif rho2 > tiny1 and abs(rho1 - rho2) <= 1e-6 * rho2:
                 independent += 1
                 break  # one point where it is independent proves it
-        how = f"mpmath at {DIGITS[0]} and {DIGITS[1]} digits"
+        digits = f" at {DIGITS[0]} and {DIGITS[1]} digits"
         if independent:
-            return Escalation(what, float64, how, "independent")
+            return Escalation(**record, how=Settlement.EXTENDED, detail=digits, result=Finding.INDEPENDENT)
         if dependent == POINTS:
-            return Escalation(what, float64, how + f" at {POINTS} points", "dependent")
-        return Escalation(what, float64, how + ": the two precisions disagree", "undecided")
+            return Escalation(**record, how=Settlement.EXTENDED, detail=digits + f" at {POINTS} points",
+                              result=Finding.DEPENDENT)
+        return Escalation(**record, how=Settlement.EXTENDED, detail=digits + ": the two precisions disagree",
+                          result=Finding.UNDECIDED)
+
+
+def model_roots(system, builder) -> list:
+    """The graph nodes of ``system``'s outputs and fields (its drift, known and unknown input
+    fields), in ``builder``'s graph: what every generator of an analysis is built from."""
+    nodes = [*(builder.scalar(k, fn) for k, fn in system.outputs.items()),
+             *(builder.field(label, fn) for label, fn in system.fields().items())]
+    return [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr) if e is not None]
+
+
+def new_settler(system, seed, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Settler:
+    """The :class:`~uio_jax._analysis.decisions.settle.Settler` of one analysis of ``system``
+    (its graph, its sampling box)."""
+    lo, hi = system.box()
+    return Settler(builder_for(system).graph, lo, hi, seed, prob_threshold)
 
 
 class _Orthonormal:
@@ -447,6 +441,6 @@ class _Orthonormal:
         return float(self._residual(basis, candidate)[0])
 
 
-__all__ = ["Outcome", "DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE",
+__all__ = ["model_roots", "new_settler", "DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE",
            "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND",
-           "Escalation", "Settler", "is_weak", "median_decades"]
+           "Settler", "is_weak", "median_decades"]

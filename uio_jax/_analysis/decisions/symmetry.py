@@ -53,10 +53,12 @@ import random
 import numpy as np
 
 from ..._calculus.generators import builder_for
-from ..._engine import graph_exact, graph_independence
+from ..._engine import graph_exact
 from ..._errors import ModelError
 from ..._model.smooth_inputs import known_coordinates
 from ..._model.symmetries import symmetry_fields
+from ..results.kinds import Arithmetic
+from .settle import new_settler
 
 #: Random points each condition is tested at.
 POINTS = 3
@@ -156,6 +158,7 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
     unknown = [builder.field(k, fn) for k, fn in system.unknown.items()]
     names = list(system.unknown)
     rng = random.Random(int(seed) * 1_000_003 + 0x5E77)
+    chooser = new_settler(system, seed)  # the one place the arithmetic is chosen
     checks, verified_rows, probability = [], [], 0.0
     moved, unobservable = set(), set()
     for name, fn in fields.items():
@@ -170,7 +173,7 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
         mixing = [builder.bracket(xi, g).expr for g in unknown]
         roots = [e for _, es in conditions for e in es] + [e for es in mixing for e in es] \
             + [e for g in unknown for e in g.expr] + list(xi.expr)
-        rational = _made_rational(graph, roots, rng)
+        rational = chooser.arithmetic(roots) is Arithmetic.EXACT
         test = _Modular(graph, roots, rng) if rational else _Extended(system, graph, roots, rng)
         if test.values is None:
             checks.append(SymmetryCheck(name, False, test.how, "every point drawn was singular"))
@@ -192,7 +195,7 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
                                                                            for j in range(len(names))))
         if probability is not None:
             probability = None if not rational else max(probability, test.probability(roots))
-    rank = _rank(system, graph, verified_rows, n_rep, rng)
+    rank = _rank(system, graph, verified_rows, n_rep, rng, chooser)
     return SymmetryBound(n_rep - rank, rank, tuple(system.states[i] for i in sorted(moved)),
                          tuple(nm for nm in names if nm in unobservable), tuple(checks),
                          probability if verified_rows else None)
@@ -232,16 +235,7 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
-def _made_rational(graph, roots, rng) -> bool:
-    """Whether the nodes behind ``roots`` are rational or made rational by independent
-    elementary generators (:mod:`uio_jax._engine.graph_independence`): decided modulo p."""
-    if not graph_independence.rationalizable(graph, roots):
-        return False
-    draws = np.random.default_rng(rng.getrandbits(64))
-    return graph_independence.independent(graph, graph_independence.generator_keys(graph, roots), draws)[0]
-
-
-def _rank(system, graph, fields, n_rep, rng) -> int:
+def _rank(system, graph, fields, n_rep, rng, chooser) -> int:
     """Rank of the verified fields (their expressions) at ONE new random point, on the
     reported coordinates: modulo p where they are rational (never above the generic rank),
     else by the SVD of their mpmath values (relative threshold 1e-12, far above the round-off
@@ -249,7 +243,7 @@ def _rank(system, graph, fields, n_rep, rng) -> int:
     if not fields:
         return 0
     roots = [e for f in fields for e in f]
-    if _made_rational(graph, roots, rng):
+    if chooser.arithmetic(roots) is Arithmetic.EXACT:
         test = _Modular(graph, roots, rng)
         if test.values is None:
             return 0  # no point where they are defined: no bound from them

@@ -17,6 +17,7 @@ from ..._engine.taylor import Extended, Float, TaylorSeries, Unsupported
 from ..._engine.taylor_degrees import TaylorDegrees
 from ..._errors import ModelError
 from ..results.evidence import Certificate
+from ..results.kinds import Arithmetic
 from .sampled_rank import ratios
 from .space import EXTENDED_DIGITS, Space, annihilator_extended, function_node
 
@@ -96,7 +97,7 @@ class TaylorSpace(Space):
         """
         n = self._problem.n
         node = function_node(self._ctx.builder, fn, n, n)
-        if not self._ctx.settler.exact_capable([node.expr]):
+        if self._ctx.settler.arithmetic([node.expr]) is not Arithmetic.EXACT:
             raise ModelError("is_observable: the function uses an operation that is not decided exactly here")
         orders = self._orders
         try:

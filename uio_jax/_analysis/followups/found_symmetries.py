@@ -37,6 +37,7 @@ from ..._engine import graph_exact
 from ..._errors import ModelError
 from ..._model.system import System, derived_system
 from ..decisions.symmetry import verify_symmetries
+from ..results.kinds import Arithmetic
 from . import ansatz
 
 #: Highest degree of the field ansatz (1: translations, rotations, scalings, linear fields).
@@ -112,7 +113,7 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
     if system is None or system.n != n:
         return FoundSymmetries((), hidden, "the report's states are not those of a System to verify "
                                            "fields on (a time-varying model)")
-    if not parts.settler.exact_capable([nd.expr for nd in parts.nodes]):
+    if parts.settler.arithmetic([nd.expr for nd in parts.nodes]) is not Arithmetic.EXACT:
         return FoundSymmetries((), hidden, "the model is not made rational")
     span = ansatz.ModularSpan(parts.builder.graph, [nd.expr for nd in parts.nodes], seed=seed,
                               p=ansatz.CANDIDATE_PRIME)

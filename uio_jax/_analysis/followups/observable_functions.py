@@ -49,6 +49,8 @@ import numpy as np
 
 from ..._engine import graph_exact
 from ..._engine.graph_numpy import columns
+from ..results.evidence import Settlement
+from ..results.kinds import Arithmetic
 from . import ansatz
 from .expression_text import Printer, text_size
 
@@ -196,7 +198,7 @@ class _Run:
         self.printer = Printer(self.graph, parts.names[:m])
         self.settler = parts.settler
         self.start_bound = self.settler.error_bound
-        self.exact = self.settler.exact_capable([nd.expr for nd in parts.nodes])
+        self.exact = self.settler.arithmetic([nd.expr for nd in parts.nodes]) is Arithmetic.EXACT
         self.arithmetic = "exact mod p" if self.exact else "mpmath"
         self.tried = set()
         self.chosen, self.given = [], []  # (NamedFunction, Node)
@@ -354,7 +356,7 @@ class _Run:
         exact independence test of the Settler, and the screen is dropped once it keeps one."""
         if self.screen is None:
             return None
-        rational = [k for k in nodes if self.settler.exact_capable([k])]
+        rational = [k for k in nodes if self.settler.arithmetic([k]) is Arithmetic.EXACT]
         try:
             self.screen.evaluate(rational)
         except graph_exact.Singular:
@@ -375,7 +377,7 @@ class _Run:
         esc = self.settler.settle(kept, nd, "not voted: a named function checked directly")
         if esc is None:
             return False
-        if esc.how.startswith("mpmath"):
+        if esc.how is Settlement.EXTENDED:
             self.arithmetic = "mpmath"
         return esc.result == outcome
 

@@ -74,7 +74,7 @@ from ..decisions.space import SampledSpace, report_view
 from ..decisions.symmetry import symmetry_notes, verify_symmetries
 from ..results.evidence import Step
 from ..results.report import Report
-from .driver import Recursion, StopReason, iterate
+from .driver import Cap, Recursion, StopReason, iterate
 from .eorc_extension import default_k_max as default_k_max
 from .eorc_extension import extended_system as extended_system
 from .eorc_extension import input_names as input_names
@@ -147,8 +147,6 @@ class _Eorc(Recursion):
             stop = self.at_bound(history[-1])
             if stop is not None:
                 return stop
-        if k >= self.K:
-            return StopReason.K_MAX.stop(k_max=self.K)
         return None
 
     def symmetry_bound(self):
@@ -325,7 +323,7 @@ def run_eorc(system, *, samples, seed, rtol, k_max=None, early_stop=None, analys
         early_stop = k_max is None
     run = _Eorc(system, K, samples, seed, rtol, early_stop=early_stop, analysed=analysed,
                 prob_threshold=prob_threshold)
-    out = iterate(run)
+    out = iterate(run, cap=Cap(K, StopReason.K_MAX.stop(k_max=K)))
     return run, out.history, out.stop, out.m
 
 

@@ -55,13 +55,12 @@ from ..._calculus.rescaled import rescaled_fields
 from ..._errors import OptionError
 from ..._model.smooth_inputs import jet_names, known_coordinates
 from ..._model.system import System
-from ..._progress import announce_step
 from ..decisions.context import Context
 from ..decisions.settle import DEFAULT_PROB_THRESHOLD
 from ..decisions.space import SampledSpace, report_view
 from ..results.evidence import Step
 from ..results.report import Report
-from .driver import StopReason
+from .driver import Cap, Recursion, StopReason, iterate
 from .eorc import extended_system
 from .general_ui_steps import (
     Working,
@@ -103,8 +102,8 @@ def check_applicable(system: System, known_inputs: str):
 
 # ------------------------------------------------------------------ the main loop
 @dataclasses.dataclass
-class Outcome:
-    """The finished analysis: the final working system and span, and the trace."""
+class GeneralRun:
+    """The finished general solution: the final working system and span, and the trace."""
 
     w: Working
     omega: Context
@@ -118,41 +117,59 @@ class Outcome:
     spent: list  # Contexts whose decisions count for the certificate
 
 
-def _dim_step(w, ctx, it, added, extra):
-    """A Step of the main loop: the dimension of ``ctx``'s span on the original state."""
-    _, dim = ctx.coordinates(w.system.n, w.n0)
-    fraction = min((d.fraction for d in ctx.codist.acceptances), default=1.0)
-    labels = tuple(nd.label for nd in added if nd.label not in w.known)
-    return announce_step(Step(it, dim, labels, fraction, extra))
+class GeneralSolution(Recursion):
+    """The main loop of the module docstring as a
+    :class:`~uio_jax._analysis.recursions.driver.Recursion`: step ``it`` is iteration ``it``
+    (``init`` is iteration 0), each iteration records one Step, and one that finishes (the
+    canonic closure, every unreconstructed field vanishing, the guarded closure passing, no
+    progress) sets the Stop that :meth:`terminate` returns. The driver's cap is
+    :data:`ITERATION_CAP` iterations (``GENERAL_CAP``).
 
+    Args:
+        w: the working system (:func:`~.general_ui_steps.start_working`).
+        samples, seed, rtol: the options of the extensions' contexts.
+    """
 
-def run(system, *, samples, seed, rtol, jet_order, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Outcome:
-    """The main loop of the module docstring on ``system`` (joint, autonomous)."""
-    w = start_working(system, jet_order, samples, seed, rtol, prob_threshold)
-    mw = len(w.uis)
-    trace, history, spent = [], [], []
-    c = close(w, w.theta, [])
-    w.theta = list(c.ctx.codist.nodes)
-    if mw == 0:
-        omega = close(w, w.theta, [w.drift]).ctx
-        history.append(_dim_step(w, omega, 0, omega.codist.nodes, {"action": "closure along g0"}))
-        return Outcome(w, omega, trace, history, StopReason.CLOSURE_CONVERGED.stop(m=0),
-                       True, True, False, 0, spent)
-    initially = None
-    extended = False
-    for it in range(ITERATION_CAP):
-        spent.append(c.ctx)
+    def __init__(self, w: Working, samples, seed, rtol):
+        self.w, self.samples, self.seed, self.rtol = w, samples, seed, rtol
+        self.trace, self.spent = [], []
+        self.c = close(w, w.theta, [])
+        w.theta = list(self.c.ctx.codist.nodes)
+        self.initially, self.extended = None, False
+        self.stop, self.omega, self.canonic, self.degree = None, None, False, 0
+
+    def _finish(self, omega, it, added, extra, reason, canonic, degree):
+        """Iteration ``it`` finished the analysis: Omega and its Step."""
+        self.omega, self.canonic, self.degree = omega, canonic, degree
+        self.stop = reason.stop(m=it)
+        return _dim_step(self.w, omega, it, added, extra)
+
+    def init(self) -> Step:
+        if not self.w.uis:  # no unknown input: the closure along the drift
+            w = self.w
+            omega = close(w, w.theta, [w.drift]).ctx
+            self.initially = True
+            return self._finish(omega, 0, omega.codist.nodes, {"action": "closure along g0"},
+                                StopReason.CLOSURE_CONVERGED, True, 0)
+        return self.step(0)
+
+    def step(self, it) -> Step:
+        """Iteration ``it``: the degree of reconstructability, then finish or extend."""
+        w = self.w
+        mw = len(w.uis)
+        self.spent.append(self.c.ctx)
         rec = reconstructability(w, w.theta)
         w.rank_tests.append(rec.settled)
         m = rec.m
-        if initially is None:
-            initially = m == mw
+        if self.initially is None:
+            self.initially = m == mw
         order_idx = list(rec.cols) + [i for i in range(mw) if i not in rec.cols]
         ui_names = list(w.system.unknown)
         entry = {"iteration": it, "m": m, "identifiers": [w.theta[i].label for i in rec.rows],
                  "reconstructable": [ui_names[i] for i in rec.cols],
                  "canonic": m == mw, "fraction": rec.fraction}
-        trace.append(entry)
+        self.trace.append(entry)
+        self.degree = m
         fields_ordered = [w.uis[i] for i in order_idx]
         if m >= 1:
             hat0, hats, tildes = rescaled_fields(
@@ -163,47 +180,77 @@ def run(system, *, samples, seed, rtol, jet_order, prob_threshold=DEFAULT_PROB_T
         if m == mw:
             entry["action"] = "canonic: closure under the rescaled fields"
             omega = close(w, w.theta, [hat0] + hats).ctx
-            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": True}))
-            return Outcome(w, omega, trace, history, StopReason.CANONIC_CLOSURE.stop(m=it),
-                           initially, True, extended, m, spent)
+            return self._finish(omega, it, omega.codist.nodes, {"m": m, "canonic": True},
+                                StopReason.CANONIC_CLOSURE, True, m)
         tilde_vals = w.field_values(tildes)
         raw_norms = [np.linalg.norm(v, axis=-1) for v in w.field_values(fields_ordered[m:])]
         if all(_field_zero(w, t, v, ref) for t, v, ref in zip(tildes, tilde_vals, raw_norms)):
             entry["action"] = "every unreconstructed field vanishes: closure"
             omega = close(w, w.theta, [hat0] + hats).ctx
-            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
-            return Outcome(w, omega, trace, history, StopReason.REMAINING_UIS_VANISH.stop(m=it),
-                           initially, False, extended, m, spent)
+            return self._finish(omega, it, omega.codist.nodes, {"m": m, "canonic": False},
+                                StopReason.REMAINING_UIS_VANISH, False, m)
         guarded = close(w, w.theta, [hat0] + hats, guard=tildes, guard_scale=raw_norms)
-        spent.append(guarded.ctx)
+        self.spent.append(guarded.ctx)
         if not guarded.aborted:
             entry["action"] = "guarded closure converged"
-            omega = guarded.ctx
-            history.append(_dim_step(w, omega, it, omega.codist.nodes, {"m": m, "canonic": False}))
-            return Outcome(w, omega, trace, history, StopReason.GUARD_PASSED.stop(m=it),
-                           initially, False, extended, m, spent)
+            return self._finish(guarded.ctx, it, guarded.ctx.codist.nodes, {"m": m, "canonic": False},
+                                StopReason.GUARD_PASSED, False, m)
         entry.update({"aborted_at_order": guarded.order, "root": guarded.root.label})
         if m == 0:
-            entry["action"] = "m = 0: closure of the UI-free generators along g0"
-            before = len(w.theta)
-            c = close(w, w.theta, [w.drift], filter_fields=w.uis)
-            w.theta = list(c.ctx.codist.nodes)
-            history.append(_dim_step(w, c.ctx, it, w.theta[before:], {"m": 0, "canonic": False}))
-            if len(w.theta) == before:  # no progress: cannot happen for a generic system
-                entry["action"] += " (added nothing)"
-                return Outcome(w, c.ctx, trace, history, StopReason.GENERAL_STALLED.stop(m=it),
-                               initially, False, extended, m, spent)
-            continue
-        extended = True
-        w, info = extend(w, guarded.root, guarded.order, hat0, hats, tildes, rec, samples, seed, rtol)
+            return self._closure_of_free_generators(it, entry)
+        return self._extension(it, entry, guarded, hat0, hats, tildes, rec)
+
+    def _closure_of_free_generators(self, it, entry) -> Step:
+        """m = 0: Theta <- Close(Theta, [g0]; filter: every L_{g_j} theta = 0)."""
+        w = self.w
+        entry["action"] = "m = 0: closure of the UI-free generators along g0"
+        before = len(w.theta)
+        self.c = close(w, w.theta, [w.drift], filter_fields=w.uis)
+        w.theta = list(self.c.ctx.codist.nodes)
+        if len(w.theta) == before:  # no progress: cannot happen for a generic system
+            entry["action"] += " (added nothing)"
+            return self._finish(self.c.ctx, it, w.theta[before:], {"m": 0, "canonic": False},
+                                StopReason.GENERAL_STALLED, False, 0)
+        return _dim_step(w, self.c.ctx, it, w.theta[before:], {"m": 0, "canonic": False})
+
+    def _extension(self, it, entry, guarded, hat0, hats, tildes, rec) -> Step:
+        """m >= 1: the UI extension, then Theta <- Close(Theta, [])."""
+        self.extended = True
+        m = rec.m
+        w, info = extend(self.w, guarded.root, guarded.order, hat0, hats, tildes, rec, self.samples, self.seed,
+                         self.rtol)
+        self.w = w
         entry["action"] = "UI extension"
         entry["extension"] = info
-        c = close(w, w.theta, [])
-        w.theta = list(c.ctx.codist.nodes)
-        history.append(_dim_step(w, c.ctx, it, w.theta, {"m": m, "canonic": False,
-                                                         "extension": len(info["new_states"])}))
-    return Outcome(w, c.ctx, trace, history, StopReason.GENERAL_CAP.stop(cap=ITERATION_CAP),
-                   initially, False, extended, trace[-1]["m"], spent)
+        self.c = close(w, w.theta, [])
+        w.theta = list(self.c.ctx.codist.nodes)
+        return _dim_step(w, self.c.ctx, it, w.theta, {"m": m, "canonic": False,
+                                                      "extension": len(info["new_states"])})
+
+    def terminate(self, it, history):
+        return self.stop
+
+    def postprocess(self, history, stop) -> GeneralRun:
+        omega = self.omega if self.omega is not None else self.c.ctx
+        degree = self.degree if self.stop is not None else self.trace[-1]["m"]
+        return GeneralRun(self.w, omega, self.trace, history, stop, bool(self.initially), self.canonic,
+                          self.extended, degree, self.spent)
+
+
+def _dim_step(w, ctx, it, added, extra):
+    """A Step of the main loop: the dimension of ``ctx``'s span on the original state."""
+    _, dim = ctx.coordinates(w.system.n, w.n0)
+    fraction = min((d.fraction for d in ctx.codist.acceptances), default=1.0)
+    labels = tuple(nd.label for nd in added if nd.label not in w.known)
+    return Step(it, dim, labels, fraction, extra)
+
+
+def run(system, *, samples, seed, rtol, jet_order, prob_threshold=DEFAULT_PROB_THRESHOLD) -> GeneralRun:
+    """The main loop of the module docstring on ``system`` (joint, autonomous), run by the
+    driver with its cap of :data:`ITERATION_CAP` iterations."""
+    w = start_working(system, jet_order, samples, seed, rtol, prob_threshold)
+    cap = Cap(ITERATION_CAP - 1, StopReason.GENERAL_CAP.stop(cap=ITERATION_CAP))
+    return iterate(GeneralSolution(w, samples, seed, rtol), cap=cap).result
 
 
 def _field_zero(w, field, val, ref) -> bool:
@@ -216,7 +263,7 @@ def _field_zero(w, field, val, ref) -> bool:
 
 
 # ------------------------------------------------------------------ observable UIs
-def observable_inputs(out: Outcome, full: bool = False) -> dict:
+def observable_inputs(out: GeneralRun, full: bool = False) -> dict:
     """Which final unknown inputs ``w~_k`` can be computed: ``dw~_k`` in
     ``span{d theta, d(D theta + sum_j w~_j L_{g_j} theta): theta in Omega}`` on ``[z; w~]``.
 
@@ -339,7 +386,7 @@ def _report_notes(system, truncated, jet, weakest) -> list:
     return notes
 
 
-def _top_jet_used(out: Outcome, system, jet) -> bool:
+def _top_jet_used(out: GeneralRun, system, jet) -> bool:
     """Whether a generator of Omega depends on a highest jet ``u_i^(jet)`` (other than that
     coordinate itself)."""
     ctx = out.omega

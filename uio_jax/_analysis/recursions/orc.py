@@ -12,7 +12,7 @@ Only Lie derivatives of the generators kept at the previous step are formed: if
 """
 
 from ..decisions.context import Context
-from .driver import Recursion, StopReason, iterate
+from .driver import Cap, Recursion, StopReason, iterate
 
 
 class Orc(Recursion):
@@ -25,12 +25,10 @@ class Orc(Recursion):
         ctx: the analysis context (samples, builder, codistribution on ``R^n``).
         field_nodes: the fields ``v`` (Nodes of ``x -> (n,)``) of the recursion.
         start: scalar Nodes whose differentials generate Omega_0.
-        max_steps: optional cap on m.
     """
 
-    def __init__(self, ctx: Context, field_nodes, start, max_steps=None):
+    def __init__(self, ctx: Context, field_nodes, start):
         self.ctx, self.fields, self.start = ctx, list(field_nodes), list(start)
-        self.max_steps = max_steps
         self.frontier = []
 
     def init(self):
@@ -44,14 +42,12 @@ class Orc(Recursion):
         return self.ctx.step(m, self.frontier)
 
     def terminate(self, m, history):
-        """Converged (the last step added nothing), else full rank ``n``, else the cap."""
+        """Converged (the last step added nothing), else full rank ``n``."""
         n = self.ctx.system.n
         if m > 0 and not self.frontier:
             return StopReason.CONVERGED.stop(m=m, prev=m - 1)
         if self.ctx.dim >= n:
             return StopReason.FULL_RANK.stop(n=n, m=m)
-        if self.max_steps is not None and m >= self.max_steps:
-            return StopReason.MAX_ORDER.stop(max_order=self.max_steps)
         return None
 
 
@@ -62,7 +58,9 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
         ctx: the analysis context (samples, builder, codistribution).
         field_labels: labels of the fields along which to differentiate (``f0`` and the
             known inputs, as in ``System.fields()``).
-        max_steps: optional cap on m.
+        max_steps: optional cap on m (``max_order``); without it the driver's cap is ``n``,
+            which the ORC never reaches (a step that adds nothing stops it, and each other
+            step raises the rank).
         start_nodes: generators of Omega_0 (default: the outputs).
 
     Returns:
@@ -71,5 +69,8 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
     """
     fields = [ctx.field_node(lbl) for lbl in field_labels]
     start = ctx.output_nodes() if start_nodes is None else list(start_nodes)
-    out = iterate(Orc(ctx, fields, start, max_steps))
+    n = ctx.system.n
+    cap = Cap(n, StopReason.STEP_CAP.stop(cap=n)) if max_steps is None else \
+        Cap(max_steps, StopReason.MAX_ORDER.stop(max_order=max_steps))
+    out = iterate(Orc(ctx, fields, start), cap=cap)
     return out.history, out.stop

@@ -38,7 +38,7 @@ import numpy as np
 from ..._engine.graph import Graph
 from ..._errors import OptionError
 from ..decisions.context import Context
-from .driver import Recursion, StopReason, iterate
+from .driver import Cap, Recursion, StopReason, iterate
 
 
 def check_applicable(system) -> None:
@@ -193,14 +193,12 @@ class SeriesOrders(Recursion):
         return self.ctx.step(k, self.added)
 
     def terminate(self, k, history):
-        """Full rank n, else order k added nothing (no later order can), else the cap."""
+        """Full rank n, else order k added nothing (no later order can)."""
         n = self.ctx.system.n
         if self.ctx.dim >= n:
             return StopReason.FULL_RANK_ORDER.stop(n=n, k=k)
         if not self.added:
             return StopReason.SPAN_CLOSED.stop(k=k)
-        if k >= self.cap:
-            return StopReason.MAX_ORDER.stop(max_order=self.cap)
         return None
 
 
@@ -221,15 +219,15 @@ def run_series(ctx: Context, *, seed: int, max_order=None):
     n = ctx.system.n
     cap = n if max_order is None else int(max_order)
     series = _Series(ctx, seed, cap)
-    out = iterate(SeriesOrders(ctx, series, cap))
+    out = iterate(SeriesOrders(ctx, series, cap), cap=Cap(cap, StopReason.MAX_ORDER.stop(max_order=cap)))
     return out.history, out.stop, out.m
 
 
-def series_report(ctx: Context, *, seed: int, why: str = "", max_order=None):
+def series_report(ctx: Context, *, seed: int, notes=(), max_order=None):
     """Run the generic-input series test on ``ctx`` and build its Report."""
     check_applicable(ctx.system)
     history, reason, k = run_series(ctx, seed=seed, max_order=max_order)
-    notes = [why] if why else []
+    notes = list(notes)
     if ctx.system.known:
         notes.append(SERIES_NOTE)
     return ctx.report("series", history, reason, notes=notes, details={"order": k})

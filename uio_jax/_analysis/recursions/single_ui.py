@@ -48,7 +48,7 @@ from ..._errors import OptionError
 from ..._progress import announce_step
 from ..decisions.context import Context
 from ..decisions.rank import ZERO_ROW_RTOL, decide_rank
-from .driver import Recursion, Stop, StopReason, iterate
+from .driver import Cap, Recursion, Stop, StopReason, iterate
 
 
 #: Bound on the number of recursion steps beyond the start (Lemma 8 of 004: m' <= 2n + 2).
@@ -88,7 +88,23 @@ class Verdict:
     m_star_paper: int | None = None
 
 
-def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=0) -> Verdict:
+def step_cap(n: int, max_order=None, offset: int = 0, cap=None) -> Cap:
+    """The driver's :class:`~uio_jax._analysis.recursions.driver.Cap` of the recursion: the
+    user's ``max_order`` on ``m + offset`` (``MAX_ORDER``), else the step bound ``cap``
+    (default ``2n + 3``, Lemma 8 of 004; ``STEP_CAP``), whichever comes first (the user's
+    at a tie)."""
+    cap = _step_cap(n) if cap is None else cap
+    user = None if max_order is None else Cap(max_order - offset, StopReason.MAX_ORDER.stop(max_order=max_order))
+    return Cap.tightest(user, Cap(cap, StopReason.STEP_CAP.stop(cap=cap)))
+
+
+def converged(dims, m_prime, *, n, phi1_vanish, offset=0) -> Verdict:
+    """The convergence part of :func:`stopping_rule` on ``dims`` (no cap): a :class:`Verdict`
+    whose ``stop`` is None while the recursion goes on."""
+    return stopping_rule(dims, m_prime, n=n, phi1_vanish=phi1_vanish, cap=None, offset=offset, capped=False)
+
+
+def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=0, capped=True) -> Verdict:
     """The single-unknown-input stopping rule (Theorem 2 of 004, with ``m* >= 1``), as a
     function of integers.
 
@@ -100,14 +116,16 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
       rule accepts it only if ``m - 1 >= 1`` or every ``phi^i_1`` vanishes
       (``CONVERGED_AFTER_M_PRIME``, ``Omega_m = Omega_{m-1}``);
     * ``d_m >= n`` with ``m' <= m``: ``m* = m`` (``FULL_RANK``);
-    * ``m + offset >= max_order`` (``MAX_ORDER``), ``m >= cap`` (``STEP_CAP``).
+    * ``m + offset >= max_order`` (``MAX_ORDER``), ``m >= cap`` (``STEP_CAP``): the
+      :func:`step_cap` that the driver applies to the recursion (``capped=False``: the
+      convergence part alone, :func:`converged`).
 
     Args:
         dims: ``d_0 .. d_M`` (ints).
         m_prime: ``m'`` or None.
         n: dimension of the state.
         phi1_vanish: whether every ``phi^i_1`` vanishes identically.
-        cap: the step bound (``2n + 3``).
+        cap: the step bound (default ``2n + 3``).
         max_order: the user's cap on ``m + offset`` (None: none).
         offset: the paper's index offset (level of the chosen output ``h~``); the stop
             messages number the steps ``m + offset``.
@@ -117,6 +135,7 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
     """
     known = m_prime is not None
     paper = None
+    limit = step_cap(n, max_order, offset, cap) if capped else None
     for m, dim in enumerate(dims):
         if m >= 1 and known and dim == dims[m - 1] and m - 1 >= m_prime:
             paper = m - 1 if paper is None else paper
@@ -126,10 +145,8 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
         if dim >= n and known and m_prime <= m:
             return Verdict(StopReason.FULL_RANK.stop(n=n, m=m + offset), m,
                            m if paper is None else paper)
-        if max_order is not None and m + offset >= max_order:
-            return Verdict(StopReason.MAX_ORDER.stop(max_order=max_order), None, paper)
-        if m >= cap:
-            return Verdict(StopReason.STEP_CAP.stop(cap=cap), None, paper)
+        if limit is not None and m >= limit.steps:
+            return Verdict(limit.stop, None, paper)
     return Verdict(None, None, paper)
 
 
@@ -151,13 +168,11 @@ class SingleUi(Recursion):
         g: Node of the unknown-input field.
         h_tilde: Node of the chosen function (``L_g h~ != 0``).
         offset: its level (the paper's index offset).
-        max_order: the user's cap on ``m + offset``.
     """
 
-    def __init__(self, ctx: Context, fs, g, h_tilde, offset, max_order=None):
+    def __init__(self, ctx: Context, fs, g, h_tilde, offset):
         b = ctx.builder
         self.ctx, self.fs, self.g, self.h_tilde, self.offset = ctx, fs, g, h_tilde, offset
-        self.max_order = max_order
         self.Lg1 = b.lie(g, h_tilde)
         self.g_scaled = b.scaled(g, self.Lg1, label=f"{g.label}/L_g^1")
         self.tau = b.ratio(b.lie(g, self.Lg1), self.Lg1, 2, label="tau")
@@ -210,14 +225,19 @@ class SingleUi(Recursion):
         return step
 
     def terminate(self, m, history):
-        """:func:`stopping_rule` on the dims so far."""
-        self.verdict = stopping_rule(
-            self.dims, self.m_prime, n=self.ctx.system.n, phi1_vanish=self.phi1_vanish,
-            cap=_step_cap(self.ctx.system.n), max_order=self.max_order, offset=self.offset)
+        """:func:`converged` on the dims so far (the driver applies :func:`step_cap`)."""
+        self.verdict = converged(self.dims, self.m_prime, n=self.ctx.system.n, phi1_vanish=self.phi1_vanish,
+                                 offset=self.offset)
         return self.verdict.stop
 
+    def postprocess(self, history, stop):
+        """A stop of the driver's cap: the verdict keeps the papers' ``m*`` found so far."""
+        if self.verdict.stop is None:
+            self.verdict = Verdict(stop, None, self.verdict.m_star_paper)
+        return self.verdict
 
-def single_ui_report(ctx: Context, *, why="", max_order=None):
+
+def single_ui_report(ctx: Context, *, notes=(), max_order=None):
     """Run the single-unknown-input analysis on ``ctx`` and build the Report.
 
     Omega_0 .. Omega_offset: the outputs and their Lie derivatives along the known fields up
@@ -230,7 +250,7 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
     (g_label,) = tuple(system.unknown)
     g = ctx.field_node(g_label)
     fs = [ctx.field_node(lbl) for lbl in system.known]
-    notes = [why] if why else []
+    notes = list(notes)
     history, h_tilde, offset, fraction = _choose_output(ctx, fs, g)
     if h_tilde is None:
         notes.append(
@@ -241,10 +261,10 @@ def single_ui_report(ctx: Context, *, why="", max_order=None):
         details = {"unknown_input_affects_outputs": False}
         return ctx.report("single_ui", history, StopReason.KNOWN_FIELDS_ORC.stop(),
                           notes=notes, details=details)
-    rec = SingleUi(ctx, fs, g, h_tilde, offset, max_order)
+    rec = SingleUi(ctx, fs, g, h_tilde, offset)
     if rec.rule == "tau":  # Omega_0 is the last history entry (the chosen output's level)
         history[-1] = dataclasses.replace(history[-1], extra={"tau_in_omega": rec.tau_in(0)})
-    out = iterate(rec, history)
+    out = iterate(rec, history, cap=step_cap(system.n, max_order, offset))
     details = {
         "unknown_input_affects_outputs": True,
         "output": h_tilde.label,

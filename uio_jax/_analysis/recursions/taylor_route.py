@@ -34,9 +34,11 @@ from ..._engine.graph import exact_literal
 from ..._engine.taylor import Modular, TaylorSeries, Unsupported, program
 from ..._engine.taylor_degrees import TaylorDegrees
 from ..._model.smooth_inputs import known_coordinates
+from ..decisions.answer import decide_answer
 from ..decisions.taylor_space import TaylorSpace, taylor_certificate
 from ..results.evidence import Step
-from .driver import Recursion, StopReason, iterate
+from ..results.kinds import Arithmetic, Route
+from .driver import Cap, Recursion, StopReason, iterate
 from .series import SERIES_NOTE, input_coefficients
 
 #: The Taylor route serves models with at least this many coordinates (states and
@@ -54,29 +56,21 @@ class NotTaken(Exception):
     large): the symbolic route runs instead."""
 
 
-def taylor_applicable(ctx, method: str) -> bool:
-    """Whether ``method`` (``"orc"`` or ``"series"``) on ``ctx``'s System takes the Taylor
-    route (module docstring)."""
-    system = ctx.system
+def taylor_applicable(system, graph, roots, arithmetic, method: str) -> bool:
+    """Whether ``method`` (``"orc"`` or ``"series"``) on ``system`` takes the Taylor route
+    (module docstring): ``roots`` are the graph nodes of its outputs and fields (in ``graph``)
+    and ``arithmetic`` the arithmetic of their decisions (the plan's)."""
     if system.unknown or known_coordinates(system) or system.n < TAYLOR_MIN_VARIABLES:
         return False
     if method == "orc" and system.known:
         return False
-    roots = _roots(ctx)
-    if not ctx.settler.exact_capable(roots):
+    if arithmetic is not Arithmetic.EXACT:
         return False
     try:
-        program(ctx.builder.graph, roots)
+        program(graph, roots)
     except Unsupported:
         return False
     return True
-
-
-def _roots(ctx):
-    exprs = [nd.expr for nd in ctx.output_nodes()]
-    for label in ctx.system.fields():
-        exprs += [e for e in ctx.field_node(label).expr if e is not None]
-    return exprs
 
 
 class _Problem:
@@ -201,16 +195,20 @@ class TaylorOrders(Recursion):
                 return StopReason.CONVERGED.stop(m=k, prev=k - 1)
             if rank >= n:
                 return StopReason.FULL_RANK.stop(n=n, m=k)
-            if self.max_order is not None and k >= self.max_order:
-                return StopReason.MAX_ORDER.stop(max_order=self.max_order)
             return None
         if rank >= n:  # as series.SeriesOrders.terminate
             return StopReason.FULL_RANK_ORDER.stop(n=n, k=k)
         if not self.added:
             return StopReason.SPAN_CLOSED.stop(k=k)
-        if k >= self.problem.cap:
-            return StopReason.MAX_ORDER.stop(max_order=self.problem.cap)
         return None
+
+    def cap(self) -> Cap:
+        """The driver's cap: the ORC's ``max_order`` (else ``n``, never reached: each order
+        that does not converge raises the rank), the series' highest order."""
+        if self.problem.method == "orc" and self.max_order is None:
+            return Cap(self.problem.n, StopReason.STEP_CAP.stop(cap=self.problem.n))
+        top = self.max_order if self.problem.method == "orc" else self.problem.cap
+        return Cap(top, StopReason.MAX_ORDER.stop(max_order=top))
 
 
 def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None, notes=()):
@@ -226,7 +224,8 @@ def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None,
     cap = system.n if (method == "orc" or max_order is None) else int(max_order)
     problem = _Problem(ctx, method, seed, cap)
     orders = _Orders(problem, seed, ctx.settler.max_bound)
-    out = iterate(TaylorOrders(problem, orders, max_order if method == "orc" else None))
+    orders_run = TaylorOrders(problem, orders, max_order if method == "orc" else None)
+    out = iterate(orders_run, cap=orders_run.cap())
     history, stop, k = out.history, out.stop, out.m
     observable = {}
     for j, name in enumerate(system.states):
@@ -241,13 +240,15 @@ def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None,
     if method == "series" and system.known:
         notes.append(SERIES_NOTE)
     notes.append(route)
+    details = {"order": k} if method == "series" else {}
     return Report(
         method=method, states=system.states, dim=orders.echelon.rank, observable=observable,
         history=tuple(history), certificate=cert,
         generators=tuple(problem.label(kk, i) for kk, i in orders.kept), stop=stop,
-        notes=tuple(system.notes) + tuple(notes), details={"order": k} if method == "series" else {},
+        answer=decide_answer(method, stop, details, cert.arithmetic), route=Route.TAYLOR,
+        notes=tuple(system.notes) + tuple(notes), details=details,
         system_name=system.name, params=system.joint_param_names,
-        known_inputs="switchable" if system.known else "none", semantics=SEMANTICS, _space=space)
+        known_inputs="switchable" if system.known else "none", semantics=SEMANTICS, space=space)
 
 
 __all__ = ["TAYLOR_MIN_VARIABLES", "NotTaken", "taylor_applicable", "taylor_report"]

@@ -3,12 +3,14 @@
 float64). :class:`~uio_jax._analysis.results.report.Report` carries both.
 """
 
-import enum
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .kinds import Arithmetic, TextEnum
 
 
 @dataclass(frozen=True)
@@ -34,22 +36,6 @@ class Step:
     def to_dict(self):
         return {"m": self.m, "dim": self.dim, "added": list(self.added),
                 "fraction": self.fraction, **jsonable(dict(self.extra))}
-
-
-class Arithmetic(enum.Enum):
-    """How the rank decisions of an analysis were made (the weakest one decides).
-
-    ``EXACT``: every decision modulo a prime at random points of the (rationalised) model,
-    each wrong with a probability bounded a priori (``Certificate.error_bound``).
-    ``EXTENDED``: some decision was settled in extended precision (mpmath at two
-    precisions: the model has a function that is not made rational), none rests on float64.
-    ``FLOAT64``: some decision rests on the float64 vote of the sampled states alone, or
-    could not be settled.
-    """
-
-    EXACT = "exact arithmetic modulo p"
-    EXTENDED = "extended precision (mpmath), not exact arithmetic"
-    FLOAT64 = "float64 votes of the sampled states, not exact arithmetic"
 
 
 @dataclass(frozen=True)
@@ -145,7 +131,7 @@ class Certificate:
     def undecided(self) -> int:
         """Number of decisions that neither float64 nor the escalation could settle: the
         verdicts of the report are then not certified (:attr:`status`)."""
-        return sum(e.result == "undecided" for e in self.escalations)
+        return sum(e.result is Finding.UNDECIDED for e in self.escalations)
 
     @property
     def status(self) -> str:
@@ -214,6 +200,76 @@ class Certificate:
         return f"; {' and '.join(parts)} verified exactly" if parts else ""
 
 
+class Settlement(TextEnum):
+    """How a decision was made beyond its float64 vote (a ``str``: compares equal to its
+    value, and is written as it in JSON)."""
+
+    #: the float64 vote alone (or the samples that re-decided it)
+    NONE = ""
+    #: modulo p at random points (:mod:`uio_jax._analysis.decisions.settle`)
+    EXACT = "exact mod p"
+    #: in extended precision (mpmath at two precisions)
+    EXTENDED = "mpmath"
+    #: neither could settle it: the float64 majority kept, not certified
+    UNDECIDED = "undecided"
+    #: implied by the span: a span of every direction contains every covector
+    IMPLIED = "implied"
+
+
+class Finding(TextEnum):
+    """What a decision settled beyond float64 found (also the float64 vote it settled)."""
+
+    INDEPENDENT = "independent"
+    DEPENDENT = "dependent"
+    UNDECIDED = "undecided"
+
+
+@dataclasses.dataclass(frozen=True)
+class Escalation:
+    """One decision settled again beyond its float64 vote (a weak one, or a clear one that
+    exact arithmetic contradicted).
+
+    Attributes:
+        what: the candidate (label) and the rank of the span it was tested against.
+        float64: what the float64 vote said, with its evidence (agreeing fraction, median
+            ``log10 rho``), as text for the record.
+        how: the :class:`Settlement` that decided it (:attr:`Settlement.NONE`: more
+            samples).
+        result: a :class:`Finding`.
+        bound: for a dependence found modulo ``p``, the probability bound that it is wrong
+            (independence found there is certain: 0.0); None otherwise.
+        detail: the rest of the text of ``how`` (the prime and the points, the digits, why
+            it could not decide): ``how_text`` is ``how`` followed by it.
+        vote: the float64 vote that was settled (a :class:`Finding`; None when unknown).
+        coordinate: ``i`` when the candidate is the unit covector ``d z_i`` (a membership
+            that decides variable ``i``'s verdict), None otherwise.
+    """
+
+    what: str
+    float64: str
+    how: Settlement
+    result: Finding
+    bound: float | None = None
+    detail: str = ""
+    vote: Finding | None = None
+    coordinate: int | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "how", Settlement(self.how))
+        object.__setattr__(self, "result", Finding(self.result))
+        if self.vote is not None:
+            object.__setattr__(self, "vote", Finding(self.vote))
+
+    @property
+    def how_text(self) -> str:
+        """How it was settled, in words (``"exact mod p = 2^127 - 1 at 1 point"``)."""
+        return f"{self.how.value}{self.detail}"
+
+    def to_dict(self) -> dict:
+        return {"what": self.what, "float64": self.float64, "how": self.how_text,
+                "result": self.result.value, "bound": self.bound}
+
+
 def jsonable(obj):
     """``obj`` with numpy scalars and arrays as Python numbers and lists, mappings with
     string keys, non-finite floats as strings: what ``json.dumps`` takes."""
@@ -233,4 +289,4 @@ def jsonable(obj):
     return obj
 
 
-__all__ = ["Arithmetic", "Step", "Certificate", "jsonable"]
+__all__ = ["Arithmetic", "Step", "Certificate", "Settlement", "Finding", "Escalation", "jsonable"]

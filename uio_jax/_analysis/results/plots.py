@@ -43,9 +43,11 @@ def plot_analysis(report, path=None, ax=None):
         TypeError: ``report`` is not a Report.
         OptionError: ``ax`` is not two Axes, or ``path`` has an unknown format.
     """
-    if not all(hasattr(report, a) for a in ("method", "dim", "n", "history", "certificate")):
+    try:  # a Report, or anything with its fields (the figure reads nothing else)
+        report.method, report.dim, report.n, report.history, report.certificate  # noqa: B018
+    except AttributeError:
         raise TypeError(f"plot_analysis needs a uio_jax.Report (uio_jax.analyze(...)), got "
-                        f"{type(report).__name__}")
+                        f"{type(report).__name__}") from None
     if path is not None:
         fmt = check_figure_path(path)
     fig, (ax_dim, ax_sv) = _axes(ax, standalone=path is not None)

@@ -1,12 +1,18 @@
-"""The result of an analysis: dimensions per step, verdicts, evidence, symmetries.
+"""The result of an analysis: dimensions per step, verdicts, evidence, the plan that chose it,
+and the follow-up answers computed on it so far.
 
-:class:`Report` holds the answer; its unobservable directions are computed by
-:mod:`uio_jax._analysis.results.directions`, the functions handed to :meth:`Report.is_observable`
-checked by :mod:`uio_jax._analysis.results.functions_of_z`, its text written by
-:mod:`uio_jax._analysis.results.report_text`.
+:class:`Report` holds the answer (the bottom of the analysis wing: it imports nothing above
+``results/``); its unobservable directions are computed by
+:mod:`uio_jax._analysis.results.directions` with the report's ``space`` (the final
+codistribution, built by the analysis that ran), the functions handed to
+:meth:`Report.is_observable` checked by :mod:`uio_jax._analysis.results.functions_of_z`, its
+text written by :mod:`uio_jax._analysis.results.report_text`. The follow-up questions
+(observable functions named, symmetries found, the reparametrised model) are functions of a
+report (:mod:`uio_jax._analysis.followups.questions`, ``uj.observable_functions(rep)``); what
+they computed is kept in :attr:`Report.followups` and serialised by :meth:`Report.to_dict`,
+which runs no search.
 """
 
-import enum
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -14,15 +20,12 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..._errors import ModelError
-from ..followups.found_symmetries import FoundSymmetries, find_symmetries
-from ..followups.observable_functions import ObservableFunctions, coordinate_functions, name_functions
-from ..followups.reparametrise import reparametrised_model
-from ..recursions.driver import Stop
 from . import directions
-from .evidence import Arithmetic, Certificate, Step, jsonable
+from .evidence import Certificate, Finding, Step, jsonable
 from .functions_of_z import function_of_z
-from .report_text import report_text
+from .kinds import Answer, FollowUp, Method, Plan, Route, TextEnum
+from .report_text import answer_text, report_text
+from .stop import Stop
 
 #: What every analysis answers, as in the papers (Martinelli 2015/2017).
 SEMANTICS = (
@@ -44,7 +47,7 @@ SEMANTICS_SMOOTH = (
 )
 
 
-class Question(str, enum.Enum):
+class Question(TextEnum):
     """Which question a report answers (a ``str``: written as its value in JSON).
 
     ``GENERIC_STATES``: the observable codistribution at generic states (every
@@ -65,7 +68,7 @@ class Question(str, enum.Enum):
     @property
     def sufficient_only(self) -> bool:
         """Whether only "determined" verdicts are proofs (unknown inputs with free jets)."""
-        return self.value.endswith("free_input_jets")
+        return self in (Question.KNOWN_INITIAL_STATE_FREE_INPUT_JETS, Question.EXPERIMENTS_FREE_INPUT_JETS)
 
     @property
     def description(self) -> str:
@@ -92,12 +95,36 @@ _QUESTIONS = {
 }
 
 
+@dataclass(eq=False)
+class FollowUps:
+    """The follow-up answers computed on one report so far, each once (a cache the
+    follow-up functions fill: :func:`uio_jax.observable_functions`,
+    :func:`uio_jax.find_symmetries`). ``answers``: :class:`FollowUp` -> its result (an
+    object with ``to_dict()``)."""
+
+    answers: dict = field(default_factory=dict)
+
+    def get(self, question: FollowUp):
+        """The answer to ``question``, None when it was not asked yet."""
+        return self.answers.get(question)
+
+    def keep(self, question: FollowUp, answer):
+        """Remember ``answer`` to ``question``; returns it."""
+        self.answers[question] = answer
+        return answer
+
+    def to_dict(self) -> dict:
+        """``{key: answer.to_dict()}`` of the questions answered (none asked: empty)."""
+        return {q.value: a.to_dict() for q, a in self.answers.items()}
+
+
 @dataclass(frozen=True, eq=False)
 class Report:
     """Result of :func:`uio_jax.analyze`.
 
     Attributes:
-        method: analysis that ran (``"orc"``, ``"single_ui"``, ``"eorc"`` or ``"series"``).
+        method: the analysis that ran (:class:`~uio_jax._analysis.results.kinds.Method`, a
+            ``str``: ``"orc"``, ``"series"``, ``"single_ui"``, ``"general_ui"``, ``"eorc"``).
         states: state names (order of the state vector).
         dim: generic dimension of the observable codistribution on the original state
             (on ``[x; p]`` when the System has parameters).
@@ -108,9 +135,11 @@ class Report:
         history: one :class:`Step` per step m (per order k for the EORC).
         certificate: the sampling evidence behind every rank decision.
         generators: labels of the functions whose gradients span the final codistribution.
-        stop: why the recursion stopped: a :class:`~uio_jax._analysis.recursions.driver.Stop` (its
-            :class:`~uio_jax._analysis.recursions.driver.StopReason` member and values); ``stop_reason``
-            is its text.
+        stop: why the recursion stopped: a :class:`~uio_jax._analysis.results.stop.Stop` (its
+            :class:`~uio_jax._analysis.results.stop.StopReason` member and values);
+            ``stop_reason`` is its text.
+        answer: what the verdicts prove (:class:`~uio_jax._analysis.results.kinds.Answer`),
+            decided by the analysis that ran; :attr:`exact` reads it.
         notes: remarks (method choice, sufficiency of the EORC, corrections applied).
         details: method-specific results (``m_prime``, ``m_star``, ``k``, ...).
         semantics: what "unknown input" and "known input" mean in this answer.
@@ -118,9 +147,18 @@ class Report:
             (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``
             (the System has no known input: one meaning).
         system_name: name of the analyzed System.
+        route: how the codistribution was computed (:class:`~uio_jax._analysis.results.kinds.Route`).
+        plan: what :func:`uio_jax._analysis.plan.plan` chose before any sample was drawn, and
+            why (:class:`~uio_jax._analysis.results.kinds.Plan`; None for a report built
+            without :func:`uio_jax.analyze`).
+        space: the final codistribution as the report's queries read it (a
+            :class:`~uio_jax._analysis.decisions.space.Space`: the directions,
+            ``is_observable``, the singular values; the follow-up questions read its
+            generators).
+        followups: the follow-up answers computed so far (:class:`FollowUps`).
     """
 
-    method: str
+    method: Method
     states: tuple[str, ...]
     dim: int
     observable: Mapping[str, bool]
@@ -128,6 +166,7 @@ class Report:
     certificate: Certificate
     generators: tuple[str, ...]
     stop: Stop
+    answer: Answer
     notes: tuple[str, ...] = ()
     details: Mapping = field(default_factory=dict)
     semantics: str = SEMANTICS
@@ -135,9 +174,10 @@ class Report:
     params: tuple[str, ...] = ()
     identifiable: Mapping[str, bool] = field(default_factory=dict)
     known_inputs: str = "switchable"
-    _space: object = field(default=None, repr=False)
-    _named: list = field(default_factory=list, repr=False, compare=False)
-    _found: list = field(default_factory=list, repr=False, compare=False)
+    route: Route = Route.SYMBOLIC
+    plan: Plan | None = None
+    space: object = field(default=None, repr=False)
+    followups: FollowUps = field(default_factory=FollowUps, repr=False)
 
     def __post_init__(self):
         params = tuple(self.params)
@@ -146,6 +186,9 @@ class Report:
         for p in params:  # verdicts on parameters given among the states: move them
             if p in observable:
                 identifiable[p] = observable.pop(p)
+        object.__setattr__(self, "method", Method(self.method))
+        object.__setattr__(self, "route", Route(self.route))
+        object.__setattr__(self, "answer", Answer(self.answer))
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "states", tuple(s for s in self.states if s not in params))
         object.__setattr__(self, "observable", MappingProxyType(observable))
@@ -187,15 +230,13 @@ class Report:
         verdict = {**dict(self.observable), **dict(self.identifiable)}
         open_ = set()
         for e in self.certificate.escalations:
-            if e.result != "undecided":
+            if e.result is not Finding.UNDECIDED:
                 continue
-            head = e.what.split(" ", 1)[0]
-            if head.startswith("e_") and head[2:].isdigit():
-                i = int(head[2:])
-                if i < len(names):
-                    open_.add(names[i])
+            if e.coordinate is not None:  # a membership of d z_i
+                if e.coordinate < len(names):
+                    open_.add(names[e.coordinate])
                 continue
-            kept = e.float64.startswith("independent")
+            kept = e.vote is Finding.INDEPENDENT
             open_.update(v for v in names if verdict.get(v) == kept)
         return tuple(v for v in names if v in open_)
 
@@ -212,7 +253,7 @@ class Report:
     def domain_centre(self) -> np.ndarray:
         """``(n,)``: the centre of the sampling box of every state and parameter
         (:func:`uio_jax._analysis.results.directions.domain_centre`)."""
-        return directions.domain_centre(self, self._space)
+        return directions.domain_centre(self, self.space)
 
     def unobservable_directions(self, x=None, p=None, t=None) -> np.ndarray:
         """Basis of the unobservable directions (null space of the codistribution) at a point.
@@ -237,20 +278,20 @@ class Report:
             ModelError: a point of the wrong shape or with NaN/inf, or a point where the
                 codistribution is not defined.
         """
-        z = directions.point(self, self._space, x, p, "unobservable_directions")
-        return self._space.unobservable_directions(z) if t is None else self._space.unobservable_directions(z, at=t)
+        z = directions.point(self, self.space, x, p, "unobservable_directions")
+        return self.space.unobservable_directions(z) if t is None else self.space.unobservable_directions(z, at=t)
 
     def direction_summary(self, x=None, p=None) -> dict:
         """The unobservable directions at a point (default: the centre of the sampling box),
         labelled by the variables' names, with the identifiable parameter combinations:
         :func:`uio_jax._analysis.results.directions.direction_summary` says how."""
-        return directions.direction_summary(self, self._space, x, p)
+        return directions.direction_summary(self, self.space, x, p)
 
     def representative_point(self) -> tuple[np.ndarray, str]:
         """``(z, rule)``: where the report's directions are given (the centre of the sampling
         box where the rank is generic, else a fixed point off it:
         :func:`uio_jax._analysis.results.directions.representative_point`)."""
-        return directions.representative_point(self, self._space)
+        return directions.representative_point(self, self.space)
 
     def format_directions(self, summary=None) -> str:
         """Text of :meth:`direction_summary` (default: at the centre of the sampling box).
@@ -259,7 +300,7 @@ class Report:
         zero at 3 decimals omitted), and for a model with parameters one line per
         identifiable combination of parameters that are not identifiable one by one.
         """
-        return directions.format_directions(self, self._space, summary)
+        return directions.format_directions(self, self.space, summary)
 
     def sample_singular_values(self) -> np.ndarray:
         """How sure the rank is: per-sample singular values of the final generators.
@@ -274,7 +315,7 @@ class Report:
         Returns:
             ``(S_used, r)`` array, descending along each row (``r = 0``: shape ``(S, 0)``).
         """
-        return self._space.sample_singular_values()
+        return self.space.sample_singular_values()
 
     def is_observable(self, fn) -> bool:
         """Whether the scalar function ``fn`` is observable (``d fn`` in the span).
@@ -290,65 +331,39 @@ class Report:
             ModelError: not a callable, a signature of neither form, a function that
                 fails on those shapes or does not return a scalar.
         """
-        return self._space.is_observable(function_of_z(self, fn, "is_observable"))
+        return self.space.is_observable(function_of_z(self, fn, "is_observable"))
+
+    # ------------------------------------------------------------------ follow-up aliases
+    # Thin aliases of the follow-up functions (``uj.observable_functions(rep)``,
+    # ``uj.find_symmetries(rep)``, ``uj.reparametrise(rep)``), kept for one release (0.2 drops
+    # them): the only imports of this module above ``results/`` (tests/test_layout.py lists
+    # them), made when an alias is called.
 
     @property
-    def named_functions(self) -> ObservableFunctions:
-        """Readable observable functions that span the observable codistribution, each
-        checked exactly (:mod:`uio_jax._analysis.followups.observable_functions`: candidates, ranking,
-        checks). Computed on first access (it costs about as much as a small analysis) and
-        kept."""
-        if not self._named and not hasattr(self._space, "parts"):  # the Taylor route: no symbolic generators
-            self._named.append(coordinate_functions({**self.observable, **self.identifiable}, self.dim,
-                                                    self.generators))
-        if not self._named:
-            inputs = len(self.details.get("extended_state", ())) - self.n if self.method == "eorc" else 0
-            self._named.append(name_functions(self._space.parts(), inputs=max(inputs, 0)))
-        return self._named[0]
+    def named_functions(self):
+        """Deprecated alias of :func:`uio_jax.observable_functions` ``(self)`` (the
+        :class:`~uio_jax._analysis.followups.observable_functions.ObservableFunctions`)."""
+        from ..followups.questions import observable_functions
+
+        return observable_functions(self)
 
     @property
-    def symmetries(self) -> FoundSymmetries:
-        """The unobservable distribution as verified closed-form symmetries: polynomial vector
-        fields of degree at most 1 (translations, rotations, scalings) found by an exact
-        ansatz and verified by the symmetry check of declared symmetries
-        (:mod:`uio_jax._analysis.followups.found_symmetries`). Computed on first access and kept."""
-        if not self._found and not hasattr(self._space, "parts"):
-            self._found.append(FoundSymmetries((), self.n - self.dim, "" if self.n == self.dim else
-                                               "the Taylor route keeps no symbolic generators to search against"))
-        if not self._found:
-            parts = self._space.parts()
-            self._found.append(find_symmetries(parts, parts.original))
-        return self._found[0]
+    def symmetries(self):
+        """Deprecated alias of :func:`uio_jax.find_symmetries` ``(self)``."""
+        from ..followups.questions import find_symmetries
+
+        return find_symmetries(self)
 
     def reparametrised_model(self) -> dict | None:
-        """A model whose parameters are all identifiable, in the model-file schema
-        (:func:`uio_jax.save_model` writes it as TOML), or None when every parameter is
-        identifiable already: the parameters of a cross-section of the unobservable
-        directions fixed (0 where a symmetry translates them, 1 where one scales them, else
-        the centre of their box), the others standing for identifiable combinations
-        (:mod:`uio_jax._analysis.followups.reparametrise`).
+        """Deprecated alias of :func:`uio_jax.reparametrise` ``(self)``."""
+        from ..followups.questions import reparametrise
 
-        Raises:
-            ModelError: the analysis ran on more coordinates than the report's (EORC, a
-                time-varying model), or a function of the model has no expression text.
-        """
-        if all(self.identifiable.values()):
-            return None
-        parts = self._space.parts()
-        if parts.builder.graph.n != self.n:
-            raise ModelError("reparametrised_model: the analysis ran on more coordinates than the "
-                             "states and parameters (EORC, general_ui extension or time)")
-        try:
-            return reparametrised_model(parts, self, self.symmetries)
-        except ValueError as exc:
-            raise ModelError(f"reparametrised_model: {exc}") from None
+        return reparametrise(self)
 
     @property
     def observable_functions(self) -> tuple[str, ...]:
-        """The named observable functions as expressions in the model's names (sympy-readable
-        strings; ``sympy.sympify(text, locals={name: Symbol(name)})``): independent, each in
-        the observable codistribution, ``dim`` of them when all could be named
-        (:attr:`named_functions` says how many and how they were decided)."""
+        """Deprecated alias of ``uj.observable_functions(self).texts``: the named observable
+        functions as sympy-readable strings."""
         return self.named_functions.texts
 
     def to_dict(self) -> dict:
@@ -384,60 +399,24 @@ class Report:
             "semantics": self.semantics,
             "exact": self.exact,
             "known_inputs": self.known_inputs,
-            "observable_functions": self.named_functions.to_dict(),
-            "found_symmetries": self.symmetries.to_dict(),
-            **(directions.directions_dict(self, self._space) if self.params else {}),
+            "answer": self.answer.value,
+            "route": self.route.value,
+            "plan": None if self.plan is None else self.plan.to_dict(),
+            **self.followups.to_dict(),
+            **(directions.directions_dict(self, self.space) if self.params else {}),
         })
 
     def answer_kind(self) -> str:
-        """Which question the verdicts answer: exact, or a sufficient condition only.
-
-        The ORC (Hermann-Krener rank condition, no unknown input), the series test (its
-        final codistribution) and Martinelli's single-unknown-input codistribution are
-        exact at generic states once the recursion converged; the EORC, or a recursion
-        stopped by a cap (``max_order``, the step cap), shows observability sufficiently
-        only: "observable" is proven, "not observable" means not shown. An EORC stopped at
-        the known-input bound (:mod:`uio_jax._analysis.recursions.known_bound`) is exact: a state it
-        does not show is not observable even with every input known; so is one whose states
-        reach the bound of its verified symmetries (:mod:`uio_jax._analysis.decisions.symmetry`): a
-        state it does not show is moved by a symmetry.
-        """
-        capped = self.stop.reason.capped
-        if self.method == "general_ui" and self.details.get("exact") is False and not capped:
-            return ("not certified exact (general_ui: the jets of the known inputs may have "
-                    "been truncated, see the notes): 'observable' is proven")
-        bound = self.details.get("known_input_bound") if self.method == "eorc" else None
-        symmetric = self.details.get("symmetries") if self.method == "eorc" else None
-        by_symmetry = bool(symmetric and symmetric.get("reached_at") is not None)
-        if self.method == "eorc" and not (by_symmetry or bound and bound.get("reached_at") is not None):
-            return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
-                    "not shown observable up to the last order k")
-        if capped:
-            return ("sufficient only (the recursion was capped before it converged): "
-                    "'observable' is proven; 'not observable' means not shown")
-        what = {"orc": "observability rank condition, no unknown input",
-                "series": "rank of the output series, the ORC's final codistribution",
-                "single_ui": "Martinelli's observable codistribution, one unknown input",
-                "general_ui": "Martinelli's general solution, any number of unknown inputs",
-                "eorc": "EORC at the bound of its verified symmetries: every state it does not "
-                        "show is moved by one" if by_symmetry else
-                        "EORC at the known-input bound: its span on the states is that of the "
-                        "ORC with every input known"}
-        meaning = {"smooth": "; known inputs generic smooth functions of time",
-                   "switchable": "; known inputs switchable (may jump)"}.get(self.known_inputs, "")
-        question = f"({what.get(self.method, self.method)}{meaning}): the observable functions at generic states"
-        arithmetic = self.certificate.arithmetic
-        if arithmetic is Arithmetic.EXACT:
-            return f"exact {question}, every decision in exact arithmetic modulo p"
-        return f"necessary and sufficient {question}; decided in {arithmetic.value}: not certified exact"
+        """What the verdicts prove, in words (:attr:`answer` with the question it answers:
+        :func:`~uio_jax._analysis.results.report_text.answer_text`)."""
+        return answer_text(self)
 
     @property
     def exact(self) -> bool:
         """Whether the verdicts are exact: the question is the necessary and sufficient one
         (not a sufficient condition) and every decision was made in exact arithmetic, with
-        the probability bound of the certificate (:meth:`answer_kind`,
-        :attr:`Certificate.arithmetic`)."""
-        return self.answer_kind().startswith("exact")
+        the probability bound of the certificate (:attr:`answer` is ``Answer.EXACT``)."""
+        return self.answer is Answer.EXACT
 
     def to_json(self, **kw) -> str:
         """``json.dumps(self.to_dict())``."""

@@ -1,6 +1,42 @@
-"""A Report as text: what ``print(report)`` shows."""
+"""A Report as text: what ``print(report)`` shows, and its answer line."""
 
 from ..._output import printable
+from .kinds import Answer, FollowUp
+
+#: The analysis behind a necessary and sufficient answer, per method.
+WHAT = {"orc": "observability rank condition, no unknown input",
+        "series": "rank of the output series, the ORC's final codistribution",
+        "single_ui": "Martinelli's observable codistribution, one unknown input",
+        "general_ui": "Martinelli's general solution, any number of unknown inputs"}
+EORC_BY_SYMMETRY = ("EORC at the bound of its verified symmetries: every state it does not show is "
+                    "moved by one")
+EORC_AT_KNOWN_BOUND = ("EORC at the known-input bound: its span on the states is that of the ORC with "
+                       "every input known")
+
+
+def answer_text(report) -> str:
+    """The answer line of ``report``: its :class:`~uio_jax._analysis.results.kinds.Answer`
+    (decided by the analysis, :func:`uio_jax._analysis.decisions.answer.decide_answer`) in
+    words, with the question answered and the arithmetic of the decisions."""
+    if report.answer is Answer.SUFFICIENT_ONLY:
+        if report.stop.reason.capped:
+            return ("sufficient only (the recursion was capped before it converged): "
+                    "'observable' is proven; 'not observable' means not shown")
+        if report.method == "general_ui":
+            return ("not certified exact (general_ui: the jets of the known inputs may have "
+                    "been truncated, see the notes): 'observable' is proven")
+        return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
+                "not shown observable up to the last order k")
+    symmetric = report.details.get("symmetries") if report.method == "eorc" else None
+    by_symmetry = bool(symmetric and symmetric.get("reached_at") is not None)
+    what = WHAT.get(report.method) or (EORC_BY_SYMMETRY if by_symmetry else EORC_AT_KNOWN_BOUND)
+    meaning = {"smooth": "; known inputs generic smooth functions of time",
+               "switchable": "; known inputs switchable (may jump)"}.get(report.known_inputs, "")
+    question = f"({what}{meaning}): the observable functions at generic states"
+    if report.answer is Answer.EXACT:
+        return f"exact {question}, every decision in exact arithmetic modulo p"
+    return (f"necessary and sufficient {question}; decided in {report.certificate.arithmetic.value}: "
+            "not certified exact")
 
 
 def report_text(report) -> str:
@@ -41,17 +77,27 @@ def report_text(report) -> str:
             if p in undecided:
                 verdict = f"UNDECIDED (float64: {verdict})"
             lines.append(f"  {p:<{width}}  {verdict}")
-    named = report.named_functions
-    lines.append(f"observable functions: {named.summary()}")
-    lines += [f"  {f.text}" for f in named.functions]
-    lines += [f"  {f.text}   (uses an unknown input)" for f in named.input_functions]
-    found = report.symmetries
-    lines.append(f"symmetries found: {found.summary()}")
-    lines += [f"  {f.text()}" for f in found.fields]
+    lines += followup_lines(report)
     lines.append(f"certificate: {report.certificate}")
     for note in report.notes:
         lines.append(f"note: {note}")
     return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
 
 
-__all__ = ["report_text"]
+def followup_lines(report) -> list:
+    """The lines of the follow-up answers computed on ``report`` (``report.followups``): the
+    named observable functions and the symmetries found, each where it was asked."""
+    lines = []
+    named = report.followups.get(FollowUp.OBSERVABLE_FUNCTIONS)
+    if named is not None:
+        lines.append(f"observable functions: {named.summary()}")
+        lines += [f"  {f.text}" for f in named.functions]
+        lines += [f"  {f.text}   (uses an unknown input)" for f in named.input_functions]
+    found = report.followups.get(FollowUp.SYMMETRIES)
+    if found is not None:
+        lines.append(f"symmetries found: {found.summary()}")
+        lines += [f"  {f.text()}" for f in found.fields]
+    return lines
+
+
+__all__ = ["answer_text", "report_text", "followup_lines"]
