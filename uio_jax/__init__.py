@@ -37,7 +37,7 @@ from ._analysis.analyze import analyze as analyze
 from ._analysis.results.report import Report as Report
 from ._analysis.results.report import Question as Question
 from ._analysis.results.identifiability_report import IdentifiabilityReport as IdentifiabilityReport
-from ._analysis.results.identifiability_report import Verdict as Verdict
+from ._analysis.results.kinds import Verdict as Verdict
 from ._analysis.results.evidence import Step as Step
 from ._analysis.results.evidence import Certificate as Certificate
 from ._analysis.results.plots import plot_analysis as plot_analysis

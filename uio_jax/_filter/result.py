@@ -201,7 +201,7 @@ class MonteCarloResult:
             text's verdict line says (:meth:`headline`): ``False`` when they disagree,
             else ``None`` if any row is undecided, else ``True`` (also for "consistent":
             unobservable states that look converging while every named quantity agrees);
-            ``verdict``: the :class:`Outcome` value of that line.
+            ``verdict``: the :class:`Agreement` value of that line.
         """
         states = tuple(self.experiment.system.states)
         if report is not None and tuple(report.states) != states:
@@ -220,14 +220,14 @@ class MonteCarloResult:
             rows_q[q.name] = _row(obs, v["quantities"][q.name]["converges"])
         agrees = [r["agree"] for r in list(rows_s.values()) + list(rows_q.values())]
         kind = _outcome(rows_s, rows_q)[0]
-        agree = (False if kind is Outcome.DISAGREES else None if None in agrees
+        agree = (False if kind is Agreement.DISAGREES else None if None in agrees
                  else True)  # "consistent" agrees: the named quantities decide (headline)
         return {"analysis": None if report is None else report.method, "note": note,
                 "states": rows_s, "quantities": rows_q, "agree": agree, "verdict": kind.value}
 
     # ------------------------------------------------------------------ output
     def to_dict(self, comparison=None) -> dict:
-        """JSON-ready summary: what the text says (``outcome``, the :class:`Outcome` value of
+        """JSON-ready summary: what the text says (``outcome``, the :class:`Agreement` value of
         the verdict line, and ``headline``, its lines), the ``filter`` that ran, the
         per-row numbers (``verdict``), timings, times and RMSE / sigma curves, and the
         ``comparison`` (:meth:`compare`) when given."""
@@ -249,10 +249,10 @@ class MonteCarloResult:
             out["comparison"] = comparison
         return out
 
-    def outcome(self, comparison=None) -> "Outcome":
-        """The kind of the verdict line of :meth:`headline` (an :class:`Outcome`)."""
+    def outcome(self, comparison=None) -> "Agreement":
+        """The kind of the verdict line of :meth:`headline` (an :class:`Agreement`)."""
         if comparison is None:
-            return Outcome.MONTE_CARLO_ONLY
+            return Agreement.MONTE_CARLO_ONLY
         return _outcome(comparison["states"], comparison["quantities"])[0]
 
     def headline(self, comparison=None) -> list[str]:
@@ -293,7 +293,7 @@ class MonteCarloResult:
         kind, bad_q, bad_obs, bad_unobs = _outcome(rows_s, rows_q)
         undecided = [k for k, r in {**rows_s, **rows_q}.items() if r["agree"] is None]
         lines = []
-        if kind is Outcome.DISAGREES:
+        if kind is Agreement.DISAGREES:
             names = bad_q + bad_obs + bad_unobs
             lines.append(f"verdict: Monte Carlo and {source} disagree on "
                          + ", ".join(f"{k} ({word({**rows_s, **rows_q}[k])})" for k in names))
@@ -301,7 +301,7 @@ class MonteCarloResult:
                 lines.append(f"  {', '.join(bad_unobs)}: a state moved together with others by "
                              "an unobservable direction can look converging (its error drops to "
                              "the prior spread along it); no named quantity to check it along")
-        elif kind is Outcome.CONSISTENT:
+        elif kind is Agreement.CONSISTENT:
             agree_q = [k for k, r in rows_q.items() if r["agree"] is True]
             lines.append(f"verdict: consistent with {source} on the named quantities"
                          + (": " + ", ".join(f"{k} ({word(rows_q[k])})" for k in agree_q)
@@ -407,7 +407,7 @@ def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:
                                for c, w, a in zip(r, widths, align))).rstrip() for r in cells]
 
 
-class Outcome(str, enum.Enum):
+class Agreement(str, enum.Enum):
     """The kind of a Monte Carlo verdict line (:meth:`MonteCarloResult.headline`), as the
     JSON's ``outcome`` says it."""
 
@@ -418,15 +418,15 @@ class Outcome(str, enum.Enum):
 
 
 def _outcome(rows_s, rows_q):
-    """``(Outcome, bad quantities, bad observable states, bad unobservable states)`` of a
+    """``(Agreement, bad quantities, bad observable states, bad unobservable states)`` of a
     comparison's rows (see :meth:`MonteCarloResult.headline`)."""
     bad_q = [k for k, r in rows_q.items() if r["agree"] is False]
     bad_obs = [k for k, r in rows_s.items() if r["agree"] is False and r["observable"]]
     bad_unobs = [k for k, r in rows_s.items() if r["agree"] is False and not r["observable"]]
     if bad_q or bad_obs or (bad_unobs and not rows_q):
-        kind = Outcome.DISAGREES
+        kind = Agreement.DISAGREES
     else:
-        kind = Outcome.CONSISTENT if bad_unobs else Outcome.AGREES
+        kind = Agreement.CONSISTENT if bad_unobs else Agreement.AGREES
     return kind, bad_q, bad_obs, bad_unobs
 
 

@@ -25,6 +25,7 @@ on that open set, hence (a polynomial identity in ``x``) everywhere, so ``S`` co
 plus one.
 """
 
+import dataclasses
 from collections.abc import Mapping
 
 from ..._engine import graph_exact
@@ -33,9 +34,11 @@ from ..._errors import OptionError
 from ..._model.system import System
 from ..decisions.settle import Settler
 from ..results.evidence import Arithmetic, Finding, Settlement
-from ..results.identifiability_report import IdentifiabilityReport, StopKind, Verdict
+from ..results.identifiability_report import IdentifiabilityReport, StopKind
+from ..results.kinds import Verdict
 from ..results.report import Question
 from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial
+from .space import InitialSpace
 
 
 def default_max_order(unknowns: int) -> int:
@@ -93,8 +96,10 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
                 seen.append(s)
                 generic_rows += [g for g in [generic_experiments(s, shared, seed, prob_threshold)] if g]
     escalations = list(span.escalations)
-    return _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
-                   prob_threshold, many, generic_rows)
+    report = _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
+                     prob_threshold, many, generic_rows)
+    space = InitialSpace(span, exps, proved_not, report.order)
+    return dataclasses.replace(report, space=space)
 
 
 def _check_experiments(systems, initials, shared):

@@ -10,22 +10,8 @@ from types import MappingProxyType
 
 from ..._output import printable
 from .evidence import Arithmetic, jsonable
-from .report import Question
-
-
-class Verdict(str, enum.Enum):
-    """The verdict on one unknown (a ``str``: written as its value in JSON).
-
-    ``DETERMINED``: locally identifiable (a parameter) or observable at ``t = 0`` (an unknown
-    initial state): ``e_j`` lies in the row space of the Jacobian of the output coefficients,
-    decided exactly. ``NOT_DETERMINED``: proved not (the span closed without it, or a verified
-    symmetry moves it). ``UNDECIDED``: not determined up to the order reached, and not
-    proved undeterminable.
-    """
-
-    DETERMINED = "determined"
-    NOT_DETERMINED = "not_determined"
-    UNDECIDED = "undecided"
+from .kinds import Answer, Verdict
+from .report import Question, refuse
 
 
 class StopKind(enum.Enum):
@@ -34,6 +20,11 @@ class StopKind(enum.Enum):
     ALL_DETERMINED = "every unknown determined"
     SPAN_CLOSED = "an order added nothing to a span that no later order can change"
     MAX_ORDER = "the highest order was reached with unknowns undetermined"
+
+
+#: Why the generic report's directions are not asked at t = 0.
+AT_T0 = ("the answer at a known initial state is one verdict per unknown (rep.verdicts, rep.is_observable(fn)); "
+         "it has no codistribution at generic states to take directions of: analyze the System without initial=")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -60,6 +51,8 @@ class IdentifiabilityReport:
         notes: remarks.
         experiments: per experiment: ``name``, ``initial``, ``order``, ``closed`` and
             ``added`` (the unknowns it made determined).
+        space: the span of the decisions, which :meth:`is_observable` queries
+            (:class:`~uio_jax._analysis.at_t0.space.InitialSpace`).
         generic_experiments: for each distinct System, the smallest number of generic
             experiments (copies with independent states and inputs) reaching the maximal
             rank of the shared parameters (``minimal``; ``ranks`` per count; ``determined``
@@ -85,6 +78,7 @@ class IdentifiabilityReport:
     notes: tuple = ()
     experiments: tuple = ()
     generic_experiments: tuple = ()
+    space: object = dataclasses.field(default=None, repr=False)
 
     def __post_init__(self):
         for name in ("observable", "identifiable", "initial"):
@@ -111,6 +105,41 @@ class IdentifiabilityReport:
         verdict undecided, and a question that is not sufficient only."""
         return (self.arithmetic is Arithmetic.EXACT and not self.undecided
                 and not self.question.sufficient_only and not self.undecided_decisions)
+
+    @property
+    def answer(self) -> Answer:
+        """What the verdicts prove: ``EXACT`` (:attr:`exact`), ``SUFFICIENT_ONLY`` (unknown
+        inputs with free jets: "determined" is proven), else ``NOT_CERTIFIED`` (some verdict
+        undecided, or some decision not exact)."""
+        if self.exact:
+            return Answer.EXACT
+        return Answer.SUFFICIENT_ONLY if self.question.sufficient_only else Answer.NOT_CERTIFIED
+
+    def is_observable(self, fn) -> bool:
+        """Whether the function ``fn(z)`` of the System's ``z = [x; p]`` (or ``fn(x, p)``) is
+        determined at the known initial state: its differential in the span of the output
+        coefficients' gradients, decided exactly (:mod:`uio_jax._analysis.at_t0.space`). True
+        where it is, False where it is proved not to be (a closed span).
+
+        Raises:
+            ModelError: undecided up to the order reached (no answer given as certain), several
+                experiments, a bad function.
+        """
+        if self.space is None:
+            raise refuse("is_observable", "this report keeps no span (built without uj.analyze)")
+        return self.space.is_observable(fn)
+
+    def unobservable_directions(self, x=None, p=None, t=None):
+        """Refused: the question at t = 0 has no codistribution at generic states."""
+        raise refuse("unobservable_directions", AT_T0)
+
+    def direction_summary(self, x=None, p=None):
+        """Refused: the question at t = 0 has no codistribution at generic states."""
+        raise refuse("direction_summary", AT_T0)
+
+    def format_directions(self, summary=None):
+        """Refused: the question at t = 0 has no codistribution at generic states."""
+        raise refuse("format_directions", AT_T0)
 
     def answer_kind(self) -> str:
         """The answer line: what the verdicts prove."""
@@ -179,4 +208,4 @@ class IdentifiabilityReport:
         return "\n".join(map(printable, lines))
 
 
-__all__ = ["Verdict", "StopKind", "IdentifiabilityReport"]
+__all__ = ["Verdict", "StopKind", "IdentifiabilityReport", "AT_T0"]

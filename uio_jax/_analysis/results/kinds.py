@@ -79,6 +79,21 @@ class FollowUp(TextEnum):
     SYMMETRIES = "found_symmetries"
 
 
+class Verdict(TextEnum):
+    """The verdict on one unknown (a ``str``: written as its value in JSON).
+
+    ``DETERMINED``: locally identifiable (a parameter) or observable at ``t = 0`` (an unknown
+    initial state): ``e_j`` lies in the row space of the Jacobian of the output coefficients,
+    decided exactly. ``NOT_DETERMINED``: proved not (the span closed without it, or a verified
+    symmetry moves it). ``UNDECIDED``: not determined up to the order reached, and not
+    proved undeterminable.
+    """
+
+    DETERMINED = "determined"
+    NOT_DETERMINED = "not_determined"
+    UNDECIDED = "undecided"
+
+
 class Arithmetic(enum.Enum):
     """How the rank decisions of an analysis were made (the weakest one decides).
 
@@ -127,4 +142,4 @@ class Plan:
                 "fallback": None if self.fallback is None else self.fallback.to_dict()}
 
 
-__all__ = ["TextEnum", "Method", "Route", "Answer", "FollowUp", "Arithmetic", "Plan"]
+__all__ = ["TextEnum", "Method", "Route", "Answer", "FollowUp", "Verdict", "Arithmetic", "Plan"]

@@ -20,10 +20,11 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..._errors import ModelError
 from . import directions
 from .evidence import Certificate, Finding, Step, jsonable
 from .functions_of_z import function_of_z
-from .kinds import Answer, FollowUp, Method, Plan, Route, TextEnum
+from .kinds import Answer, FollowUp, Method, Plan, Route, TextEnum, Verdict
 from .report_text import answer_text, report_text
 from .stop import Stop
 
@@ -93,6 +94,11 @@ _QUESTIONS = {
         "local identifiability from several experiments with the unknown inputs' derivatives at "
         "t = 0 free unknowns: sufficient only"),
 }
+
+
+def refuse(what: str, why: str) -> ModelError:
+    """The one-line refusal of a question a report does not answer (``what: why``)."""
+    return ModelError(f"{what}: {why}")
 
 
 @dataclass(eq=False)
@@ -239,6 +245,24 @@ class Report:
             kept = e.vote is Finding.INDEPENDENT
             open_.update(v for v in names if verdict.get(v) == kept)
         return tuple(v for v in names if v in open_)
+
+    @property
+    def verdicts(self) -> Mapping:
+        """Every state and parameter -> :class:`~uio_jax._analysis.results.kinds.Verdict`, as
+        an identifiability report at t = 0 gives them: ``DETERMINED`` (observable,
+        identifiable), ``NOT_DETERMINED`` (not, by a necessary and sufficient answer),
+        ``UNDECIDED`` (its decision not certified, or "not shown" by a sufficient-only answer)."""
+        open_ = set(self.undecided)
+        proved_not = self.answer is not Answer.SUFFICIENT_ONLY
+        return MappingProxyType({
+            v: Verdict.UNDECIDED if v in open_ else Verdict.DETERMINED if ok else
+            Verdict.NOT_DETERMINED if proved_not else Verdict.UNDECIDED
+            for v, ok in {**self.observable, **self.identifiable}.items()})
+
+    @property
+    def fully_determined(self) -> bool:
+        """:attr:`fully_observable` (the name an identifiability report at t = 0 uses)."""
+        return self.fully_observable
 
     @property
     def fully_observable(self) -> bool:
