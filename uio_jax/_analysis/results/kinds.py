@@ -40,6 +40,11 @@ class Method(TextEnum):
     GENERAL_UI = "general_ui"
     EORC = "eorc"
 
+    @property
+    def step_name(self) -> str:
+        """How its steps are numbered: ``"k"`` (orders: the EORC, the series test), else ``"m"``."""
+        return "k" if self in (Method.EORC, Method.SERIES) else "m"
+
 
 class Route(TextEnum):
     """How the codistribution was computed (``Report.route``).

@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from ..._errors import OptionError
+from .kinds import Method
 
 #: Ratios below this are drawn at this value on the log axis (exact zeros have no log).
 _FLOOR = 1e-18
@@ -95,7 +96,7 @@ def _axes(ax, standalone):
 
 def _plot_dims(report, ax):
     steps = [s.m for s in report.history]
-    label = "order k" if report.method in ("eorc", "series") else "step m"
+    label = "order k" if Method(report.method).step_name == "k" else "step m"
     ax.plot(steps, report.dims, "o-", color="C0", label="dim of the codistribution")
     aug = [s.extra.get("augmented_rank") for s in report.history]
     top = report.n

@@ -1,7 +1,7 @@
 """A Report as text: what ``print(report)`` shows, and its answer line."""
 
 from ..._output import printable
-from .kinds import Answer, FollowUp
+from .kinds import Answer, FollowUp, Method
 
 #: The analysis behind a necessary and sufficient answer, per method.
 WHAT = {"orc": "observability rank condition, no unknown input",
@@ -22,12 +22,12 @@ def answer_text(report) -> str:
         if report.stop.reason.capped:
             return ("sufficient only (the recursion was capped before it converged): "
                     "'observable' is proven; 'not observable' means not shown")
-        if report.method == "general_ui":
+        if report.method is Method.GENERAL_UI:
             return ("not certified exact (general_ui: the jets of the known inputs may have "
                     "been truncated, see the notes): 'observable' is proven")
         return ("sufficient only (EORC): 'observable' is proven; 'not observable' means "
                 "not shown observable up to the last order k")
-    symmetric = report.details.get("symmetries") if report.method == "eorc" else None
+    symmetric = report.details.get("symmetries") if report.method is Method.EORC else None
     by_symmetry = bool(symmetric and symmetric.get("reached_at") is not None)
     what = WHAT.get(report.method) or (EORC_BY_SYMMETRY if by_symmetry else EORC_AT_KNOWN_BOUND)
     meaning = {"smooth": "; known inputs generic smooth functions of time",
@@ -50,7 +50,7 @@ def report_text(report) -> str:
     of = f"{report.n}" + (" (states and parameters)" if report.params else "")
     lines.append(f"observable codistribution: dim {report.dim} of {of}"
                  + ("  (fully observable)" if report.fully_observable else ""))
-    label = "k" if report.method in ("eorc", "series") else "m"
+    label = report.method.step_name
     lines.append("steps:")
     for st in report.history:
         extra = "".join(f", {k}={v}" for k, v in st.extra.items())
