@@ -19,8 +19,6 @@ like ``"auto"`` with ``"series"`` in place of ``"orc"``.
 
 import dataclasses
 
-import jax
-
 from .._errors import OptionError
 from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
@@ -213,20 +211,19 @@ def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, pr
                                  known_inputs=known_inputs, notes=notes)
     check_memory(samples, system.n, what=f"samples={samples} x {system.n} states",
                  advice="lower samples")
-    with jax.enable_x64(True):
-        if chosen == "series":
-            series_applicable(system)
-        elif chosen == "single_ui":
-            check_applicable(system)
-        ctx = Context(system, samples, seed, rtol, prob_threshold)
-        report = _taylor_report(ctx, method, chosen, why, seed, max_order)
-        if report is not None:
-            return report
-        if chosen == "orc":
-            return _orc_report(ctx, why, max_order)
-        if chosen == "series":
-            return series_report(ctx, seed=seed, why=why, max_order=max_order)
-        return single_ui_report(ctx, why=why, max_order=max_order)
+    if chosen == "series":
+        series_applicable(system)
+    elif chosen == "single_ui":
+        check_applicable(system)
+    ctx = Context(system, samples, seed, rtol, prob_threshold)
+    report = _taylor_report(ctx, method, chosen, why, seed, max_order)
+    if report is not None:
+        return report
+    if chosen == "orc":
+        return _orc_report(ctx, why, max_order)
+    if chosen == "series":
+        return series_report(ctx, seed=seed, why=why, max_order=max_order)
+    return single_ui_report(ctx, why=why, max_order=max_order)
 
 
 def _taylor_report(ctx, method, chosen, why, seed, max_order):

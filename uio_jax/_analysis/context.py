@@ -10,7 +10,6 @@ samples (:meth:`Context.certify`).
 
 import dataclasses
 
-import jax
 import numpy as np
 
 from .._calculus.generators import Node, builder_for
@@ -63,16 +62,15 @@ class Context:
         #: the error bound of the exact decisions is summed over all of them
         self.settler = Settler(self.builder.graph, lo, hi, seed, prob_threshold)
         self.prob_threshold = prob_threshold
-        with jax.enable_x64(True):
-            xs_all = sample_states(system, samples, seed)
-            nodes = [*self.output_nodes(), *(self.field_node(f) for f in system.fields())]
-            exprs = [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr)]
-            wanted = screen_samples(system.n) if self.settler.exact_capable(exprs) else DECISION_SAMPLES
-            #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
-            #: sample is dropped (counted in the certificate), even where their gradients are
-            #: finite (a NaN chosen by a ``where``)
-            self.defined = self._defined(xs_all)
-            self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
+        xs_all = sample_states(system, samples, seed)
+        nodes = [*self.output_nodes(), *(self.field_node(f) for f in system.fields())]
+        exprs = [e for nd in nodes for e in ((nd.expr,) if isinstance(nd.expr, int) else nd.expr)]
+        wanted = screen_samples(system.n) if self.settler.exact_capable(exprs) else DECISION_SAMPLES
+        #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
+        #: sample is dropped (counted in the certificate), even where their gradients are
+        #: finite (a NaN chosen by a ``where``)
+        self.defined = self._defined(xs_all)
+        self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
 
     def _defined(self, xs_all):
         """``(S,)``: whether the outputs and fields are finite at each sample."""
