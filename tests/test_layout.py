@@ -498,7 +498,8 @@ _LONG_BODY = "".join(f"    x{i} = {i}\n" for i in range(80))
      frozen_writes, r"loading\.py:2 writes past a frozen object outside its class's constructor"),
     ({"_model/system.py": "class S:\n    def mark_derived(self, k):\n        object.__setattr__(self, '_k', k)\n"},
      frozen_writes, r"system\.py:3 writes past a frozen object outside its class's constructor"),
-    ({"_model/joint.py": "class J:\n    def __post_init__(self):\n        object.__setattr__(self.parent, 'notes', ())\n"},
+    ({"_model/joint.py": "class J:\n    def __post_init__(self):\n"
+                         "        object.__setattr__(self.parent, 'notes', ())\n"},
      frozen_writes, r"joint\.py:3 writes past a frozen object"),
     ({"_model/time.py": "def build(system):\n    object.__delattr__(system, 'notes')\n"},
      frozen_writes, r"time\.py:2 writes past a frozen object"),
