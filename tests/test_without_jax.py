@@ -56,6 +56,11 @@ def test_the_cli_analyses_a_model_file_without_jax(tmp_path):
     assert "jax" not in names and "jaxlib" not in names
     names, out = _imported_modules(["analyze", STRIKEPY, "--samples", "64", "--no-cache"])
     assert "observable codistribution" in out and "jax" not in names
+    # a known initial state given as an expression in the parameters, and smooth known inputs
+    names, out = _imported_modules(["analyze", TOML, "--initial", "x2=2*k12", "--samples", "64", "--no-cache"])
+    assert "answer: exact" in out and "jax" not in names
+    names, out = _imported_modules(["analyze", TOML, "--known-inputs", "smooth", "--samples", "64", "--no-cache"])
+    assert "observable codistribution" in out and "jax" not in names
     # the check can fail: a Python model's functions are JAX callables, traced
     names, out = _imported_modules(["analyze", os.path.join(ROOT, "systems", "gps.py") + ":inputs_known",
                                     "--samples", "64", "--no-cache"])

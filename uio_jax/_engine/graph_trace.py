@@ -69,6 +69,32 @@ class GraphFunction:
         return values[0, 0] if self.shape == () else values[0]
 
 
+class FunctionOfSlice:
+    """``z -> fn(z[start:])``: a function of some trailing coordinates as a function of all of
+    them; it builds its own expression (``emit``) when ``fn`` does, else it is traced.
+
+    Args:
+        fn: a function of the coordinates ``z[start:]``.
+        start: the first coordinate ``fn`` reads.
+    """
+
+    __slots__ = ("fn", "start", "__weakref__")
+
+    def __init__(self, fn, start: int):
+        self.fn, self.start = fn, int(start)
+
+    @property
+    def graph_native(self) -> bool:
+        return graph_native(self.fn)
+
+    def __call__(self, z):
+        return self.fn(z[self.start:])
+
+    def emit(self, z):
+        """``fn``'s expression at ``z[start:]``, when ``fn`` builds its own; else None."""
+        return self.fn.emit(z[self.start:]) if graph_native(self.fn) else None
+
+
 def untranslatable_message(what, exc) -> str:
     """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
     :class:`~uio_jax._engine.graph_values.Untranslatable`)."""
@@ -208,5 +234,5 @@ def translate_or_refuse(graph: Graph, fn, shape, what, extra=()):
     return expr
 
 
-__all__ = ["GraphFunction", "emitted", "graph_native", "untranslatable_message", "translate_or_refuse",
-           "trace_to_graph", "translate"]
+__all__ = ["FunctionOfSlice", "GraphFunction", "emitted", "graph_native", "untranslatable_message",
+           "translate_or_refuse", "trace_to_graph", "translate"]
