@@ -28,10 +28,11 @@ Inputs that appear in no equation are dropped, with a note.
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from .._model.joint import Coordinate
 from .affinity import INPUT_BOX, box, compile_rows, inputs_in_nonsmooth, nonaffine_pattern, promotion_reasons, vanishes
 from .expression_functions import to_function
 from .expressions import Expr, names_of
-from .model_functions import GeneralDrift, InputField, Joined, Reader, RowsFunction, UnitField
+from .model_functions import GeneralDrift, InputField, Joined, RowsFunction, UnitField
 
 
 # ----------------------------------------------------------------------------- split
@@ -204,7 +205,7 @@ def build_parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons
         notes.append(note)
         if v in known_inputs:
             known[d] = unit(n0 + j)
-            out_fns[y] = Reader(n0 + j)
+            out_fns[y] = Coordinate(n0 + j)  # a known input is measured
         else:
             unknown[d] = unit(n0 + j)
     boxes = [new_domain.get(s) or box(s, domain, angles, DEFAULT_BOX) for s in new_states]

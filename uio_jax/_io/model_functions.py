@@ -176,26 +176,6 @@ class UnitField:
         return [1.0 if k == self.j else 0.0 for k in range(self.n)]
 
 
-class Reader:
-    """``z -> z[i]``: the output of a promoted known input (it is measured)."""
-
-    __slots__ = ("i", "__weakref__")
-    graph_native = True
-
-    def __init__(self, i):
-        self.i = i
-
-    def __call__(self, z):
-        if isinstance(z, np.ndarray):
-            return z[self.i]
-        import jax.numpy as jnp
-
-        return jnp.asarray(z[self.i])
-
-    def emit(self, z):
-        return z[self.i]
-
-
 # ----------------------------------------------------------------------------- dual numbers
 def _is_zero(t) -> bool:
     """A tangent known to be 0 without a node (the plain number 0)."""
@@ -348,4 +328,4 @@ DUAL_OPS = Ops(trig_funcs(_DUAL_MATH), _dual_ipow, _dual_power, _dual_extreme(GR
                _dual_extreme(GRAPH_OPS.maximum), _dual_asarray)
 
 
-__all__ = ["DUAL_OPS", "Dual", "GeneralDrift", "InputField", "Joined", "Reader", "RowsFunction", "UnitField"]
+__all__ = ["DUAL_OPS", "Dual", "GeneralDrift", "InputField", "Joined", "RowsFunction", "UnitField"]

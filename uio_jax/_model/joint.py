@@ -25,37 +25,60 @@ def append_constants(v, values):
     return jnp.concatenate([v, jnp.asarray(values, dtype=v.dtype)])
 
 
-class JointFunction:
-    """``z -> fn(z[:n], z[n:])`` (``(z, t) -> fn(z[:n], z[n:], t)`` for a time-varying
-    System), followed by ``pad`` zeros (a field's ``p' = 0``; 0 for an output).
+class PaddedFunction:
+    """``z -> fn(z[:n], z[n:])`` (``(z, t) -> fn(z[:n], z[n:], t)`` for a time-varying System;
+    ``fn(z[:n])`` without ``rest``), followed by ``pad`` zeros (a field's ``p' = 0``; 0 for an
+    output).
 
     Args:
-        fn: the user's callable of ``(x, p)`` (or ``(x, p, t)``).
-        n: the number of states ``x``.
-        pad: the number of zeros appended (the number of parameters for a field, 0 for an
-            output).
+        fn: the function of ``(x, p)`` (or ``(x, p, t)``; of ``x`` alone without ``rest``).
+        n: the number of coordinates ``x``.
+        pad: the number of zeros appended (the number of coordinates after ``x`` for a field,
+            0 for an output).
+        rest: whether ``fn`` also takes the coordinates after ``x`` (``p``).
     """
 
-    __slots__ = ("fn", "n", "pad", "__weakref__")
+    __slots__ = ("fn", "n", "pad", "rest", "__weakref__")
 
-    def __init__(self, fn, n, pad):
-        self.fn, self.n, self.pad = fn, n, pad
+    def __init__(self, fn, n, pad, rest=True):
+        self.fn, self.n, self.pad, self.rest = fn, n, pad, rest
 
     @property
     def graph_native(self) -> bool:
         """Whether ``fn`` builds its own expression (then so does this function)."""
         return graph_native(self.fn)
 
+    def _args(self, z, t):
+        return (z[:self.n], z[self.n:], *t) if self.rest else (z[:self.n], *t)
+
     def __call__(self, z, *t):
-        out = self.fn(z[:self.n], z[self.n:], *t)
+        out = self.fn(*self._args(z, t))
         return append_constants(out, [0.0] * self.pad) if self.pad else out
 
     def emit(self, z, *t):
         """The expression at ``z`` (and ``t``), when ``fn`` builds its own; else None."""
         if not graph_native(self.fn):
             return None
-        out = self.fn.emit(z[:self.n], z[self.n:], *t)
+        out = self.fn.emit(*self._args(z, t))
         return out if not self.pad else list(out) + [0.0] * self.pad
+
+
+class Coordinate:
+    """``z -> z[i]``: one coordinate, measured (the time of the autonomous System, a jet of a
+    smooth known input, a promoted known input)."""
+
+    __slots__ = ("i", "__weakref__")
+    graph_native = True
+
+    def __init__(self, i):
+        self.i = int(i)
+
+    def __call__(self, z):
+        return z[self.i]
+
+    def emit(self, z):
+        """The coordinate's node."""
+        return z[self.i]
 
 
 def build_joint(self, symmetry_fields=None):
@@ -65,10 +88,10 @@ def build_joint(self, symmetry_fields=None):
     n, P = self.n, len(self.params)
     return type(self)(  # System, without importing it back (no import cycle)
         self.states + tuple(self.params),
-        {k: JointFunction(fn, n, 0) for k, fn in self.outputs.items()},
-        known={k: JointFunction(fn, n, P) for k, fn in self.known.items()},
-        unknown={k: JointFunction(fn, n, P) for k, fn in self.unknown.items()},
-        drift=None if self.drift is None else JointFunction(self.drift, n, P),
+        {k: PaddedFunction(fn, n, 0) for k, fn in self.outputs.items()},
+        known={k: PaddedFunction(fn, n, P) for k, fn in self.known.items()},
+        unknown={k: PaddedFunction(fn, n, P) for k, fn in self.unknown.items()},
+        drift=None if self.drift is None else PaddedFunction(self.drift, n, P),
         domain={**self.domain, **self.params},
         angles=self.angles,
         name=self.name,
@@ -78,4 +101,4 @@ def build_joint(self, symmetry_fields=None):
     )
 
 
-__all__ = ["JointFunction", "append_constants", "build_joint"]
+__all__ = ["Coordinate", "PaddedFunction", "append_constants", "build_joint"]

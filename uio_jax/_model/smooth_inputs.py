@@ -27,7 +27,7 @@ import numpy as np
 
 from .._engine.graph_trace import graph_native
 from .derivation import Derivation
-from .joint import append_constants
+from .joint import Coordinate, PaddedFunction
 from .naming import derivative_names
 from .system import DEFAULT_BOX, System, derived_system
 
@@ -73,13 +73,13 @@ def with_input_jets(system: System, order: int) -> System:
     N = system.n
     R = int(order)
     names = jet_names(system, R)
-    outputs = {k: _Padded(h, N, 0) for k, h in system.outputs.items()}
+    outputs = {k: PaddedFunction(h, N, 0, rest=False) for k, h in system.outputs.items()}
     jet_outputs = []
     for j, nm in enumerate(names):
         key = nm
         while key in outputs:
             key += "'"
-        outputs[key] = _Coordinate(N + j)
+        outputs[key] = Coordinate(N + j)
         jet_outputs.append(key)
     domain = dict(system.domain)
     domain.update({nm: DEFAULT_BOX for nm in names})
@@ -87,7 +87,7 @@ def with_input_jets(system: System, order: int) -> System:
         out = System(
             states=system.states + names,
             outputs=outputs,
-            unknown={k: _Padded(g, N, mu * (R + 1)) for k, g in system.unknown.items()},
+            unknown={k: PaddedFunction(g, N, mu * (R + 1), rest=False) for k, g in system.unknown.items()},
             drift=_JetDrift(system.drift, tuple(system.known.values()), N, R),
             domain=domain,
             angles=system.angles,
@@ -98,45 +98,6 @@ def with_input_jets(system: System, order: int) -> System:
         )
     _WITH_JETS[system][R] = out
     return out
-
-
-class _Padded:
-    """``Z -> fn(Z[:N])`` followed by ``pad`` zeros (a field on the jets; an output, pad 0)."""
-
-    __slots__ = ("fn", "N", "pad", "__weakref__")
-
-    def __init__(self, fn, N, pad):
-        self.fn, self.N, self.pad = fn, N, pad
-
-    @property
-    def graph_native(self) -> bool:
-        return graph_native(self.fn)
-
-    def __call__(self, Z):
-        out = self.fn(Z[:self.N])
-        return append_constants(out, [0.0] * self.pad) if self.pad else out
-
-    def emit(self, Z):
-        if not graph_native(self.fn):
-            return None
-        out = self.fn.emit(Z[:self.N])
-        return list(out) + [0.0] * self.pad if self.pad else out
-
-
-class _Coordinate:
-    """``Z -> Z[j]``: a jet coordinate, measured."""
-
-    __slots__ = ("j", "__weakref__")
-    graph_native = True
-
-    def __init__(self, j):
-        self.j = j
-
-    def __call__(self, Z):
-        return Z[self.j]
-
-    def emit(self, Z):
-        return Z[self.j]
 
 
 class _JetDrift:

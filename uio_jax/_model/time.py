@@ -20,7 +20,7 @@ import numpy as np
 
 from .._engine.graph_trace import graph_native
 from .derivation import Derivation
-from .joint import append_constants
+from .joint import Coordinate, append_constants
 
 
 class TimedFunction:
@@ -61,23 +61,6 @@ class TimedFunction:
         return list(out) + list(self.tail) if self.tail else out
 
 
-class Clock:
-    """``z -> z[n]``: the time coordinate, measured."""
-
-    __slots__ = ("n", "__weakref__")
-    graph_native = True
-
-    def __init__(self, n):
-        self.n = n
-
-    def __call__(self, z):
-        return z[self.n]
-
-    def emit(self, z):
-        """The time coordinate's node."""
-        return z[self.n]
-
-
 def build_autonomous(system, joint_params=(), symmetry_fields=None):
     """The autonomous System on ``z = [x; t]`` of a parameter-free time-varying System.
 
@@ -102,7 +85,7 @@ def build_autonomous(system, joint_params=(), symmetry_fields=None):
     n = system.n
     time = system.time
     outputs = {k: TimedFunction(fn, n) for k, fn in system.outputs.items()}
-    outputs[time] = Clock(n)
+    outputs[time] = Coordinate(n)  # the time, measured
     return type(system)(  # System, without importing it back (no import cycle)
         system.states + (time,),
         outputs,
@@ -118,4 +101,4 @@ def build_autonomous(system, joint_params=(), symmetry_fields=None):
     )
 
 
-__all__ = ["Clock", "TimedFunction", "build_autonomous"]
+__all__ = ["TimedFunction", "build_autonomous"]
