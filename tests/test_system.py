@@ -119,3 +119,27 @@ def test_the_api_refuses_the_names_model_files_refuse(kwargs, words):
     with pytest.raises(uj.ModelError, match=words):
         uj.System(**kwargs)
     uj.System(states=("lambda",), outputs={"y": lambda x: x[0]})
+
+
+def test_a_renamed_system_is_a_new_system_built_with_the_same_parts():
+    """``with_name`` (what the loaders use for an unnamed model) builds a new System: the
+    original keeps its name; the translations of its functions, its parameters' joint System
+    and its time's autonomous System come along renamed, nothing traced or validated again."""
+    s = uj.System(states=("x", "v"), outputs={"y": lambda x, p, t: x[0] + t * p[0]},
+                  drift=lambda x, p, t: jnp.array([x[1], -p[0] * x[0]]), params=("k",), time="t",
+                  symmetries={"none": lambda x, p, t: jnp.zeros(3)})
+    r = s.with_name("spring")
+    assert (s.name, r.name) == ("", "spring") and r is not s and s.with_name("") is s
+    for a, b in ((s.joint(), r.joint()), (s.autonomous(), r.autonomous())):
+        assert b.name == "spring" and b is not a
+        assert b.expression_graph is a.expression_graph  # the translations, not redone
+        assert (b.known_coordinates, b.time_name, b.joint_param_names, b.known_outputs) == (
+            a.known_coordinates, a.time_name, a.joint_param_names, a.known_outputs)
+        assert b.symmetry_fields.keys() == a.symmetry_fields.keys()
+    assert r.autonomous().known_coordinates == 1 and r.autonomous().joint_param_names == ("k",)
+    assert r.autonomous().symmetry_fields.keys() == {"none"} and not r.joint().symmetry_fields
+    assert r.derivation.same_functions_as is None  # not kept once built
+    with pytest.raises(uj.ModelError, match="name must be a string"):
+        s.with_name(3)
+    with pytest.raises(uj.ModelError, match="derivation must be a Derivation"):
+        uj.System(states=("x",), outputs={"y": lambda x: x[0]}, derivation={"known_coordinates": 1})

@@ -19,10 +19,16 @@ first release and users call them, so this module, the API layer (which imports 
 attaches the two functions to ``System`` as static methods, once, below: ``System.from_sympy``
 IS ``system_from_sympy``. Nothing else in the package assigns an attribute onto a class or
 module it imports; the layout test fails on any other such assignment.
-"""
 
-from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
-from importlib.metadata import version as _version
+``import uio_jax`` does not import JAX: a model file, a sympy, SBML or StrikePy model is
+read, translated into the expression graph and analysed without it (JAX is imported the
+first time a Python model's JAX functions are traced). The two names whose modules are JAX
+programs, :func:`run_montecarlo` and :func:`trajectories`, and the batch's names
+(:func:`batch_analyze`, :class:`BatchResult`, :class:`BatchRow`) and ``__version__`` (read
+from the installed metadata) are lazy attributes of this module (:func:`__getattr__`): their
+modules (JAX for the first two) are imported the first time they are used; ``dir(uio_jax)``
+lists them.
+"""
 
 # the model
 from ._model.system import System as System
@@ -52,9 +58,7 @@ from ._analysis.followups.questions import observable_functions as observable_fu
 from ._analysis.followups.questions import find_symmetries as find_symmetries
 from ._analysis.followups.questions import reparametrise as reparametrise
 
-# Monte Carlo filtering
-from ._filter.montecarlo import run_montecarlo as run_montecarlo
-from ._filter.trials import trajectories as trajectories
+# Monte Carlo filtering (run_montecarlo and trajectories: lazy attributes, see __getattr__)
 from ._filter.result import MonteCarloResult as MonteCarloResult
 from ._filter.plots import plot_montecarlo as plot_montecarlo
 from ._filter.plots import plot_trajectories as plot_trajectories
@@ -68,10 +72,7 @@ from ._io.experiment_loading import load_experiment as load_experiment
 from ._io.sympy_import import system_from_sympy as system_from_sympy
 from ._io.dynamics_form import system_from_dynamics as system_from_dynamics
 
-# many models at once
-from ._batch.run import batch_analyze as batch_analyze
-from ._batch.rows import BatchResult as BatchResult
-from ._batch.rows import BatchRow as BatchRow
+# many models at once: batch_analyze, BatchResult, BatchRow (lazy attributes, see __getattr__)
 
 # the compilation cache
 from ._filter.compile_cache import enable_compile_cache as enable_compile_cache
@@ -101,7 +102,35 @@ __all__ = [
 System.from_sympy = staticmethod(system_from_sympy)
 System.from_dynamics = staticmethod(system_from_dynamics)
 
-try:
-    __version__ = _version("uio_jax")
-except _PackageNotFoundError:  # running from a source tree
-    __version__ = "0.0.0"
+#: public name -> (module, attribute) of the names imported the first time they are used
+_LAZY = {"run_montecarlo": ("._filter.montecarlo", "run_montecarlo"),
+         "trajectories": ("._filter.trials", "trajectories"),
+         "batch_analyze": ("._batch.run", "batch_analyze"),
+         "BatchResult": ("._batch.rows", "BatchResult"),
+         "BatchRow": ("._batch.rows", "BatchRow")}
+
+
+def __getattr__(name):
+    """The lazy public names (:data:`_LAZY`): their module imported on first use (it imports
+    JAX), the name then kept in this module."""
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("uio_jax")
+        except PackageNotFoundError:  # running from a source tree
+            value = "0.0.0"
+        globals()[name] = value
+        return value
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib import import_module
+
+    module, attr = _LAZY[name]
+    value = getattr(import_module(module, __name__), attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

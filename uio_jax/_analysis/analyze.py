@@ -8,8 +8,6 @@ the report keeps the plan (``Report.plan``, ``rep.plan.why``).
 
 import dataclasses
 
-import jax
-
 from .._errors import OptionError
 from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
@@ -198,19 +196,18 @@ def dispatch(system, chosen, settler, *, samples, seed, rtol, max_order, k_max, 
     if chosen.method is Method.GENERAL_UI:
         return general_ui_report(system, samples=samples, seed=seed, rtol=rtol, prob_threshold=prob_threshold,
                                  known_inputs=known_inputs, notes=notes)
-    with jax.enable_x64(True):
-        ctx = Context(system, samples, seed, rtol, prob_threshold, settler=settler)
-        if chosen.route is Route.TAYLOR:
-            try:
-                return taylor_report(ctx, chosen.method, seed=seed, why=chosen.note, max_order=max_order)
-            except NotTaken as exc:
-                chosen = chosen.fallback
-                notes = ([chosen.note] if chosen.note else []) + [
-                    f"the Taylor route could not decide ({exc}): the symbolic route ran"]
-        if chosen.method is Method.ORC:
-            labels = [lbl for lbl in system.fields() if lbl not in system.unknown]
-            history, reason = run_orc(ctx, labels, max_steps=max_order)
-            return ctx.report("orc", history, reason, notes=notes)
-        if chosen.method is Method.SERIES:
-            return series_report(ctx, seed=seed, notes=notes, max_order=max_order)
-        return single_ui_report(ctx, notes=notes, max_order=max_order)
+    ctx = Context(system, samples, seed, rtol, prob_threshold, settler=settler)
+    if chosen.route is Route.TAYLOR:
+        try:
+            return taylor_report(ctx, chosen.method, seed=seed, why=chosen.note, max_order=max_order)
+        except NotTaken as exc:
+            chosen = chosen.fallback
+            notes = ([chosen.note] if chosen.note else []) + [
+                f"the Taylor route could not decide ({exc}): the symbolic route ran"]
+    if chosen.method is Method.ORC:
+        labels = [lbl for lbl in system.fields() if lbl not in system.unknown]
+        history, reason = run_orc(ctx, labels, max_steps=max_order)
+        return ctx.report("orc", history, reason, notes=notes)
+    if chosen.method is Method.SERIES:
+        return series_report(ctx, seed=seed, notes=notes, max_order=max_order)
+    return single_ui_report(ctx, notes=notes, max_order=max_order)

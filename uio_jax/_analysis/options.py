@@ -3,7 +3,7 @@
 
 import numbers
 
-from .._engine.threefry import check_seed
+from .._engine.seeds import check_seed
 from .._errors import OptionError
 from .._model.smooth_inputs import KNOWN_INPUT_MEANINGS
 from .decisions.rank import default_rtol

@@ -356,9 +356,7 @@ def _skip_without_calling(name, fn, annotation=None) -> str:
 
 
 def _named(system, path, name):
-    if not system.name:
-        object.__setattr__(system, "name", f"{os.path.basename(path)}:{name}")
-    return system
+    return system if system.name else system.with_name(f"{os.path.basename(path)}:{name}")
 
 
 def listed_entries(path: str, build: bool = False):

@@ -9,17 +9,23 @@ only evaluator of the analyses, so such a model is refused where it is built
 (:func:`untranslatable_message` says which primitive). A :class:`GraphFunction` is a
 function of the state given by its expression: the Systems the analyses derive (extended
 systems, UI extensions) are built of them on a graph, never traced.
+
+**Functions that build their own expression.** A function with an ``emit`` method is not
+traced: ``fn.emit(*args)`` receives each argument as a numpy object array of
+:class:`~uio_jax._engine.graph_values.GraphScalar` (its shape; a scalar argument a 0-d array)
+and returns its result built of them (numbers for constants; a sequence for a vector), or
+None where it cannot (a wrapper around a JAX callable: then the whole function is traced).
+:class:`GraphFunction`, the declarative models' expressions (:mod:`uio_jax._io`) and the
+wrappers the System derives from them (:mod:`uio_jax._model.joint`, :mod:`uio_jax._model.time`)
+do: a model that is not a Python program reaches the graph without importing JAX, which is
+imported here, once, the first time a function must be traced.
 """
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
 from .graph import Graph
-from .graph_rules import RULES
-from .graph_values import Untranslatable, as_nodes
-from .interpreter import interpret
+from .graph_values import GraphScalar, Untranslatable, as_nodes, node_of
 
 
 class GraphFunction:
@@ -35,10 +41,25 @@ class GraphFunction:
     """
 
     __slots__ = ("graph", "expr", "shape", "__weakref__")
+    #: builds its own expression (:func:`trace_to_graph`)
+    graph_native = True
 
     def __init__(self, graph, expr):
         self.graph, self.expr = graph, expr
         self.shape = () if isinstance(expr, int) else (len(expr),)
+
+    def emit(self, x):
+        """The expression at the state ``x`` (``graph.n`` :class:`GraphScalar`): the nodes
+        imported into ``x``'s graph (the same nodes when ``x`` are this graph's coordinates)."""
+        if x.shape != (self.graph.n,):
+            return None
+        target = x.reshape(-1)[0].graph if x.size else self.graph
+        coords = tuple(v.node for v in x.reshape(-1))
+        roots = [self.expr] if self.shape == () else list(self.expr)
+        if target is not self.graph or coords != target.coords:
+            roots = target.import_nodes(self.graph, roots, coords)
+        out = [GraphScalar(target, k) for k in roots]
+        return out[0] if self.shape == () else out
 
     def __call__(self, x):
         from .graph_numpy import evaluate
@@ -48,9 +69,37 @@ class GraphFunction:
         return values[0, 0] if self.shape == () else values[0]
 
 
+class FunctionOfSlice:
+    """``z -> fn(z[start:])``: a function of some trailing coordinates as a function of all of
+    them; it builds its own expression (``emit``) when ``fn`` does, else it is traced.
+
+    Args:
+        fn: a function of the coordinates ``z[start:]``.
+        start: the first coordinate ``fn`` reads.
+    """
+
+    __slots__ = ("fn", "start", "__weakref__")
+
+    def __init__(self, fn, start: int):
+        self.fn, self.start = fn, int(start)
+
+    @property
+    def graph_native(self) -> bool:
+        return graph_native(self.fn)
+
+    def __call__(self, z):
+        return self.fn(z[self.start:])
+
+    def emit(self, z):
+        """``fn``'s expression at ``z[start:]``, when ``fn`` builds its own; else None."""
+        return self.fn.emit(z[self.start:]) if graph_native(self.fn) else None
+
+
 def untranslatable_message(what, exc) -> str:
     """One line refusing ``what`` (e.g. ``"output 'y'"``) for the primitive of ``exc`` (an
     :class:`~uio_jax._engine.graph_values.Untranslatable`)."""
+    from .graph_rules import RULES
+
     detail = str(exc).removeprefix(exc.primitive).removeprefix(": ")
     supported = ", ".join(sorted(RULES))
     return (f"{what}: the expression graph has no rule for the JAX primitive '{exc.primitive}'"
@@ -76,12 +125,15 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
             where a constant is needed.
         IndexOutOfRange: a constant index past the end of an array.
     """
-    if isinstance(fn, GraphFunction) and len(arg_shapes) == 1 and len(arg_nodes[0]) == fn.graph.n:
-        roots = [fn.expr] if fn.shape == () else list(fn.expr)
-        out = np.empty(len(roots), dtype=object)
-        out[:] = graph.import_nodes(fn.graph, roots, tuple(arg_nodes[0])) if fn.graph is not graph \
-            or tuple(arg_nodes[0]) != graph.coords else roots
-        return out.reshape(fn.shape), np.dtype(np.float64)
+    out = emitted(graph, fn, arg_nodes, arg_shapes)
+    if out is not None:
+        return out, np.dtype(np.float64)
+    import jax  # a JAX callable: traced (the first one imports JAX)
+    import jax.numpy as jnp
+
+    from .graph_rules import RULES
+    from .interpreter import interpret
+
     with jax.enable_x64(True):
         closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
     args = []
@@ -94,6 +146,40 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
         (out,) = interpret(closed.jaxpr, consts, args, RULES, graph)
     dtype = closed.out_avals[0].dtype
     return as_nodes(graph, out), dtype
+
+
+def emitted(graph: Graph, fn, arg_nodes, arg_shapes):
+    """The outputs of a function that builds its own expression (``fn.emit``, see the module
+    doc) as a numpy object array of node numbers, or None when ``fn`` has no ``emit`` or its
+    ``emit`` declines (returns None)."""
+    emit = getattr(fn, "emit", None)
+    if emit is None:
+        return None
+    args = []
+    for nodes, shape in zip(arg_nodes, arg_shapes):
+        arr = np.empty(len(nodes), dtype=object)
+        arr[:] = [GraphScalar(graph, k) for k in nodes]
+        args.append(arr.reshape(shape))
+    with np.errstate(all="ignore"):  # constants such as 1/0 fold to inf, as in XLA
+        result = emit(*args)
+    if result is None:
+        return None
+    if isinstance(result, np.ndarray):
+        shape, values = result.shape, list(result.reshape(-1))
+    elif isinstance(result, (list, tuple)):
+        shape, values = (len(result),), list(result)
+    else:
+        shape, values = (), [result]
+    out = np.empty(len(values), dtype=object)
+    out[:] = [node_of(graph, v) for v in values]
+    return out.reshape(shape)
+
+
+def graph_native(fn) -> bool:
+    """Whether ``fn`` builds its own expression (``fn.graph_native``: a declarative model's
+    function, a :class:`GraphFunction`, a wrapper of one) rather than being a JAX callable
+    that is traced."""
+    return bool(getattr(fn, "graph_native", False))
 
 
 def translate(graph: Graph, fn, shape, extra=()):
@@ -148,5 +234,5 @@ def translate_or_refuse(graph: Graph, fn, shape, what, extra=()):
     return expr
 
 
-__all__ = ["GraphFunction", "untranslatable_message", "translate_or_refuse",
-           "trace_to_graph", "translate"]
+__all__ = ["FunctionOfSlice", "GraphFunction", "emitted", "graph_native", "untranslatable_message",
+           "translate_or_refuse", "trace_to_graph", "translate"]

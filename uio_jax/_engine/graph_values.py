@@ -4,6 +4,11 @@ A value is a numpy array of the variable's shape: **concrete** (a numeric dtype:
 of the model, an index, a literal) or **symbolic** (``dtype=object``: one graph node number
 per element). The rules (:mod:`.graph_rules`, :mod:`.graph_structural`, :mod:`.graph_loops`)
 share these helpers and raise these errors.
+
+:class:`GraphScalar` is the value a function that builds its own expression receives instead
+(:func:`uio_jax._engine.graph_trace.trace_to_graph`, ``emit``): one node with Python's
+arithmetic operators, making exactly the nodes the translation of the same JAX operations
+makes (a declarative model's expressions reach the graph without JAX).
 """
 
 import numpy as np
@@ -50,4 +55,106 @@ def elementwise(graph, fn, ins):
     return out
 
 
-__all__ = ["IndexOutOfRange", "Untranslatable", "as_nodes", "elementwise", "is_symbolic"]
+class GraphScalar:
+    """A node of a graph with Python's arithmetic operators: ``a + b``, ``a - b``, ``a * b``,
+    ``a / b``, ``-a``, ``a ** k`` and the elementary functions (:meth:`unary`,
+    :meth:`binary`) make the nodes the translation of the same JAX operations makes
+    (:mod:`.graph_rules`): a plain number operand becomes the constant ``graph.const(float)``,
+    ``a ** k`` with a Python int ``k`` is ``integer_pow`` (``ipow``), any other exponent
+    ``pow``; ``minimum``/``maximum`` select as JAX's ``min``/``max`` do.
+
+    Args:
+        graph: the :class:`~uio_jax._engine.graph.Graph`.
+        node: the node number.
+    """
+
+    __slots__ = ("graph", "node")
+    __array_ufunc__ = None  # numpy scalars defer to the reflected operators
+
+    def __init__(self, graph, node):
+        self.graph, self.node = graph, int(node)
+
+    def __repr__(self):
+        return f"GraphScalar({self.node})"
+
+    def _of(self, b) -> int:
+        return b.node if isinstance(b, GraphScalar) else self.graph.const(float(b))
+
+    def _new(self, node) -> "GraphScalar":
+        return GraphScalar(self.graph, node)
+
+    def __add__(self, b):
+        return self._new(self.graph.add(self.node, self._of(b)))
+
+    def __radd__(self, a):
+        return self._new(self.graph.add(self._of(a), self.node))
+
+    def __sub__(self, b):
+        return self._new(self.graph.sub(self.node, self._of(b)))
+
+    def __rsub__(self, a):
+        return self._new(self.graph.sub(self._of(a), self.node))
+
+    def __mul__(self, b):
+        return self._new(self.graph.mul(self.node, self._of(b)))
+
+    def __rmul__(self, a):
+        return self._new(self.graph.mul(self._of(a), self.node))
+
+    def __truediv__(self, b):
+        return self._new(self.graph.div(self.node, self._of(b)))
+
+    def __rtruediv__(self, a):
+        return self._new(self.graph.div(self._of(a), self.node))
+
+    def __neg__(self):
+        return self._new(self.graph.neg(self.node))
+
+    def __pos__(self):
+        return self
+
+    def __pow__(self, k):
+        if isinstance(k, int) and not isinstance(k, bool):
+            return self.ipow(k)
+        return self.binary("pow", k)
+
+    def __rpow__(self, a):
+        return self._new(self.graph.binary("pow", self._of(a), self.node))
+
+    def constant(self, value) -> "GraphScalar":
+        """The constant ``value`` as a node of this graph (``graph.const``)."""
+        return self._new(self.graph.const(value))
+
+    def ipow(self, k: int) -> "GraphScalar":
+        """``self ** k`` for an integer ``k`` (JAX's ``integer_pow``)."""
+        return self._new(self.graph.ipow(self.node, int(k)))
+
+    def unary(self, op: str) -> "GraphScalar":
+        """The elementary function ``op`` (a graph operation: ``sin``, ``asin``, ...) of ``self``."""
+        return self._new(self.graph.unary(op, self.node))
+
+    def binary(self, op: str, b, *, swap: bool = False) -> "GraphScalar":
+        """``op(self, b)`` (``op(b, self)`` with ``swap``) for a graph operation of two operands."""
+        a, b = (self._of(b), self.node) if swap else (self.node, self._of(b))
+        return self._new(self.graph.binary(op, a, b))
+
+    def extreme(self, b, *, greater: bool, swap: bool = False) -> "GraphScalar":
+        """``max(self, b)`` (``greater``) or ``min(self, b)`` as JAX's ``max``/``min`` are
+        translated (``swap``: the operands in the order ``(b, self)``)."""
+        a, b = (self._of(b), self.node) if swap else (self.node, self._of(b))
+        g = self.graph
+        return self._new(g.select(g.binary("gt" if greater else "lt", a, b), b, a))
+
+
+def node_of(graph, value) -> int:
+    """The node of a value an ``emit`` returned: a :class:`GraphScalar` of ``graph``, or a
+    number (its constant node, as :func:`as_nodes` makes it)."""
+    if isinstance(value, GraphScalar):
+        if value.graph is not graph:
+            raise ValueError("a GraphScalar of another graph")
+        return value.node
+    return graph.const(float(value))
+
+
+__all__ = ["GraphScalar", "IndexOutOfRange", "Untranslatable", "as_nodes", "elementwise", "is_symbolic",
+           "node_of"]

@@ -18,13 +18,12 @@ rotations ``(13, 15, 26, 6)`` and ``(17, 29, 16, 24)`` alternately, and key inje
 ``x0 += k[(i+1) % 3], x1 += k[(i+2) % 3] + i + 1``.
 """
 
-import numbers
-
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._errors import OptionError
+from .seeds import SEED_BOUND as SEED_BOUND  # the seed rule, imported from here too
+from .seeds import check_seed as check_seed
 
 _U32 = np.uint32
 _ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
@@ -59,26 +58,6 @@ def threefry2x32(k0, k1, x0, x1):
         x0 = lax.add(x0, ks[(i + 1) % 3])
         x1 = lax.add(x1, lax.add(ks[(i + 2) % 3], _U32(i + 1)))
     return x0, x1
-
-
-#: Seeds are integers in ``[0, SEED_BOUND)``: a key holds 64 bits.
-SEED_BOUND = 2**64
-
-
-def check_seed(seed, what: str = "seed") -> int:
-    """``seed`` as a Python int, checked to be an integer in ``[0, 2**64)``: the one check
-    of every seed (the analyses' samples, the Monte Carlo trials, the command line).
-
-    Args:
-        seed: an integer (numpy integers too; not a bool).
-        what: its name in the message (``"--seed"`` on the command line).
-
-    Raises:
-        OptionError: not an integer, negative, or ``>= 2**64``.
-    """
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= seed < SEED_BOUND:
-        raise OptionError(f"{what} must be a non-negative integer below 2**64, got {seed!r}")
-    return int(seed)
 
 
 def seed_key(seed: int) -> np.ndarray:

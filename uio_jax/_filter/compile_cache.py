@@ -70,16 +70,27 @@ def enable_compile_cache(path: str | os.PathLike | None = None) -> str:
     """
     import jax
 
-    path = os.path.abspath(os.path.expanduser(os.fspath(path))) if path is not None else default_cache_dir()
-    if os.path.exists(path) and not os.path.isdir(path):  # makedirs would say only "File exists"
-        raise NotADirectoryError(errno.ENOTDIR, "not a directory (the compilation cache needs one)", path)
-    os.makedirs(path, exist_ok=True)
+    path = prepare_cache_dir(path)
     changed = jax.config.values.get(_DIR_KEY) != path
     for key, value in _SETTINGS.items():
         jax.config.update(key, value)
     jax.config.update(_DIR_KEY, path)
     if changed:
         _reset_jax_cache()
+    return path
+
+
+def prepare_cache_dir(path: str | os.PathLike | None = None) -> str:
+    """The cache directory ``path`` (default :func:`default_cache_dir`), absolute and created,
+    without touching JAX (the command line's commands that compile nothing check it so).
+
+    Raises:
+        OSError: the directory cannot be created (``NotADirectoryError``: a file is there).
+    """
+    path = os.path.abspath(os.path.expanduser(os.fspath(path))) if path is not None else default_cache_dir()
+    if os.path.exists(path) and not os.path.isdir(path):  # makedirs would say only "File exists"
+        raise NotADirectoryError(errno.ENOTDIR, "not a directory (the compilation cache needs one)", path)
+    os.makedirs(path, exist_ok=True)
     return path
 
 

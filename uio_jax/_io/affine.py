@@ -28,14 +28,11 @@ Inputs that appear in no equation are dropped, with a note.
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-import jax
-import jax.numpy as jnp
-import numpy as np
-
+from .._model.joint import Coordinate
 from .affinity import INPUT_BOX, box, compile_rows, inputs_in_nonsmooth, nonaffine_pattern, promotion_reasons, vanishes
 from .expression_functions import to_function
 from .expressions import Expr, names_of
-from .jets import JET_OPS, Jet, jet_parts
+from .model_functions import GeneralDrift, InputField, Joined, RowsFunction, UnitField
 
 
 # ----------------------------------------------------------------------------- split
@@ -90,61 +87,22 @@ def system_callables(with_params: bool, with_time: bool):
 
     ``z`` is ``[x; p; t]`` (shape ``(n + P + 1,)``; ``p`` only ``with_params``, ``t`` only
     ``with_time``); the callable takes ``x`` (shape ``(n,)``), ``(x, p)``, ``(x, t)`` or
-    ``(x, p, t)`` (``t`` a scalar) and returns ``fn`` of their concatenation. On numpy
-    arguments the concatenation is numpy (one-off evaluations without JAX dispatch).
+    ``(x, p, t)`` (``t`` a scalar) and returns ``fn`` of their concatenation
+    (:class:`~uio_jax._io.model_functions.Joined`). On numpy arguments the concatenation is
+    numpy (one-off evaluations without JAX dispatch).
     """
-
-    def join(*parts):
-        if all(isinstance(a, (np.ndarray, np.generic)) for a in parts):
-            return np.concatenate([np.reshape(a, -1) for a in parts]).astype(np.float64)
-        return jnp.concatenate([jnp.reshape(jnp.asarray(a), -1) for a in parts])
-
-    def wrap(fn):
-        if with_params and with_time:
-            def f(x, p, t):
-                return fn(join(x, p, t))
-        elif with_params:
-            def f(x, p):
-                return fn(join(x, p))
-        elif with_time:
-            def f(x, t):
-                return fn(join(x, t))
-        else:
-            return fn
-        return f
-
-    return wrap
-
-
-def _stack_jax(values, dtype):
-    dtype = jnp.result_type(dtype, float)
-    return jnp.stack([jnp.asarray(v, dtype=dtype) for v in values])
-
-
-def _stack_numpy(values):
-    with np.errstate(all="ignore"):
-        return np.array([float(v) for v in values], dtype=np.float64)
+    arity = 1 + bool(with_params) + bool(with_time)
+    return (lambda fn: fn) if arity == 1 else (lambda fn: Joined(fn, arity))
 
 
 def vector_function(exprs: Mapping[str, Expr], rows: Sequence[str], names: Sequence[str], constants):
     """Compile per-row expressions into ``fn(z) -> (len(rows),)``; rows absent from ``exprs`` are 0.
 
     ``z`` (shape ``(len(names),)``) is read by ``names`` (see
-    :func:`uio_jax._io.expressions.to_function`); a numpy ``z`` is evaluated with numpy.
+    :func:`uio_jax._io.expressions.to_function`); a numpy ``z`` is evaluated with numpy
+    (:class:`~uio_jax._io.model_functions.RowsFunction`).
     """
-    fns = compile_rows(exprs, rows, names, constants)
-
-    def fn(z):
-        if isinstance(z, np.ndarray):
-            from .expression_functions import NUMPY_OPS
-
-            with np.errstate(all="ignore"):
-                return _stack_numpy([0.0 if f is None else f(z, NUMPY_OPS) for f in fns])
-        from .expression_functions import JAX_OPS
-
-        return _stack_jax([0.0 if f is None else f(z, JAX_OPS) for f in fns], z.dtype)
-
-    return fn
+    return RowsFunction(compile_rows(exprs, rows, names, constants))
 
 
 def split_general(states, dynamics, outputs, known_inputs, unknown_inputs, params, constants,
@@ -204,7 +162,6 @@ def _fresh(name, taken):
 def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted, reasons, params,
               constants, domain, angles, notes):
     pnames = tuple(params)
-    n0 = len(states)
     taken = set(states) | set(pnames) | set(known_inputs) | set(unknown_inputs) | set(outputs) | set(constants)
     new_states = tuple(states) + promoted
     n = len(new_states)
@@ -212,55 +169,11 @@ def _assemble(states, dynamics, outputs, known_inputs, unknown_inputs, promoted,
     rest = tuple(v for v in known_inputs + unknown_inputs if v not in promoted)
     nrest = len(rest)
     fns = compile_rows(dynamics, states, znames + rest, constants)  # promoted inputs read their state
-
-    def rows_jax(z, r):
-        from .expression_functions import JAX_OPS
-
-        zz = jnp.concatenate([z, r])
-        return _stack_jax([0.0 if f is None else f(zz, JAX_OPS) for f in fns], z.dtype)
-
-    def pad(vec):
-        if n == n0:
-            return vec
-        if isinstance(vec, np.ndarray):
-            return np.concatenate([vec, np.zeros(n - n0)])
-        return jnp.concatenate([vec, jnp.zeros(n - n0, dtype=vec.dtype)])
-
-    def drift(z):
-        if isinstance(z, np.ndarray):
-            from .expression_functions import NUMPY_OPS
-
-            zz = np.concatenate([z, np.zeros(nrest)])
-            with np.errstate(all="ignore"):
-                return pad(_stack_numpy([0.0 if f is None else f(zz, NUMPY_OPS) for f in fns]))
-        return pad(rows_jax(z, jnp.zeros(nrest, dtype=z.dtype)))
-
-    def field_of(i):
-        def fi(z):
-            if isinstance(z, np.ndarray):  # one-off numpy evaluation: a first-order jet
-                zz = [np.float64(c) for c in z] + [Jet.seed(0.0, nrest, j) for j in range(nrest)]
-                with np.errstate(all="ignore"):
-                    cols = [jet_parts(0.0 if f is None else f(zz, JET_OPS), (), nrest)[1][i] for f in fns]
-                return pad(np.array(cols, dtype=np.float64))
-            r0 = jnp.zeros(nrest, dtype=z.dtype)
-            e = r0.at[i].set(1.0)
-            return pad(jax.jvp(lambda r: rows_jax(z, r), (r0,), (e,))[1])
-
-        return fi
-
-    def unit(j):
-        def ej(z):
-            if isinstance(z, np.ndarray):
-                out = np.zeros(n)
-                out[j] = 1.0
-                return out
-            return jnp.zeros(n, dtype=jnp.result_type(z.dtype, float)).at[j].set(1.0)
-
-        return ej
-
+    drift = GeneralDrift(fns, nrest, n)
     return build_parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons, params, domain, angles,
-                  notes, taken, field_of=field_of, output_of=lambda e: to_function(e, znames, constants),
-                  unit=unit, drift=drift, has_drift=lambda boxes: bool(dynamics) and not vanishes(drift, boxes))
+                       notes, taken, field_of=lambda i: InputField(fns, nrest, n, i),
+                       output_of=lambda e: to_function(e, znames, constants), unit=lambda j: UnitField(n, j),
+                       drift=drift, has_drift=lambda boxes: bool(dynamics) and not vanishes(drift, boxes))
 
 
 def build_parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons, params, domain, angles, notes,
@@ -292,7 +205,7 @@ def build_parts(states, promoted, known_inputs, unknown_inputs, outputs, reasons
         notes.append(note)
         if v in known_inputs:
             known[d] = unit(n0 + j)
-            out_fns[y] = _reader(n0 + j)
+            out_fns[y] = Coordinate(n0 + j)  # a known input is measured
         else:
             unknown[d] = unit(n0 + j)
     boxes = [new_domain.get(s) or box(s, domain, angles, DEFAULT_BOX) for s in new_states]
@@ -321,10 +234,3 @@ def promotions(promoted, reasons, known_inputs, outputs, taken):
                     f"({d!r} a new unknown input; exact for a smooth {v})")
         out.append((v, d, y, note))
     return out
-
-
-def _reader(i):
-    def read(z):
-        return z[i] if isinstance(z, np.ndarray) else jnp.asarray(z[i])
-
-    return read

@@ -14,8 +14,6 @@ output, the same notes).
 import keyword
 from collections.abc import Mapping
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
@@ -191,6 +189,9 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
         raise ModelError(f"{_SOURCE}: {what} indexes outside {lengths}: {exc}") from None
     except Exception:  # numpy input not supported: the traced check decides
         pass
+    import jax  # the user's JAX callables
+    import jax.numpy as jnp
+
     specs = [jax.ShapeDtypeStruct((k,), jnp.float64) for k in (n, P, nk, nw)]
     with jax.enable_x64(True):
         try:

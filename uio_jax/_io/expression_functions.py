@@ -4,14 +4,16 @@ The tree is compiled to a JAX function by walking it once into nested closures o
 operations (:func:`to_function`); integer powers use ``lax.integer_pow`` (exact, and
 clean derivatives for negative bases). The closures take their operations as an argument
 (:class:`Ops`), so the same compiled tree also runs on numpy arrays (no JAX dispatch for
-one-off evaluations) and on the second-order jets of :mod:`uio_jax._io.affinity`.
+one-off evaluations), on the second-order jets of :mod:`uio_jax._io.affinity`, and on the
+nodes of the expression graph (:data:`GRAPH_OPS`: the function builds its own expression,
+the very nodes the translation of its JAX version makes, without importing JAX; JAX is
+imported the first time a compiled function is called on something that is not numpy).
 """
 
+import functools
 from collections.abc import Mapping, Sequence
 
-import jax.numpy as jnp
 import numpy as np
-from jax import lax
 
 from .._errors import ExpressionError
 from .expressions import ALIASES, CONSTANTS, MAX_INTEGER_POW, Binary, Call, Expr, Name, Num, Unary
@@ -43,9 +45,80 @@ def trig_funcs(m):
     }
 
 
-JAX_OPS = Ops(trig_funcs(jnp), lambda a, k: lax.integer_pow(jnp.asarray(a, dtype=float), k),
-              lambda a, b: jnp.power(jnp.asarray(a, dtype=float), b), jnp.minimum, jnp.maximum,
-              lambda a: jnp.asarray(a))
+@functools.cache
+def jax_ops() -> Ops:
+    """The :class:`Ops` of JAX (``jnp``; ``lax.integer_pow`` for integer powers), built (and
+    JAX imported) the first time it is asked for."""
+    import jax.numpy as jnp
+    from jax import lax
+
+    return Ops(trig_funcs(jnp), lambda a, k: lax.integer_pow(jnp.asarray(a, dtype=float), k),
+               lambda a, b: jnp.power(jnp.asarray(a, dtype=float), b), jnp.minimum, jnp.maximum,
+               lambda a: jnp.asarray(a))
+
+
+def is_graph_value(a) -> bool:
+    """Whether ``a`` is a node of the expression graph handed to a function that builds its own
+    expression (:class:`uio_jax._engine.graph_values.GraphScalar`), not a number."""
+    return hasattr(a, "unary")
+
+
+def _graph_unary(op, np_fn):
+    def f(a):
+        return a.unary(op) if is_graph_value(a) else np_fn(np.asarray(a))
+
+    return f
+
+
+def _graph_binary(op, np_fn):
+    def f(a, b):
+        if is_graph_value(a):
+            return a.binary(op, b)
+        if is_graph_value(b):
+            return b.binary(op, a, swap=True)
+        return np_fn(np.asarray(a), np.asarray(b))
+
+    return f
+
+
+def _graph_extreme(greater):
+    def f(a, b):
+        if is_graph_value(a):
+            return a.extreme(b, greater=greater)
+        if is_graph_value(b):
+            return b.extreme(a, greater=greater, swap=True)
+        return (np.maximum if greater else np.minimum)(a, b)
+
+    return f
+
+
+class _GraphMath:
+    """The numpy-like functions of :func:`trig_funcs` on graph nodes: each makes the node the
+    translation of the ``jnp`` function makes (``jnp.arcsin`` is ``asin``, ...); on numbers,
+    numpy (as the translation folds constants)."""
+
+    def __init__(self):
+        names = {"sin": "sin", "cos": "cos", "tan": "tan", "arcsin": "asin", "arccos": "acos",
+                 "arctan": "atan", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "arcsinh": "asinh",
+                 "arccosh": "acosh", "arctanh": "atanh", "exp": "exp", "log": "log", "sqrt": "sqrt",
+                 "abs": "abs", "sign": "sign"}
+        for name, op in names.items():
+            setattr(self, name, _graph_unary(op, getattr(np, name)))
+        self.arctan2 = _graph_binary("atan2", np.arctan2)
+
+
+def _graph_ipow(a, k):
+    return a.ipow(k) if is_graph_value(a) else np.asarray(a, dtype=np.float64) ** k
+
+
+def _graph_asarray(a):
+    return a if is_graph_value(a) else np.asarray(a, dtype=np.float64)
+
+
+#: The :class:`Ops` of the expression graph: a compiled tree run on graph nodes (see the
+#: module doc) returns its node (or a number for a constant).
+GRAPH_OPS = Ops(trig_funcs(_GraphMath()), _graph_ipow, _graph_binary("pow", np.power), _graph_extreme(False),
+                _graph_extreme(True), _graph_asarray)
 NUMPY_OPS = Ops(trig_funcs(np), lambda a, k: np.asarray(a, dtype=np.float64) ** k,
                 lambda a, b: np.power(np.asarray(a, dtype=np.float64), b), np.minimum, np.maximum,
                 lambda a: np.asarray(a, dtype=np.float64))
@@ -70,15 +143,35 @@ def to_function(expr: Expr, names: Sequence[str], constants: Mapping[str, float]
     Raises:
         ExpressionError: a name that is neither in ``names`` nor a constant.
     """
-    fn = compile_raw(expr, names, constants)
+    return TreeFunction(compile_raw(expr, names, constants))
 
-    def f(z):
+
+class TreeFunction:
+    """A compiled tree as a function of one array ``z`` (:func:`to_function`): numpy on a numpy
+    array, JAX on anything else, its own expression on graph nodes (:meth:`emit`).
+
+    Args:
+        raw: the compiled tree, ``raw(z, ops)`` (:func:`compile_raw`).
+    """
+
+    __slots__ = ("raw", "__weakref__")
+    #: builds its own expression (:mod:`uio_jax._engine.graph_trace`)
+    graph_native = True
+
+    def __init__(self, raw):
+        self.raw = raw
+
+    def __call__(self, z):
         if isinstance(z, np.ndarray):
             with np.errstate(all="ignore"):
-                return np.asarray(fn(z, NUMPY_OPS), dtype=np.float64)
-        return jnp.asarray(fn(z, JAX_OPS))
+                return np.asarray(self.raw(z, NUMPY_OPS), dtype=np.float64)
+        import jax.numpy as jnp
 
-    return f
+        return jnp.asarray(self.raw(z, jax_ops()))
+
+    def emit(self, z):
+        """The expression at ``z`` (graph nodes): a node, or a number for a constant."""
+        return self.raw(z, GRAPH_OPS)
 
 
 def compile_raw(expr: Expr, names: Sequence[str], constants: Mapping[str, float] | None = None):

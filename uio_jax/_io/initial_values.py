@@ -22,6 +22,13 @@ class ParameterExpression:
     def __call__(self, p):
         return self._fn(p)
 
+    #: its expression is built without JAX (:mod:`uio_jax._engine.graph_trace`)
+    graph_native = True
+
+    def emit(self, p):
+        """The expression at the parameters ``p`` (graph nodes)."""
+        return self._fn.emit(p)
+
 
 def initial_values(system, values) -> dict:
     """``{state: value}`` for ``uj.analyze(system, initial=...)`` from ``values`` (``state -> a

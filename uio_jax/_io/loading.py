@@ -91,9 +91,7 @@ def load_system(spec, *args, **kwargs) -> System:
             raise LoadError(f"{spec} {exit_message(exc)}") from None
     if not isinstance(obj, System):
         raise LoadError(f"{spec} did not give a uio_jax.System (got {type(obj).__name__})")
-    if not obj.name:
-        object.__setattr__(obj, "name", f"{os.path.basename(path)}:{name}")
-    return obj
+    return obj if obj.name else obj.with_name(f"{os.path.basename(path)}:{name}")
 
 
 def _sbml(spec, args, kwargs) -> System:

@@ -186,9 +186,7 @@ def load_model_file(path):
         if not msg.startswith(os.fspath(path)):
             msg = f"{os.fspath(path)}: {msg}"
         raise type(exc)(msg) from None
-    if not system.name:
-        object.__setattr__(system, "name", os.path.basename(os.fspath(path)))
-    return system
+    return system if system.name else system.with_name(os.path.basename(os.fspath(path)))
 
 
 def save_model(system, path) -> None:

@@ -9,11 +9,12 @@ System's own: its expressions are these nodes.
 """
 
 from .._engine.graph_trace import GraphFunction
+from .derivation import Derivation
 from .system import System, derived_system
 
 
 def graph_system(graph, states, outputs, *, known=None, unknown=None, drift=None, domain=None,
-                 angles=(), name="") -> System:
+                 angles=(), name="", known_coordinates=0) -> System:
     """A System on the ``graph.n`` coordinates of ``graph`` (the states, in order).
 
     Args:
@@ -23,6 +24,8 @@ def graph_system(graph, states, outputs, *, known=None, unknown=None, drift=None
         known, unknown: name -> field (a tuple of ``n`` nodes).
         drift: a tuple of ``n`` nodes, or None.
         domain, angles, name: as for :class:`System`.
+        known_coordinates: the trailing coordinates whose values are known
+            (:attr:`~uio_jax.System.known_coordinates`).
     """
     def field(nodes):
         return GraphFunction(graph, tuple(int(k) for k in nodes))
@@ -32,8 +35,9 @@ def graph_system(graph, states, outputs, *, known=None, unknown=None, drift=None
                         known={k: field(f) for k, f in (known or {}).items()},
                         unknown={k: field(f) for k, f in (unknown or {}).items()},
                         drift=None if drift is None else field(drift), domain=domain or {}, angles=angles,
-                        name=name)
-    return system.mark_derived(graph=graph)  # the System's expressions are the graph's nodes
+                        name=name,  # the System's expressions are the graph's nodes
+                        derivation=Derivation(known_coordinates=known_coordinates, graph=graph))
+    return system
 
 
 __all__ = ["graph_system"]

@@ -1,44 +1,104 @@
 """The parameter-free System on ``z = [x; p]`` of a System with parameters
 (:meth:`uio_jax.System.joint`): every field padded with ``p' = 0``, every callable reading
-``x = z[:n]``, ``p = z[n:]``."""
+``x = z[:n]``, ``p = z[n:]``.
 
-import jax.numpy as jnp
+The callables are small objects rather than closures: called on numpy arrays they compute
+with numpy, on JAX arrays with ``jax.numpy``, and when the user's function builds its own
+expression (a declarative model's, :mod:`uio_jax._engine.graph_trace`) so do they (``emit``),
+so that the joint System of a model file reaches the graph without JAX.
+"""
+
+import numpy as np
+
+from .._engine.graph_trace import graph_native
+from .derivation import Derivation
 
 
-def build_joint(self):
-    """The System on ``z = [x; p]`` of ``self`` (:meth:`uio_jax.System.joint`); it validates itself."""
+def append_constants(v, values):
+    """The vector ``v`` followed by the constants ``values``: numpy for a numpy ``v``, else
+    ``jax.numpy`` (the constants in ``v``'s dtype)."""
+    if isinstance(v, (np.ndarray, np.generic, float)):
+        return np.concatenate([np.reshape(np.asarray(v, dtype=np.float64), -1), np.asarray(values, dtype=np.float64)])
+    import jax.numpy as jnp
+
+    v = jnp.asarray(v)
+    return jnp.concatenate([v, jnp.asarray(values, dtype=v.dtype)])
+
+
+class PaddedFunction:
+    """``z -> fn(z[:n], z[n:])`` (``(z, t) -> fn(z[:n], z[n:], t)`` for a time-varying System;
+    ``fn(z[:n])`` without ``rest``), followed by ``pad`` zeros (a field's ``p' = 0``; 0 for an
+    output).
+
+    Args:
+        fn: the function of ``(x, p)`` (or ``(x, p, t)``; of ``x`` alone without ``rest``).
+        n: the number of coordinates ``x``.
+        pad: the number of zeros appended (the number of coordinates after ``x`` for a field,
+            0 for an output).
+        rest: whether ``fn`` also takes the coordinates after ``x`` (``p``).
+    """
+
+    __slots__ = ("fn", "n", "pad", "rest", "__weakref__")
+
+    def __init__(self, fn, n, pad, rest=True):
+        self.fn, self.n, self.pad, self.rest = fn, n, pad, rest
+
+    @property
+    def graph_native(self) -> bool:
+        """Whether ``fn`` builds its own expression (then so does this function)."""
+        return graph_native(self.fn)
+
+    def _args(self, z, t):
+        return (z[:self.n], z[self.n:], *t) if self.rest else (z[:self.n], *t)
+
+    def __call__(self, z, *t):
+        out = self.fn(*self._args(z, t))
+        return append_constants(out, [0.0] * self.pad) if self.pad else out
+
+    def emit(self, z, *t):
+        """The expression at ``z`` (and ``t``), when ``fn`` builds its own; else None."""
+        if not graph_native(self.fn):
+            return None
+        out = self.fn.emit(*self._args(z, t))
+        return out if not self.pad else list(out) + [0.0] * self.pad
+
+
+class Coordinate:
+    """``z -> z[i]``: one coordinate, measured (the time of the autonomous System, a jet of a
+    smooth known input, a promoted known input)."""
+
+    __slots__ = ("i", "__weakref__")
+    graph_native = True
+
+    def __init__(self, i):
+        self.i = int(i)
+
+    def __call__(self, z):
+        return z[self.i]
+
+    def emit(self, z):
+        """The coordinate's node."""
+        return z[self.i]
+
+
+def build_joint(self, symmetry_fields=None):
+    """The System on ``z = [x; p]`` of ``self`` (:meth:`uio_jax.System.joint`); it validates
+    itself. ``symmetry_fields``: the declared symmetries as fields of the coordinates the
+    analyses run on (:func:`uio_jax._model.symmetries.lifted_symmetries`), or None."""
     n, P = self.n, len(self.params)
-
-    if self.time is None:
-        def scalar(fn):
-            return lambda z: fn(z[:n], z[n:])
-
-        def vector(fn):
-            return lambda z: jnp.concatenate([fn(z[:n], z[n:]), jnp.zeros(P, dtype=z.dtype)])
-    else:  # a time-varying joint System: its callables take (z, t)
-        def scalar(fn):
-            return lambda z, t: fn(z[:n], z[n:], t)
-
-        def vector(fn):
-            return lambda z, t: jnp.concatenate([fn(z[:n], z[n:], t), jnp.zeros(P, dtype=z.dtype)])
-
-    joint = type(self)(  # System, without importing it back (no import cycle)
+    return type(self)(  # System, without importing it back (no import cycle)
         self.states + tuple(self.params),
-        {k: scalar(fn) for k, fn in self.outputs.items()},
-        known={k: vector(fn) for k, fn in self.known.items()},
-        unknown={k: vector(fn) for k, fn in self.unknown.items()},
-        drift=None if self.drift is None else vector(self.drift),
+        {k: PaddedFunction(fn, n, 0) for k, fn in self.outputs.items()},
+        known={k: PaddedFunction(fn, n, P) for k, fn in self.known.items()},
+        unknown={k: PaddedFunction(fn, n, P) for k, fn in self.unknown.items()},
+        drift=None if self.drift is None else PaddedFunction(self.drift, n, P),
         domain={**self.domain, **self.params},
         angles=self.angles,
         name=self.name,
         notes=self.notes,
         time=self.time,
+        derivation=Derivation(joint_params=tuple(self.params), symmetry_fields=symmetry_fields),
     )
-    joint.mark_derived(joint_params=tuple(self.params))
-    if self.time is not None:  # built before the joint knew its parameters: mark it too
-        joint.autonomous().mark_derived(joint_params=tuple(self.params))
-    object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
-    return joint
 
 
-__all__ = ["build_joint"]
+__all__ = ["Coordinate", "PaddedFunction", "append_constants", "build_joint"]

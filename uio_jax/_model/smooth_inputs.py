@@ -23,8 +23,11 @@ quantities), which is what the papers define.
 
 import weakref
 
-import jax.numpy as jnp
+import numpy as np
 
+from .._engine.graph_trace import graph_native
+from .derivation import Derivation
+from .joint import Coordinate, PaddedFunction
 from .naming import derivative_names
 from .system import DEFAULT_BOX, System, derived_system
 
@@ -70,29 +73,13 @@ def with_input_jets(system: System, order: int) -> System:
     N = system.n
     R = int(order)
     names = jet_names(system, R)
-    drift, fs = system.drift, tuple(system.known.values())
-
-    def g0(Z):
-        z, jets = Z[:N], Z[N:].reshape((mu, R + 1))
-        dz = jnp.zeros(N, dtype=Z.dtype) if drift is None else drift(z)
-        for i, f in enumerate(fs):
-            dz = dz + jets[i, 0] * f(z)
-        chain = jnp.concatenate([jets[:, 1:], jnp.zeros((mu, 1), dtype=Z.dtype)], axis=1)
-        return jnp.concatenate([dz, chain.reshape(-1)])
-
-    def pad_field(g):
-        return lambda Z: jnp.concatenate([g(Z[:N]), jnp.zeros(mu * (R + 1), dtype=Z.dtype)])
-
-    def pad_output(h):
-        return lambda Z: h(Z[:N])
-
-    outputs = {k: pad_output(h) for k, h in system.outputs.items()}
+    outputs = {k: PaddedFunction(h, N, 0, rest=False) for k, h in system.outputs.items()}
     jet_outputs = []
     for j, nm in enumerate(names):
         key = nm
         while key in outputs:
             key += "'"
-        outputs[key] = lambda Z, j=j: Z[N + j]
+        outputs[key] = Coordinate(N + j)
         jet_outputs.append(key)
     domain = dict(system.domain)
     domain.update({nm: DEFAULT_BOX for nm in names})
@@ -100,17 +87,54 @@ def with_input_jets(system: System, order: int) -> System:
         out = System(
             states=system.states + names,
             outputs=outputs,
-            unknown={k: pad_field(g) for k, g in system.unknown.items()},
-            drift=g0,
+            unknown={k: PaddedFunction(g, N, mu * (R + 1), rest=False) for k, g in system.unknown.items()},
+            drift=_JetDrift(system.drift, tuple(system.known.values()), N, R),
             domain=domain,
             angles=system.angles,
             name=system.name,
             notes=system.notes,
+            derivation=Derivation(known_coordinates=known_coordinates(system) + mu * (R + 1),
+                                  known_outputs=known_outputs(system) + tuple(jet_outputs)),
         )
-    out.mark_derived(known_coordinates=known_coordinates(system) + mu * (R + 1),
-                     known_outputs=known_outputs(system) + tuple(jet_outputs))
     _WITH_JETS[system][R] = out
     return out
+
+
+class _JetDrift:
+    """``Z -> [f0(z) + sum_i u_i^(0) f_i(z); u^(1); ..; u^(R); 0]`` per input, ``z = Z[:N]``
+    (``f0`` None: no drift)."""
+
+    __slots__ = ("drift", "fields", "N", "R", "__weakref__")
+
+    def __init__(self, drift, fields, N, R):
+        self.drift, self.fields, self.N, self.R = drift, fields, N, R
+
+    @property
+    def graph_native(self) -> bool:
+        return all(graph_native(f) for f in (self.drift, *self.fields) if f is not None)
+
+    def __call__(self, Z):
+        N, R, mu = self.N, self.R, len(self.fields)
+        if isinstance(Z, np.ndarray):
+            xp = np
+        else:
+            import jax.numpy as xp
+        z, jets = Z[:N], Z[N:].reshape((mu, R + 1))
+        dz = xp.zeros(N, dtype=Z.dtype) if self.drift is None else self.drift(z)
+        for i, f in enumerate(self.fields):
+            dz = dz + jets[i, 0] * f(z)
+        chain = xp.concatenate([jets[:, 1:], xp.zeros((mu, 1), dtype=Z.dtype)], axis=1)
+        return xp.concatenate([dz, chain.reshape(-1)])
+
+    def emit(self, Z):
+        if not self.graph_native:
+            return None
+        N, R, mu = self.N, self.R, len(self.fields)
+        z, jets = Z[:N], Z[N:].reshape((mu, R + 1))
+        dz = [0.0] * N if self.drift is None else list(self.drift.emit(z))
+        for i, f in enumerate(self.fields):
+            dz = [a + jets[i, 0] * b for a, b in zip(dz, f.emit(z))]
+        return dz + [v for i in range(mu) for v in (*jets[i, 1:], 0.0)]
 
 
 def known_coordinates(system: System) -> int:

@@ -15,8 +15,6 @@ It never moves time.
 
 from types import MappingProxyType
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
@@ -36,6 +34,11 @@ def check_symmetry_shapes(system) -> None:
         ModelError: it fails to trace, returns another shape, or a complex value, or it is
             NaN/inf at every one of a few states of the box (its centre and three others).
     """
+    if not system.symmetries:
+        return
+    import jax
+    import jax.numpy as jnp
+
     n, P = system.n, len(system.params)
     args = [jax.ShapeDtypeStruct((n,), jnp.float64)]
     if P:
@@ -65,6 +68,8 @@ def check_symmetry_shapes(system) -> None:
 def _probe_points(system):
     """The arguments of a System's functions at the centre of its box and three other fixed
     states of it (parameters and time likewise)."""
+    import jax.numpy as jnp
+
     lo, hi = system.box()  # the states
     boxes = [system.params[p] for p in system.params]  # parameters, then time
     if system.time is not None:
@@ -79,22 +84,21 @@ def _probe_points(system):
         yield args
 
 
-def attach(system) -> None:
-    """Give the System the analyses run on (:meth:`~uio_jax.System.autonomous`) the declared
-    symmetries as fields of its own coordinates (``z = [x; p; t]``: zero along time)."""
-    if not system.symmetries:
-        return
-    target = system.autonomous()
+def lifted_symmetries(system):
+    """The declared symmetries of a System with parameters or time as fields of the
+    coordinates its analyses run on (:meth:`~uio_jax.System.autonomous`, ``z = [x; p; t]``:
+    zero along time), name -> ``z (N,) -> (N,)``, read-only; None without symmetries or when
+    they are such fields already (no parameter, no time)."""
+    if not system.symmetries or (not system.params and system.time is None):
+        return None
     n, P, timed = system.n, len(system.params), system.time is not None
-    if target is system:
-        lifted = dict(system.symmetries)
-    else:
-        lifted = {k: _lift(fn, n, P, timed) for k, fn in system.symmetries.items()}
-    target.mark_derived(symmetry_fields=MappingProxyType(lifted))
+    return MappingProxyType({k: _lift(fn, n, P, timed) for k, fn in system.symmetries.items()})
 
 
 def _lift(fn, n, P, timed):
     def xi(z):
+        import jax.numpy as jnp
+
         args = [z[:n]] + ([z[n:n + P]] if P else []) + ([z[n + P]] if timed else [])
         v = fn(*args)
         return jnp.concatenate([v, jnp.zeros(1, dtype=z.dtype)]) if timed else v

@@ -20,11 +20,11 @@ with parameters, ``t`` a scalar of shape ``()``); the analyses run on the autono
 
 import contextlib
 import contextvars
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-import jax
 import numpy as np
 
 from .._engine.graph import Graph
@@ -42,11 +42,16 @@ from .arguments import (
     check_identifiers,
     check_input_names,
 )
-from .symmetries import as_symmetries, attach, check_symmetry_shapes
-from .validation import as_float, check_shapes, finite_notes
+from .derivation import USER_SYSTEM, Derivation
+from .symmetries import as_symmetries, check_symmetry_shapes, lifted_symmetries
+from .validation import check_shapes, finite_notes, promoted_functions
 
-Field = Callable[[jax.Array], jax.Array]
-Scalar = Callable[[jax.Array], jax.Array]
+#: ``x (n,) -> (n,)``: a vector field (a JAX callable, or a function that builds its own
+#: expression, :mod:`uio_jax._engine.graph_trace`)
+Field = Callable
+#: ``x (n,) -> ()``: an output
+Scalar = Callable
+_EMPTY = MappingProxyType({})
 
 #: True while a System is built from the functions of an already validated one (the EORC's
 #: extended system): the traced checks (shapes, NaN at sampled states) are skipped.
@@ -112,6 +117,10 @@ class System:
             ``[xi, g_j]`` a constant combination of the unknown-input fields); a verified
             one proves the coordinates it moves unobservable and lets the EORC stop once its
             bound is reached. A claim that fails is reported, never used.
+        derivation: keyword only, set by the package on the Systems it derives from
+            another one (:class:`~uio_jax._model.derivation.Derivation`: the joint and
+            autonomous Systems, the jets of smooth inputs, Systems of graph nodes, a renamed
+            copy); a user's System leaves the default.
 
     Raises:
         ModelError: a one-line message naming the problem (wrong length, non-scalar
@@ -139,8 +148,13 @@ class System:
     notes: tuple[str, ...] = ()
     time: str | None = None
     symmetries: Mapping[str, Field] = field(default_factory=dict)
+    derivation: Derivation = field(default=USER_SYSTEM, kw_only=True, repr=False)
 
     def __post_init__(self):
+        derivation = self.derivation
+        if not isinstance(derivation, Derivation):
+            raise ModelError(f"derivation must be a Derivation, got {type(derivation).__name__}")
+        origin = derivation.same_functions_as
         states = as_names(self.states, "states")
         if not states:
             raise ModelError("a System needs at least one state")
@@ -174,22 +188,33 @@ class System:
             raise ModelError("notes must be strings")
         object.__setattr__(self, "notes", notes)
         object.__setattr__(self, "symmetries", as_symmetries(self.symmetries))
+        # the expression graph of the functions and their translations (System.expression)
+        object.__setattr__(self, "_graph", derivation.graph if derivation.graph is not None else
+                           origin.expression_graph if origin is not None else Graph(len(states)))
+        object.__setattr__(self, "_expressions", origin._expressions if origin is not None else {})
         if not _DERIVED.get():
             promote = check_shapes(self)
-            if promote:
-                self._promote_to_float(promote)
+            for attr, value in promoted_functions(self, promote).items():
+                object.__setattr__(self, attr, value)
             check_symmetry_shapes(self)
         if params:
             from .joint import build_joint
 
-            object.__setattr__(self, "_joint", build_joint(self))  # validated there
+            joint = (origin.joint().with_name(self.name) if origin is not None
+                     else build_joint(self, lifted_symmetries(self)))  # validated there
+            object.__setattr__(self, "_joint", joint)
+            object.__setattr__(self, "notes", joint.notes)  # with the notes of its finiteness check
         elif time is not None:
             from .time import build_autonomous
 
-            object.__setattr__(self, "_autonomous", build_autonomous(self))  # validated there
+            auto = (origin.autonomous().with_name(self.name) if origin is not None else build_autonomous(
+                self, derivation.joint_params, lifted_symmetries(self) or derivation.symmetry_fields))
+            object.__setattr__(self, "_autonomous", auto)  # validated there
+            object.__setattr__(self, "notes", auto.notes)  # with the notes of its finiteness check
         elif not _DERIVED.get():
             object.__setattr__(self, "notes", finite_notes(self))
-        attach(self)
+        if origin is not None:  # taken over: not kept
+            object.__setattr__(self, "derivation", dataclasses.replace(derivation, same_functions_as=None))
 
     # ------------------------------------------------------------------ accessors
     @property
@@ -221,7 +246,7 @@ class System:
     def time_name(self) -> str | None:
         """Name of the time variable: ``time`` of a time-varying System, the name of the last
         state of the System returned by :meth:`autonomous` (time made a state), else ``None``."""
-        return self.time if self.time is not None else self.__dict__.get("_time_name")
+        return self.time if self.time is not None else self.derivation.time_name
 
     @property
     def known_coordinates(self) -> int:
@@ -231,7 +256,7 @@ class System:
         coordinate ``t``, with ``t' = 1``); 0 otherwise. The analyses keep the differentials
         of these coordinates in the codistribution and leave them out of the verdicts.
         """
-        return self.__dict__.get("_known_coordinates", 0)
+        return self.derivation.known_coordinates
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -245,58 +270,48 @@ class System:
         Empty for a user's System; set on the System returned by :meth:`joint` (and on its
         :meth:`autonomous`).
         """
-        return self.__dict__.get("_joint_params", ())
+        return tuple(self.derivation.joint_params)
 
     @property
     def known_outputs(self) -> tuple[str, ...]:
         """Names of the outputs that measure this System's known coordinates: the time output
         of :meth:`autonomous`, the jets of the known inputs of
         :func:`uio_jax._model.smooth_inputs.with_input_jets`; empty for a user's System."""
-        own = self.__dict__.get("_known_outputs")
+        own = self.derivation.known_outputs
         if own is not None:
             return tuple(own)
         name = self.time_name
         return (name,) if self.known_coordinates and name in self.outputs else ()
 
     @property
-    def expression_graph(self) -> Graph | None:
+    def expression_graph(self) -> Graph:
         """The expression graph (:class:`~uio_jax._engine.graph.Graph`) of this System's
-        functions: the one :meth:`expression` translates them into (None before the first
-        translation), or the graph a System built of graph nodes is made of
-        (:func:`uio_jax._model.graph_system.graph_system`)."""
-        return self.__dict__.get("_graph")
+        functions: the one :meth:`expression` translates them into, or the graph a System
+        built of graph nodes is made of (:func:`uio_jax._model.graph_system.graph_system`)."""
+        return self._graph
 
     @property
     def symmetry_fields(self) -> Mapping[str, Field]:
         """The declared symmetries as fields of this System's coordinates, on the System the
         analyses run on (:meth:`autonomous`): name -> ``z (N,) -> (N,)``; empty elsewhere
-        (:func:`uio_jax._model.symmetries.attach`)."""
-        return self.__dict__.get("_symmetry_fields", MappingProxyType({}))
+        (:func:`uio_jax._model.symmetries.lifted_symmetries`)."""
+        if self.time is not None:  # the analyses run on the autonomous System
+            return _EMPTY
+        if self.derivation.symmetry_fields is not None:
+            return self.derivation.symmetry_fields
+        return self.symmetries if not self.params else _EMPTY
 
-    def mark_derived(self, *, known_coordinates: int | None = None, time_name: str | None = None,
-                     joint_params: tuple | None = None, known_outputs: tuple | None = None,
-                     graph: Graph | None = None, symmetry_fields: Mapping | None = None) -> "System":
-        """Record what a System the package derives from another one is; returns ``self``.
-
-        Called by the module that builds it, right after building it (:meth:`joint`,
-        :meth:`autonomous`, the jets of smooth known inputs, Systems built of graph nodes,
-        the analyses' working Systems); a user's System keeps the defaults. Each argument
-        left None is not changed.
-
-        Args:
-            known_coordinates: :attr:`known_coordinates`.
-            time_name: :attr:`time_name` (time made the last state).
-            joint_params: :attr:`joint_param_names`.
-            known_outputs: :attr:`known_outputs`.
-            graph: :attr:`expression_graph`: the graph whose nodes the functions are.
-            symmetry_fields: :attr:`symmetry_fields`.
-        """
-        for key, value in (("_known_coordinates", known_coordinates), ("_time_name", time_name),
-                           ("_joint_params", joint_params), ("_known_outputs", known_outputs),
-                           ("_graph", graph), ("_symmetry_fields", symmetry_fields)):
-            if value is not None:
-                object.__setattr__(self, key, value)
-        return self
+    def with_name(self, name: str) -> "System":
+        """This System under another ``name``: the same functions, their translations into the
+        graph, its joint and autonomous Systems renamed (nothing is validated or traced
+        again); ``self`` when the name is already ``name``."""
+        if not isinstance(name, str):
+            raise ModelError(f"name must be a string, got {type(name).__name__}")
+        if name == self.name:
+            return self
+        with derived_system():  # the same (validated) functions
+            return dataclasses.replace(self, name=name, derivation=dataclasses.replace(
+                self.derivation, same_functions_as=self))
 
     def joint(self) -> "System":
         """The parameter-free System on ``z = [x; p]`` that the analyses run on.
@@ -329,7 +344,8 @@ class System:
         """
         if self.time is None:
             return self.joint()
-        return self.joint()._autonomous
+        joint = self.joint()
+        return joint._autonomous
 
     def with_known(self, names) -> "System":
         """A copy where the unknown inputs ``names`` are treated as known inputs."""
@@ -377,24 +393,8 @@ class System:
                 the function in the message.
             IndexOutOfRange: ``fn`` indexes the state past its end (a constant index).
         """
-        table = self.__dict__.get("_expressions")
-        if table is None:
-            table = {}
-            object.__setattr__(self, "_expressions", table)
+        table = self._expressions
         key = (id(fn), tuple(shape))
         if key not in table:
-            if "_graph" not in self.__dict__:
-                object.__setattr__(self, "_graph", Graph(self.n))
             table[key] = (fn, translate_or_refuse(self._graph, fn, shape, what))
         return table[key][1]
-
-    def _promote_to_float(self, which):
-        """Wrap the functions named in ``which`` (integer/boolean results) to return floats."""
-        for attr, kind in (("outputs", "output"), ("known", "known field"), ("unknown", "unknown field")):
-            table = getattr(self, attr)
-            new = {k: as_float(fn) if f"{kind} {k!r}" in which else fn for k, fn in table.items()}
-            object.__setattr__(self, attr, MappingProxyType(new))
-        if "drift" in which:
-            object.__setattr__(self, "drift", as_float(self.drift))
-
-

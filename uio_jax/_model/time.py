@@ -16,15 +16,60 @@ out of their verdicts. This is exact: along any trajectory of the time-varying s
 ``t(s) = t0 + s`` is the solution of ``t' = 1`` and ``t0`` is known.
 """
 
-import jax.numpy as jnp
+import numpy as np
+
+from .._engine.graph_trace import graph_native
+from .derivation import Derivation
+from .joint import Coordinate, append_constants
 
 
-def build_autonomous(system):
+class TimedFunction:
+    """``z -> fn(z[:n], z[n])`` (the time is the last coordinate), followed by the constants
+    ``tail`` (a field's ``t' = 0``, the drift's ``t' = 1``; none for an output); ``fn`` None:
+    no drift, ``z -> [0, .., 0] + tail``. Computes with numpy on numpy arrays, with
+    ``jax.numpy`` on JAX arrays, and builds its own expression (``emit``) when ``fn`` does
+    (:mod:`uio_jax._engine.graph_trace`).
+    """
+
+    __slots__ = ("fn", "n", "tail", "__weakref__")
+
+    def __init__(self, fn, n, tail=()):
+        self.fn, self.n, self.tail = fn, n, tuple(tail)
+
+    @property
+    def graph_native(self) -> bool:
+        """Whether ``fn`` builds its own expression (then so does this function)."""
+        return self.fn is None or graph_native(self.fn)
+
+    def __call__(self, z):
+        if self.fn is None:
+            if isinstance(z, np.ndarray):
+                return append_constants(np.zeros(self.n), self.tail)
+            import jax.numpy as jnp
+
+            return append_constants(jnp.zeros(self.n, dtype=jnp.result_type(z.dtype, float)), self.tail)
+        out = self.fn(z[:self.n], z[self.n])
+        return append_constants(out, self.tail) if self.tail else out
+
+    def emit(self, z):
+        """The expression at ``z``, when ``fn`` builds its own; else None."""
+        if self.fn is None:
+            return [0.0] * self.n + list(self.tail)
+        if not graph_native(self.fn):
+            return None
+        out = self.fn.emit(z[:self.n], z[self.n])
+        return list(out) + list(self.tail) if self.tail else out
+
+
+def build_autonomous(system, joint_params=(), symmetry_fields=None):
     """The autonomous System on ``z = [x; t]`` of a parameter-free time-varying System.
 
     Args:
         system: a :class:`~uio_jax.System` with ``time`` set and no ``params`` (the joint
             System of a time-varying System with parameters), ``n`` states.
+        joint_params: the coordinates of ``x`` that are parameters of the user's model (the
+            joint System's :attr:`~uio_jax.System.joint_param_names`).
+        symmetry_fields: the declared symmetries as fields of ``[x; t]``, or None.
 
     Returns:
         A System with ``n + 1`` states (``system.states`` then the time name), no params, no
@@ -32,48 +77,28 @@ def build_autonomous(system):
         ``[f_i(x, t); 0]``, outputs ``h(x, t)`` and ``t`` (named like the time variable),
         domain the state boxes then the time box, the same angles, name and notes. Its
         ``known_coordinates`` is 1 and ``time_name`` the time name. It validates itself (its
-        finiteness check draws ``t`` in the time box); ``system.notes`` receives the notes of
-        that check.
+        finiteness check draws ``t`` in the time box); its notes are ``system.notes`` and
+        those of that check.
     """
     if system.time is None or system.params:
         raise ValueError("build_autonomous takes a time-varying System without params")
     n = system.n
     time = system.time
-
-    def scalar(fn):
-        return lambda z: fn(z[:n], z[n])
-
-    def vector(fn):
-        def f(z):
-            v = jnp.asarray(fn(z[:n], z[n]))
-            return jnp.concatenate([v, jnp.zeros(1, dtype=v.dtype)])
-
-        return f
-
-    f0 = system.drift
-
-    def drift(z):
-        if f0 is None:
-            return jnp.zeros(n + 1, dtype=jnp.result_type(z.dtype, float)).at[n].set(1.0)
-        v = jnp.asarray(f0(z[:n], z[n]))
-        return jnp.concatenate([v, jnp.ones(1, dtype=v.dtype)])
-
-    def clock(z):
-        return jnp.asarray(z[n])
-
-    outputs = {k: scalar(fn) for k, fn in system.outputs.items()}
-    outputs[time] = clock
-    auto = type(system)(  # System, without importing it back (no import cycle)
+    outputs = {k: TimedFunction(fn, n) for k, fn in system.outputs.items()}
+    outputs[time] = Coordinate(n)  # the time, measured
+    return type(system)(  # System, without importing it back (no import cycle)
         system.states + (time,),
         outputs,
-        known={k: vector(fn) for k, fn in system.known.items()},
-        unknown={k: vector(fn) for k, fn in system.unknown.items()},
-        drift=drift,
+        known={k: TimedFunction(fn, n, (0.0,)) for k, fn in system.known.items()},
+        unknown={k: TimedFunction(fn, n, (0.0,)) for k, fn in system.unknown.items()},
+        drift=TimedFunction(system.drift, n, (1.0,)),
         domain={**{s: system.domain[s] for s in system.states}, time: system.time_box},
         angles=system.angles,
         name=system.name,
         notes=system.notes,
+        derivation=Derivation(known_coordinates=1, time_name=time, joint_params=tuple(joint_params),
+                              symmetry_fields=symmetry_fields),
     )
-    auto.mark_derived(known_coordinates=1, time_name=time)
-    object.__setattr__(system, "notes", auto.notes)  # with the notes of its finiteness check
-    return auto
+
+
+__all__ = ["TimedFunction", "build_autonomous"]

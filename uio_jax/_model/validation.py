@@ -4,16 +4,18 @@
 expression graph (a primitive with no rule, an index past the state); :func:`finite_notes`
 evaluates every function at sampled states of the box (numpy over the graph: nothing is
 compiled). :class:`~uio_jax.System` applies what they return (floats for integer results,
-notes); they write nothing on the System.
+notes); they write nothing on the System. A function that builds its own expression (a
+declarative model's, :mod:`uio_jax._engine.graph_trace`) is only translated: its shape is
+that of its expression and its values are float64, so JAX is not imported for it.
 """
 
-import jax
-import jax.numpy as jnp
+from types import MappingProxyType
+
 import numpy as np
 
 from .._engine.graph import Graph
 from .._engine.graph_numpy import evaluate
-from .._engine.graph_trace import translate_or_refuse
+from .._engine.graph_trace import graph_native, translate_or_refuse
 from .._engine.graph_values import IndexOutOfRange
 from .._errors import ModelError
 
@@ -72,6 +74,24 @@ def check_shapes(system) -> set:
     # functions of (x, p) or (x, t) are translated into one scratch graph of [x; p; t]
     scratch = (Graph(system.n + len(system.params) + (system.time is not None))
                if system.params or system.time is not None else None)
+    traced = []
+    for what, fn, expected in named_functions(system):
+        if graph_native(fn):  # builds its own expression: its translation checks its shape
+            _check_index_range(system, what, fn, expected, scratch)
+        else:
+            traced.append((what, fn, expected))
+    if traced:
+        promote = _check_traced(system, traced, scratch)
+    return promote
+
+
+def _check_traced(system, traced, scratch) -> set:
+    """:func:`check_shapes` of the JAX callables ``traced`` (``(what, fn, shape)``): traced
+    once each (``jax.eval_shape``), then translated."""
+    import jax
+    import jax.numpy as jnp
+
+    promote = set()
     args = [jax.ShapeDtypeStruct((system.n,), jnp.float64)]
     on = f"a state vector of length {system.n}"
     hint = "(with params, every function takes (x, p))"
@@ -85,7 +105,7 @@ def check_shapes(system) -> set:
               else f"(x, {system.time}) of shapes ({system.n},), ()")
         hint = f"(with time {system.time!r}, every function takes {sig})"
     with jax.enable_x64(True):
-        for what, fn, expected in named_functions(system):
+        for what, fn, expected in traced:
             try:
                 out = jax.eval_shape(fn, *args)
             except Exception as exc:  # the user's function fails to trace
@@ -182,10 +202,30 @@ def _percent(fraction: float) -> str:
     return f"{pct:.2g}" if pct < 10 else f"{pct:.0f}"
 
 
+def promoted_functions(system, which) -> dict:
+    """The functions of ``system`` named in ``which`` (:func:`check_shapes`: integer or
+    boolean results) wrapped to return floats (:func:`as_float`): attribute -> its new value
+    (``outputs``, ``known``, ``unknown``: read-only mappings; ``drift``); empty when none."""
+    out = {}
+    if not which:
+        return out
+    for attr, kind in (("outputs", "output"), ("known", "known field"), ("unknown", "unknown field")):
+        table = getattr(system, attr)
+        if any(f"{kind} {k!r}" in which for k in table):
+            out[attr] = MappingProxyType({k: as_float(fn) if f"{kind} {k!r}" in which else fn
+                                          for k, fn in table.items()})
+    if "drift" in which:
+        out["drift"] = as_float(system.drift)
+    return out
+
+
 def as_float(fn):
     """``fn`` with its integer or boolean result converted to float (float64 under x64)."""
 
     def f(*args):
+        import jax
+        import jax.numpy as jnp
+
         out = fn(*args)
         if all(isinstance(a, np.ndarray) for a in args) and not isinstance(out, jax.Array):
             return np.asarray(out, dtype=np.float64)
@@ -196,5 +236,4 @@ def as_float(fn):
 
 
 __all__ = ["CHECK_SAMPLES", "MORE_SAMPLES", "SPARSE_FRACTION", "as_float", "check_shapes", "check_traced_output",
-           "finite_notes",
-           "named_functions"]
+           "finite_notes", "named_functions", "promoted_functions"]

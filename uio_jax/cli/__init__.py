@@ -3,10 +3,12 @@
 ``main(argv) -> int`` returns the exit code: 0 on success, 2 on bad input (one line on
 stderr, never a traceback from inside JAX), 1 when a batch has failures.
 
-All three use JAX's persistent compilation cache (:func:`uio_jax.enable_compile_cache`;
-``--cache-dir`` moves it, ``--no-cache`` turns it off) for the duration of the command: a
-second Monte Carlo of the same experiment with as many trials skips XLA compilation (the
-analyses compile nothing). ``--no-cache`` with ``--cache-dir`` is a usage error.
+``batch`` and ``montecarlo`` use JAX's persistent compilation cache
+(:func:`uio_jax.enable_compile_cache`; ``--cache-dir`` moves it, ``--no-cache`` turns it off)
+for the duration of the command: a second Monte Carlo of the same experiment with as many
+trials skips XLA compilation. ``analyze`` and ``save-model`` compile nothing (the analyses
+evaluate the expression graph): they check the directory and leave JAX alone, so that a model
+file is analysed without importing JAX. ``--no-cache`` with ``--cache-dir`` is a usage error.
 
 Every option is checked before any work (:func:`uio_jax._analysis.options.check_options`;
 the memory a run needs, :mod:`uio_jax._analysis.decisions.memory`, as soon as its size is known).
@@ -27,6 +29,9 @@ from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cac
 EXIT_STDOUT_CLOSED = 141
 
 COMMANDS = {"analyze": analyze, "batch": batch, "montecarlo": montecarlo, "save-model": save_model}
+#: The commands that may compile XLA programs (the Monte Carlo; a batch keeps its timings in
+#: the cache directory): the others only check the cache directory (:func:`compile_cache`).
+COMPILING = ("batch", "montecarlo")
 
 
 def _build_parser():
@@ -79,7 +84,7 @@ def main(argv=None) -> int:
         check_cache_options(args)  # a usage error before any side effect
         if args.command == "montecarlo":
             montecarlo.split_host_devices()  # before anything starts JAX's backend
-        with compile_cache(args):
+        with compile_cache(args, compiles=args.command in COMPILING):
             try:
                 return COMMANDS[args.command].run(args)
             except SystemExit as exc:  # a model or experiment function JAX traced in the run

@@ -49,20 +49,27 @@ def check_cache_options(args):
 
 
 @contextlib.contextmanager
-def compile_cache(args):
+def compile_cache(args, compiles=True):
     """JAX's persistent compilation cache for the command, unless ``--no-cache``.
 
     An unusable default directory only costs the cache (one warning line); an unusable
     ``--cache-dir`` is an error, and so is ``--cache-dir`` with ``--no-cache``
-    (:func:`check_cache_options`).
+    (:func:`check_cache_options`). A command that compiles nothing (``compiles`` False:
+    ``analyze``, ``save-model``; the analyses evaluate the expression graph with numpy) only
+    checks the directory and leaves JAX alone: it does not import JAX for a model that is not
+    a Python program.
     """
     from .._filter.compile_cache import compile_cache as use_cache
+    from .._filter.compile_cache import prepare_cache_dir
 
     check_cache_options(args)
     with contextlib.ExitStack() as stack:
         if not args.no_cache:
             try:
-                stack.enter_context(use_cache(args.cache_dir))
+                if compiles:
+                    stack.enter_context(use_cache(args.cache_dir))
+                else:
+                    prepare_cache_dir(args.cache_dir)
             except OSError as exc:
                 if args.cache_dir:
                     raise

@@ -6,7 +6,7 @@ import os
 import sys
 import warnings
 
-from .._engine.threefry import check_seed
+from .._engine.seeds import check_seed
 from .._errors import OptionError
 from .._io.experiment_loading import load_experiment
 from .._model.experiment import TimeScaleWarning

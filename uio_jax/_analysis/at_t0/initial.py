@@ -54,6 +54,7 @@ from ..._calculus.generators import Node, builder_for
 from ..._engine import graph_exact
 from ..._engine.graph import Graph, exact_literal
 from ..._engine.graph_elementary import Singular
+from ..._engine.graph_trace import FunctionOfSlice
 from ..._errors import ModelError, OptionError
 from ..recursions.series import GraphCoefficients
 from ..results.evidence import Finding
@@ -245,7 +246,7 @@ class Experiment:
         if isinstance(v.value, str):
             return p_nodes[params.index(v.value)]
         fn = v.value
-        expr = builder.function(f"initial value of {v.state}", lambda z: fn(z[ns:])).expr
+        expr = builder.function(f"initial value of {v.state}", FunctionOfSlice(fn, ns)).expr
         return target.import_nodes(builder.graph, [expr], [target.zero] * ns + p_nodes)[0]
 
     def order(self, k: int) -> list:

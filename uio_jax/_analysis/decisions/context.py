@@ -10,7 +10,6 @@ samples (:meth:`Context.certify`).
 
 import dataclasses
 
-import jax
 import numpy as np
 
 from ..._calculus.generators import Node, builder_for
@@ -65,15 +64,14 @@ class Context:
         #: where the plan made one: :func:`uio_jax._analysis.plan.plan`)
         self.settler = new_settler(system, seed, prob_threshold) if settler is None else settler
         self.prob_threshold = prob_threshold
-        with jax.enable_x64(True):
-            xs_all = sample_states(system, samples, seed)
-            exact = self.settler.arithmetic(model_roots(system, self.builder)) is Arithmetic.EXACT
-            wanted = screen_samples(system.n) if exact else DECISION_SAMPLES
-            #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
-            #: sample is dropped (counted in the certificate), even where their gradients are
-            #: finite (a NaN chosen by a ``where``)
-            self.defined = self._defined(xs_all)
-            self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
+        xs_all = sample_states(system, samples, seed)
+        exact = self.settler.arithmetic(model_roots(system, self.builder)) is Arithmetic.EXACT
+        wanted = screen_samples(system.n) if exact else DECISION_SAMPLES
+        #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
+        #: sample is dropped (counted in the certificate), even where their gradients are
+        #: finite (a NaN chosen by a ``where``)
+        self.defined = self._defined(xs_all)
+        self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
 
     def _defined(self, xs_all):
         """``(S,)``: whether the outputs and fields are finite at each sample."""

@@ -11,8 +11,6 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Protocol
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ..._engine import graph_exact
@@ -189,8 +187,7 @@ class SampledSpace(Space):
                 raise ModelError(f"the time must be a finite number, got {at!r}")
             fill[0] = float(at)
         X = np.concatenate([x, fill])
-        with jax.enable_x64(True):
-            g = self._ctx.builder.gradients(self._nodes, jnp.asarray(X)[None])[0]
+        g = self._ctx.builder.gradients(self._nodes, np.asarray(X, dtype=np.float64)[None])[0]
         if not np.isfinite(g).all():
             raise ModelError("the codistribution is not defined at this state (NaN/inf)")
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
@@ -240,8 +237,7 @@ class SampledSpace(Space):
         domain = system.domain
         width = np.array([float(domain[v][1]) - float(domain[v][0]) if v in domain else 1.0
                           for v in system.states])
-        with jax.enable_x64(True):
-            g = np.asarray(self._ctx.builder.gradients(self._nodes, jnp.asarray(full)[None])[0])
+        g = np.asarray(self._ctx.builder.gradients(self._nodes, full[None])[0])
         if not np.isfinite(g).all():
             return 0.0
         g = g * width
@@ -307,6 +303,9 @@ def function_node(builder, fn, n, N):
     """
     if not callable(fn):
         raise ModelError(f"is_observable needs a callable x -> scalar, got {type(fn).__name__}")
+    import jax  # the user's JAX callable
+    import jax.numpy as jnp
+
     with jax.enable_x64(True):
         try:
             out = jax.eval_shape(fn, jax.ShapeDtypeStruct((n,), jnp.float64))

@@ -29,7 +29,6 @@ or one not made rational.
 
 import dataclasses
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..._calculus.generators import builder_for
@@ -239,7 +238,7 @@ class _Field:
     def callable(self):
         terms = self.terms
 
-        def xi(z):
+        def body(z):  # Python's operators only: runs on numpy, JAX and graph values alike
             comps = []
             for tt in terms:
                 acc = 0.0 * z[0]
@@ -250,8 +249,16 @@ class _Field:
                             m = m * z[j] ** k
                     acc = acc + m
                 comps.append(acc)
-            return jnp.stack(comps)
+            return comps
 
+        def xi(z):
+            if isinstance(z, np.ndarray):
+                return np.stack(body(z))
+            import jax.numpy as jnp
+
+            return jnp.stack(body(z))
+
+        xi.emit, xi.graph_native = body, True  # its expression without JAX (graph_trace)
         return xi
 
     def components(self, names) -> dict:

@@ -61,7 +61,6 @@ generic rank is the same on every open set of the extended space.
 
 import time
 
-import jax
 import numpy as np
 
 from ..._errors import ModelError
@@ -424,31 +423,30 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     K = default_k_max(system) if k_max is None else int(k_max)
     smooth = known_inputs == "smooth" and bool(system.known)
     working = with_input_jets(system, K - 1) if smooth else system
-    with jax.enable_x64(True):
-        run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
-                                           k_max=K, early_stop=k_max is None, analysed=system,
-                                           prob_threshold=prob_threshold)
-        ctx = run.ctx
-        # the EORC is monotone in k: the answer is the one of the last order whose
-        # decisions are all certified (float64 or beyond); later orders are reported, not used
-        uncertain = [st.m for st in history if st.extra["undecided"]]
-        k_used = uncertain[0] - 1 if uncertain and uncertain[0] > 0 else k
-        if k_used < k:
-            at = history[k_used]
-            dropped = ctx.codist.record.escalations[at.extra["escalations"]:]
-            ctx.codist.record.escalations = ctx.codist.record.escalations[:at.extra["escalations"]]
-            ctx.certify(upto=at.extra["augmented_rank"])
-        else:
-            dropped = []
-            ctx.certify()  # the final span at every sample; the verdicts read there
-        states, _, dim_all = run.coordinates(k_used)
-        last = history[k_used]
-        view = report_view(system, run.n)  # the known coordinates (time) left out
-        observable = {s: s in states for s in view.states}
-        first_seen = {}
-        for st in history:
-            for nm in st.extra["observable_inputs"]:
-                first_seen.setdefault(nm, st.m)
+    run, history, reason, k = run_eorc(working, samples=samples, seed=seed, rtol=rtol,
+                                       k_max=K, early_stop=k_max is None, analysed=system,
+                                       prob_threshold=prob_threshold)
+    ctx = run.ctx
+    # the EORC is monotone in k: the answer is the one of the last order whose
+    # decisions are all certified (float64 or beyond); later orders are reported, not used
+    uncertain = [st.m for st in history if st.extra["undecided"]]
+    k_used = uncertain[0] - 1 if uncertain and uncertain[0] > 0 else k
+    if k_used < k:
+        at = history[k_used]
+        dropped = ctx.codist.record.escalations[at.extra["escalations"]:]
+        ctx.codist.record.escalations = ctx.codist.record.escalations[:at.extra["escalations"]]
+        ctx.certify(upto=at.extra["augmented_rank"])
+    else:
+        dropped = []
+        ctx.certify()  # the final span at every sample; the verdicts read there
+    states, _, dim_all = run.coordinates(k_used)
+    last = history[k_used]
+    view = report_view(system, run.n)  # the known coordinates (time) left out
+    observable = {s: s in states for s in view.states}
+    first_seen = {}
+    for st in history:
+        for nm in st.extra["observable_inputs"]:
+            first_seen.setdefault(nm, st.m)
     notes, at_bound, sym, at_symmetry = _notes(run, last, notes, reason, dropped, k, k_used, dim_all, states,
                                                observable, smooth, K)
     details = _details(run, history, k, k_used, first_seen, at_bound, sym, at_symmetry)

@@ -48,7 +48,6 @@ known inputs have one meaning only.
 
 import dataclasses
 
-import jax
 import numpy as np
 
 from ..._calculus.rescaled import rescaled_fields
@@ -319,24 +318,23 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     check_applicable(system, known_inputs)
     n = system.n - known_coordinates(system)
     jet = n + JET_MARGIN
-    with jax.enable_x64(True):
-        for attempt in range(JET_RETRIES + 1):
-            out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet, prob_threshold=prob_threshold)
-            if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
-                break
-            jet = 2 * jet
-        truncated = bool(system.known) and _top_jet_used(out, system, jet)
-        omega = out.omega
-        omega.certify()  # the final span at every sample; the verdicts read there
-        members, dim = omega.coordinates(out.w.system.n, n)
-        ui_obs = observable_inputs(out, full=all(members))
-        for spent in out.spent:
-            omega.memberships += [(False, d) for d in spent.codist.acceptances]
-            omega.memberships += [(True, d) for d in spent.codist.rejections]
-            omega.memberships += spent.memberships
-            if spent.codist is not omega.codist:
-                for esc in spent.codist.record.escalations:
-                    omega.codist.record.add(esc)
+    for attempt in range(JET_RETRIES + 1):
+        out = run(system, samples=samples, seed=seed, rtol=rtol, jet_order=jet, prob_threshold=prob_threshold)
+        if not system.known or not _top_jet_used(out, system, jet) or attempt == JET_RETRIES:
+            break
+        jet = 2 * jet
+    truncated = bool(system.known) and _top_jet_used(out, system, jet)
+    omega = out.omega
+    omega.certify()  # the final span at every sample; the verdicts read there
+    members, dim = omega.coordinates(out.w.system.n, n)
+    ui_obs = observable_inputs(out, full=all(members))
+    for spent in out.spent:
+        omega.memberships += [(False, d) for d in spent.codist.acceptances]
+        omega.memberships += [(True, d) for d in spent.codist.rejections]
+        omega.memberships += spent.memberships
+        if spent.codist is not omega.codist:
+            for esc in spent.codist.record.escalations:
+                omega.codist.record.add(esc)
     states = system.states[:n]
     observable = dict(zip(states, members[:n]))
     names = list(system.unknown)

@@ -4,12 +4,13 @@ as stated in the module docstring of :mod:`.general_ui` and in ``docs/general_ui
 
 import dataclasses
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..._calculus.generators import Node
 from ..._engine import graph_exact
 from ..._engine.graph import Graph
+from ..._engine.graph_trace import GraphFunction
+from ..._model.derivation import Derivation
 from ..._model.graph_system import graph_system
 from ..._model.smooth_inputs import known_coordinates, known_outputs, with_input_jets
 from ..._model.system import DEFAULT_BOX, System, derived_system
@@ -100,13 +101,17 @@ def _working_system(states, outputs, drift, unknown, domain, angles, name, known
     """A validated-parts System for the algorithm (no traced checks): of JAX functions, or,
     with ``graph``, of its nodes (outputs name -> node, fields tuples of nodes)."""
     if graph is not None:
-        system = graph_system(graph, states, outputs, unknown=unknown, drift=drift, domain=domain,
-                              angles=angles, name=name)
-    else:
-        with derived_system():
-            system = System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
-                            domain=domain, angles=angles, name=name)
-    return system.mark_derived(known_coordinates=known_count)
+        return graph_system(graph, states, outputs, unknown=unknown, drift=drift, domain=domain,
+                            angles=angles, name=name, known_coordinates=known_count)
+    with derived_system():
+        return System(states=tuple(states), outputs=outputs, unknown=unknown, drift=drift,
+                      domain=domain, angles=angles, name=name, derivation=Derivation(known_coordinates=known_count))
+
+
+def _zero_field(n):
+    """The zero field of ``n`` coordinates (a function of the state given by its expression)."""
+    graph = Graph(n)
+    return GraphFunction(graph, (graph.zero,) * n)
 
 
 def start_working(system, jet_order, samples, seed, rtol, prob_threshold) -> Working:
@@ -115,7 +120,7 @@ def start_working(system, jet_order, samples, seed, rtol, prob_threshold) -> Wor
     sys0 = with_input_jets(system, jet_order)
     if sys0.drift is None:  # no drift, no known input: D is the zero field
         n = sys0.n
-        sys0 = _working_system(sys0.states, dict(sys0.outputs), lambda z: jnp.zeros(n, z.dtype),
+        sys0 = _working_system(sys0.states, dict(sys0.outputs), _zero_field(n),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
                                known_coordinates(sys0), sys0.joint_param_names)
     ctx = Context(sys0, samples, seed, rtol, prob_threshold)

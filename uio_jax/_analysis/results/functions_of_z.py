@@ -7,8 +7,6 @@ clamp; then ``jax.eval_shape``) before anything is evaluated.
 
 import inspect
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ..._errors import ModelError
@@ -48,6 +46,9 @@ def function_of_z(report, fn, what):
         raise ModelError(f"{what}: {form} indexes outside its arguments ({exc})") from None
     except Exception:  # numpy input not supported by this function: the trace decides
         pass
+    import jax  # the user's JAX callable
+    import jax.numpy as jnp
+
     with jax.enable_x64(True):
         try:
             out = jax.eval_shape(of_z, jax.ShapeDtypeStruct((report.n,), jnp.float64))
