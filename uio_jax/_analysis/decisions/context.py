@@ -32,7 +32,7 @@ from .memory import (
 from .policy import DecisionPolicy
 from .rank import Codistribution
 from .settle import DEFAULT_PROB_THRESHOLD, model_roots, new_settler
-from .space import SampledSpace, report_view, system_known
+from .space import Projection, SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
 #: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
@@ -418,31 +418,30 @@ class Context:
             screen_only=self.screen_only,
         )
 
-    def report(self, method, history, stop, *, notes=(), details=None,
-               system=None, dim=None, observable=None, space=None,
+    def report(self, method, history, stop, *, notes=(), details=None, projection: Projection | None = None,
                known_inputs="switchable") -> Report:
-        """Build the Report: certificate, weak-certificate note, generators.
+        """Build the Report: certificate, weak-certificate note, generators, the answer.
 
-        ``system``, ``dim``, ``observable`` and ``space`` default to this context's own
-        (the EORC passes the original system and its projections of the extended space).
-        On a System with known coordinates (the time of :meth:`System.autonomous`) the
-        defaults leave them out: the verdicts and the dimension are about the first
-        ``n - known_coordinates`` coordinates. ``known_inputs``: the meaning of the known
-        inputs the analysis took (``"none"`` is recorded when the System has none).
+        ``projection`` (:class:`~uio_jax._analysis.decisions.space.Projection`): the span's
+        answer on the original state where it lives on more coordinates (the EORC, the
+        extended general solution); default this context's own. On a System with known
+        coordinates (the time of :meth:`System.autonomous`) the default leaves them out: the
+        verdicts and the dimension are about the first ``n - known_coordinates`` coordinates.
+        ``known_inputs``: the meaning of the known inputs the analysis took (``"none"`` is
+        recorded when the System has none).
         """
         self.certify()
         own = self.system
         known = known_coordinates(own)
-        if system is None and known:
+        if projection is None and known:
             n = own.n - known
             members, dim = self.coordinates(own.n, n)
-            observable = dict(zip(own.states[:n], members[:n]))
-            space = SampledSpace(self, n=n, dim=dim)
+            projection = Projection(report_view(own, n), dim, dict(zip(own.states[:n], members[:n])),
+                                    SampledSpace(self, n=n, dim=dim))
             history = [dataclasses.replace(st, dim=st.dim - known) for st in history]
-            system = report_view(own, n)
-        system = system or own
-        if observable is None:
-            observable = self.observable_states()
+        if projection is None:
+            projection = Projection(own, self.dim, self.observable_states(), SampledSpace(self))
+        system = projection.view
         notes = list(system.notes) + list(notes)
         cert = self.certificate()
         certifying = cert.samples - cert.capped
@@ -474,8 +473,8 @@ class Context:
         return Report(
             method=method,
             states=system.states,
-            dim=self.dim if dim is None else dim,
-            observable=observable,
+            dim=projection.dim,
+            observable=projection.observable,
             history=tuple(history),
             certificate=cert,
             generators=tuple(nd.label for nd in self.codist.nodes),
@@ -487,5 +486,5 @@ class Context:
             params=system.joint_param_names,
             known_inputs=known_inputs if own.known or system_known(system) else "none",
             semantics=SEMANTICS_SMOOTH if known_inputs == "smooth" else SEMANTICS,
-            space=SampledSpace(self) if space is None else space,
+            space=projection.space,
         )

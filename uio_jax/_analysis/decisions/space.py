@@ -36,6 +36,19 @@ def report_view(system, n) -> ReportView:
                       tuple(system.joint_param_names), tuple(system.known))
 
 
+@dataclasses.dataclass(frozen=True)
+class Projection:
+    """A span's answer on the original state (the EORC's and the extended general solution's
+    span lives on more coordinates): the states reported, the dimension and the verdicts
+    there, and the :class:`Space` the report queries (``view``: a :class:`ReportView`, or the
+    analysed System itself)."""
+
+    view: ReportView
+    dim: int
+    observable: Mapping
+    space: "Space"
+
+
 def system_known(system) -> bool:
     """Whether the (original) System behind a report has known inputs."""
     return bool(getattr(system, "known", ()))
@@ -318,5 +331,5 @@ def function_node(builder, fn, n, N):
     return builder.function(getattr(fn, "__name__", "fn"), of_state)
 
 
-__all__ = ["ReportView", "report_view", "system_known", "Space", "SampledSpace", "annihilator_extended",
+__all__ = ["ReportView", "report_view", "Projection", "system_known", "Space", "SampledSpace", "annihilator_extended",
            "function_node", "SpanParts"]

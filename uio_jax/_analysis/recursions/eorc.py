@@ -69,7 +69,7 @@ from ..._model.system import DEFAULT_BOX
 from ..decisions.context import Context
 from ..decisions.memory import analysis_bytes, check_memory, memory_limit
 from ..decisions.settle import DEFAULT_PROB_THRESHOLD
-from ..decisions.space import SampledSpace, report_view
+from ..decisions.space import Projection, SampledSpace, report_view
 from ..decisions.symmetry import symmetry_notes, verify_symmetries
 from ..results.evidence import Step
 from ..results.report import Report
@@ -453,6 +453,5 @@ def eorc_report(system, *, samples, seed, rtol, k_max=None, notes=(),
     # Omega-bar_k queried about the original state: the extended coordinates at the centre
     # of their sampling box
     space = SampledSpace(ctx, n=run.n, dim=dim_all, original=run.analysed)
-    return ctx.report("eorc", history, reason, notes=notes, details=details, system=view,
-                      dim=dim_all, observable=observable, space=space,
-                      known_inputs=known_inputs)
+    return ctx.report("eorc", history, reason, notes=notes, details=details,
+                      projection=Projection(view, dim_all, observable, space), known_inputs=known_inputs)

@@ -56,7 +56,7 @@ from ..._model.smooth_inputs import jet_names, known_coordinates
 from ..._model.system import System
 from ..decisions.context import Context
 from ..decisions.settle import DEFAULT_PROB_THRESHOLD
-from ..decisions.space import SampledSpace, report_view
+from ..decisions.space import Projection, SampledSpace, report_view
 from ..results.evidence import Step
 from ..results.report import Report
 from .driver import Cap, Recursion, StopReason, iterate
@@ -361,10 +361,9 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     notes = list(notes) + _report_notes(system, truncated, jet, weakest)
     space = SampledSpace(omega, n=n, dim=dim, original=system)
     omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
-    return omega.report("general_ui", out.history, out.stop, notes=notes,
-                        details=details, system=report_system or report_view(system, n),
-                        dim=dim, observable=observable, space=space,
-                        known_inputs=known_inputs)
+    view = report_system or report_view(system, n)
+    return omega.report("general_ui", out.history, out.stop, notes=notes, details=details,
+                        projection=Projection(view, dim, observable, space), known_inputs=known_inputs)
 
 
 def _report_notes(system, truncated, jet, weakest) -> list:
