@@ -41,6 +41,9 @@ from ._analysis.identifiability_report import Verdict as Verdict
 from ._analysis.evidence import Step as Step
 from ._analysis.evidence import Certificate as Certificate
 from ._analysis.plots import plot_analysis as plot_analysis
+from ._analysis.globally.run import global_identifiability as global_identifiability
+from ._analysis.globally.result import GlobalVerdict as GlobalVerdict
+from ._analysis.globally.result import GlobalResult as GlobalResult
 
 # Monte Carlo filtering
 from ._filter.montecarlo import run_montecarlo as run_montecarlo
@@ -77,6 +80,7 @@ __all__ = [
     "System", "Experiment", "Measurement", "Quantity", "Experiments",
     "analyze", "Report", "Step", "Certificate", "plot_analysis",
     "Question", "IdentifiabilityReport", "Verdict",
+    "global_identifiability", "GlobalVerdict", "GlobalResult",
     "run_montecarlo", "trajectories", "MonteCarloResult",
     "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
     "load_system", "save_model", "load_experiment", "system_from_sympy", "system_from_dynamics",

@@ -108,7 +108,7 @@ def _order(indices, ring):
     """msolve's variable order (degree reverse lexicographic, the last smallest): the state
     derivatives, highest order first, then ``z``, then the unknowns (SIAN's order)."""
     def key(i):
-        kind, (name, k) = ring.kinds[i], ring.base[i]
+        kind, k = ring.kinds[i], ring.base[i][1]
         if kind == "state" and k > 0:
             return (0, -k, i)
         if kind == "z":

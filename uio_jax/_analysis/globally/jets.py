@@ -20,8 +20,8 @@ saturation). ``d0``, the largest degree of ``Q`` and of the numerators of ``Q x_
 ``Q y_j``, enters SIAN's probability bound (:mod:`.sample`).
 """
 
-from ..._errors import ModelError, OptionError
 from ..._calculus.generators import builder_for
+from ..._errors import ModelError, OptionError
 from .rational import Fractions, flint_fmpq
 
 

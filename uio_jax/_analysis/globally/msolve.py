@@ -145,8 +145,12 @@ def run_msolve(text: str, *, timeout: float, memory_bytes: int | None = None, on
             return Solved(Outcome.TIME_LIMIT, seconds=seconds,
                           reason=f"msolve passed its time limit of {timeout:g} s and was stopped")
         err = proc.stderr.read().decode(errors="replace").strip() if proc.stderr else ""
-        proc.stderr and proc.stderr.close()
-        out = open(path_out).read() if os.path.exists(path_out) else ""
+        if proc.stderr:
+            proc.stderr.close()
+        out = ""
+        if os.path.exists(path_out):
+            with open(path_out) as fh:
+                out = fh.read()
     return _outcome(code, out, err, seconds, memory_bytes)
 
 
@@ -154,7 +158,7 @@ def _wait(proc, timeout, on_wait, t0):
     """The exit code, or None when ``timeout`` passed (the process is killed)."""
     while True:
         try:
-            return proc.wait(timeout=1.0)
+            return proc.wait(timeout=max(min(1.0, timeout - (time.perf_counter() - t0)), 0.01))
         except subprocess.TimeoutExpired:
             elapsed = time.perf_counter() - t0
             if elapsed >= timeout:

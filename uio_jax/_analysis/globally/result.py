@@ -117,8 +117,8 @@ class GlobalResult:
         if self.undecided_reason:
             out.append(f"undecided: {self.undecided_reason}")
         prime = f", solved modulo p = {self.prime}" if self.prime else ""
-        out.append(f"orders 0..{self.order}; error bound {self.error_bound:.2g} (local test {self.local_error_bound:.2g}, "
-                   f"random point {self.point_bound:.2g}){prime}")
+        out.append(f"orders 0..{self.order}; error bound {self.error_bound:.2g} (local test "
+                   f"{self.local_error_bound:.2g}, random point {self.point_bound:.2g}){prime}")
         out += [f"note: {n}" for n in self.notes]
         return [printable(line) for line in out]
 

@@ -30,7 +30,7 @@ from ..initial import check_initial
 from ..settle import DEFAULT_PROB_THRESHOLD
 from .fibre import Fibre
 from .jets import ModelEquations, flint_module, refuse_unsupported
-from .msolve import Outcome, require_msolve, run_msolve
+from .msolve import require_msolve, run_msolve
 from .result import GlobalResult, GlobalVerdict
 from .sample import Point, draw_prime, sample_range, sian_degree
 from .truncation import truncate
