@@ -39,7 +39,8 @@ def verdicts(result, names):
 def test_published_answers(tmp_path, table, name):
     spec = dict((SI_JL_TESTS if table == "si" else SIAN_TESTS)[name])
     answer = {k: CODE[v] for k, v in spec.pop("answer").items()}
-    result = uj.global_identifiability(build(tmp_path, name, **spec))
+    functions = spec.pop("functions", None)
+    result = uj.global_identifiability(build(tmp_path, name, **spec), functions=functions)
     assert verdicts(result, answer) == answer
     for k, v in result.global_identifiability.items():  # counts agree with the verdicts
         if v is G:
@@ -64,8 +65,10 @@ def test_bilirubin_permutations():
 
 def test_product_of_parameters(tmp_path):
     s = build(tmp_path, "ab", ["x"], ["a", "b"], {"y": "x"}, {"x": "-a*b*x"})
-    result = uj.global_identifiability(s)
-    assert verdicts(result, ["x", "a", "b"]) == {"x": G, "a": N, "b": N}
+    result = uj.global_identifiability(s, functions={"ab": lambda x, p: p[0] * p[1],
+                                                     "a_plus_b": lambda x, p: p[0] + p[1]})
+    assert verdicts(result, ["x", "a", "b", "ab", "a_plus_b"]) == {"x": G, "a": N, "b": N, "ab": G, "a_plus_b": N}
+    assert result.functions == ("ab", "a_plus_b") and result.value_counts["ab"] == 1
     assert len(result.specialised) == 1 and result.specialised[0] in ("a", "b")
 
 
@@ -128,6 +131,7 @@ def test_time_limit_answers_undecided(tmp_path):
     their local verdict."""
     spec = dict(SI_JL_TESTS["rational_four_states"])
     spec.pop("answer")
+    spec.pop("functions")
     result = uj.global_identifiability(build(tmp_path, "r4", **spec), timeout=1.0)
     assert result.global_identifiability["alpha"] is N and result.global_identifiability["b"] is U
     assert "time limit of 1 s" in result.undecided_reason
@@ -139,6 +143,8 @@ def test_time_limit_answers_undecided(tmp_path):
     (dict(initial={"a": 1.0}), "a parameter, not a state"),
     (dict(timeout=-1), "timeout"),
     (dict(prob_threshold=1.5), "prob_threshold"),
+    (dict(functions={"x": lambda x, p: p[0]}), "new identifier"),
+    (dict(functions={"f": 3}), "not callable"),
 ])
 def test_bad_options_one_line(tmp_path, bad, message):
     s = build(tmp_path, "a2", ["x"], ["a"], {"y": "x"}, {"x": "-a**2*x"})

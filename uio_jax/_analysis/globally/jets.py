@@ -40,15 +40,17 @@ class JetRing:
 
     Args:
         states, params, inputs, outputs: the names.
+        functions: names of functions of the unknowns asked about (one variable each).
         top: the highest order of every jet (``x_i^(0..top)``, ``u^(0..top)``, ``y^(0..top)``).
 
     Attributes:
         ctx: the ``fmpq_mpoly`` context; variable ``i`` is called ``v{i}`` there.
         labels: per variable its reading name: ``x1^(2)``, ``k``, ``z``.
-        kinds: per variable ``"state"``, ``"param"``, ``"input"``, ``"output"`` or ``"z"``.
+        kinds: per variable ``"state"``, ``"param"``, ``"input"``, ``"output"``, ``"function"`` or
+            ``"z"``.
     """
 
-    def __init__(self, states, params, inputs, outputs, top):
+    def __init__(self, states, params, inputs, outputs, top, functions=()):
         self.top = int(top)
         self.labels, self.kinds, self.index, self.base = [], [], {}, []
         for kind, names in (("state", states), ("input", inputs), ("output", outputs)):
@@ -57,6 +59,8 @@ class JetRing:
                     self._add(kind, name, k)
         for name in params:
             self._add("param", name, 0)
+        for name in functions:
+            self._add("function", name, 0)
         self._add("z", "z", 0)
         flint = flint_module()
         self.ctx = flint.fmpq_mpoly_ctx.get(tuple(f"v{i}" for i in range(len(self.labels))), ordering="degrevlex")
@@ -65,7 +69,7 @@ class JetRing:
     def _add(self, kind, name, order):
         i = len(self.labels)
         self.index[(name, order)] = i
-        self.labels.append(name if kind in ("param", "z") else f"{name}^({order})")
+        self.labels.append(name if kind in ("param", "z", "function") else f"{name}^({order})")
         self.kinds.append(kind)
         self.base.append((name, order))
 
@@ -87,7 +91,7 @@ class JetRing:
         out = self.ctx.constant(0)
         for i in self.occurring(poly):
             kind = self.kinds[i]
-            if kind in ("param", "z"):
+            if kind in ("param", "z", "function"):
                 continue
             name, k = self.base[i]
             if k >= self.top:
@@ -103,6 +107,8 @@ class ModelEquations:
     Args:
         system: a :class:`~uio_jax.System` without unknown inputs or explicit time.
         top: the highest jet order of the ring.
+        functions: ``{name: graph node}`` of functions of the unknowns asked about, nodes of
+            the joint System's graph (:func:`~.functions.function_nodes`).
 
     Attributes:
         ring: the :class:`JetRing`.
@@ -110,11 +116,13 @@ class ModelEquations:
         d0: SIAN's degree ``d0``.
     """
 
-    def __init__(self, system, top):
+    def __init__(self, system, top, functions=None):
         joint = system.joint()
+        functions = dict(functions or {})
         self.states, self.params = tuple(system.states), tuple(system.params)
         self.inputs, self.outputs = tuple(joint.known), tuple(joint.outputs)
-        self.ring = ring = JetRing(self.states, self.params, self.inputs, self.outputs, top)
+        self.functions = tuple(functions)
+        self.ring = ring = JetRing(self.states, self.params, self.inputs, self.outputs, top, self.functions)
         self.builder = builder = builder_for(joint)
         coords = [ring.var(s) for s in self.states] + [ring.var(p) for p in self.params]
         names = list(self.states) + list(self.params)
@@ -129,6 +137,9 @@ class ModelEquations:
         outs = fractions.of([builder.scalar(k, fn).expr for k, fn in joint.outputs.items()])
         self.state_fractions, self.output_fractions = rhs, outs
         self.fractions = fractions
+        fractions.what = "a function asked about"
+        self.function_fractions = fractions.of(list(functions.values()))
+        fractions.what = "the model"
         self.X = [[den * ring.var(s, 1) - num] for s, (num, den) in zip(self.states, rhs)]
         self.Y = [[den * ring.var(y, 0) - num] for y, (num, den) in zip(self.outputs, outs)]
         q = ring.ctx.constant(1)
@@ -153,6 +164,11 @@ class ModelEquations:
         while len(eqs) <= k:
             eqs.append(self.ring.derivative(eqs[-1]))
         return eqs[k]
+
+    def function_equation(self, k: int):
+        """``den w - num`` of the ``k``-th function ``num / den`` asked about (``w`` its variable)."""
+        num, den = self.function_fractions[k]
+        return den * self.ring.var(self.functions[k]) - num
 
     def initial_equation(self, state: str, value):
         """The polynomial ``x^(0) - value`` of a known initial state: ``value`` a

@@ -33,7 +33,8 @@ class GlobalResult:
         system_name: the System's name.
         states: the unknown initial states asked about.
         params: the parameters.
-        global_identifiability: unknown -> :class:`GlobalVerdict`.
+        functions: the functions of the unknowns asked about (``functions=``).
+        global_identifiability: unknown (or function) -> :class:`GlobalVerdict`.
         value_counts: unknown -> how many values it takes (over the algebraic closure, at a
             generic point), where known: 1 for global ones, more for local ones.
         solution_count: how many solutions the specialised system has (None when not solved).
@@ -58,6 +59,7 @@ class GlobalResult:
     system_name: str
     states: tuple
     params: tuple
+    functions: tuple
     global_identifiability: Mapping
     value_counts: Mapping
     solution_count: int | None
@@ -89,7 +91,7 @@ class GlobalResult:
         d["global_identifiability"] = {k: v.value for k, v in self.global_identifiability.items()}
         for name in ("value_counts", "initial", "seconds"):
             d[name] = dict(d[name])
-        for name in ("states", "params", "symmetries", "symmetry_kinds", "specialised", "notes"):
+        for name in ("states", "params", "functions", "symmetries", "symmetry_kinds", "specialised", "notes"):
             d[name] = list(d[name])
         return d
 
@@ -104,7 +106,7 @@ class GlobalResult:
             f" at {', '.join(f'{k}(0) = {v}' for k, v in self.initial.items())}" if self.initial else "")]
         width = max((len(k) for k in self.global_identifiability), default=0)
         for k, v in self.global_identifiability.items():
-            kind = "initial state" if k in self.states else "parameter"
+            kind = "initial state" if k in self.states else "function" if k in self.functions else "parameter"
             count = self.value_counts.get(k)
             extra = f"  ({count} values)" if v is GlobalVerdict.LOCAL and count else ""
             out.append(f"  {k.ljust(width)}  {v.value}{extra}  [{kind}]")

@@ -10,9 +10,10 @@
 4. msolve's parametrisation of the solutions modulo a prime (:mod:`.msolve`), read by
    :mod:`.values`: one value ("global") or the count ("local"), and the simple symmetries.
 
-The error bound splits ``1 - prob_threshold`` in two halves: the local test's decisions and
-SIAN's random point. The reduction modulo the prime is correct for all but finitely many
-primes, not bounded a priori (said in the notes).
+The error bound splits ``1 - prob_threshold``: a quarter to the local test's decisions, a
+quarter to the functions' membership decisions, a half to SIAN's random point. The reduction
+modulo the prime is correct for all but finitely many primes, not bounded a priori (said in
+the notes).
 """
 
 import math
@@ -25,10 +26,11 @@ from ..._errors import OptionError
 from ..._model.system import System
 from ..._progress import CountProgress, is_terminal
 from ..identifiability import analyze_initial
-from ..identifiability_report import Verdict
+from ..identifiability_report import StopKind, Verdict
 from ..initial import check_initial
-from ..settle import DEFAULT_PROB_THRESHOLD
+from ..settle import DEFAULT_PROB_THRESHOLD, Outcome
 from .fibre import Fibre
+from .functions import check_functions, function_nodes, local_functions
 from .jets import ModelEquations, flint_module, refuse_unsupported
 from .msolve import require_msolve, run_msolve
 from .result import GlobalResult, GlobalVerdict
@@ -49,7 +51,7 @@ PRIME_TRIES = 5
 def global_identifiability(system: System, *, initial=None, seed: int = 0,
                            prob_threshold: float = DEFAULT_PROB_THRESHOLD, timeout: float = DEFAULT_TIMEOUT,
                            memory_gb: float | None = None, max_order: int | None = None,
-                           progress: bool | None = None) -> GlobalResult:
+                           progress: bool | None = None, functions=None) -> GlobalResult:
     """How many values each unknown of ``system`` can take given its output: global identifiability.
 
     For every parameter and every unknown initial state ``theta_j``: ``"global"`` when generic
@@ -64,13 +66,16 @@ def global_identifiability(system: System, *, initial=None, seed: int = 0,
             function of the parameters), as for :func:`uio_jax.analyze`; they enter the
             equations, and the answer holds for generic values of the other unknowns.
         seed: seed of the random point and the prime.
-        prob_threshold: the probability of correctness asked for (the local test and the
+        prob_threshold: the probability of correctness asked for (the local decisions and the
             random point share ``1 - prob_threshold``).
         timeout: seconds msolve may take (then the locally identifiable unknowns are
             undecided, with the reason).
         memory_gb: address-space limit of msolve in GiB (None: none).
         max_order: highest order of the local test (default: the local test's).
         progress: show the solve's running time on stderr (None: on a terminal).
+        functions: ``{name: f}``, functions of the unknowns asked about too (``f`` takes the
+            arguments of the System's outputs, ``(x, p)`` with parameters, and reads the
+            initial state in ``x``): ``{"ab": lambda x, p: p[0] * p[1]}``.
 
     Returns:
         :class:`GlobalResult`.
@@ -85,15 +90,21 @@ def global_identifiability(system: System, *, initial=None, seed: int = 0,
     flint_module()
     require_msolve()
     checked = check_initial(system, initial) if initial else {}
-    ModelEquations(system, 1)  # a non-rational model is refused before any work
+    functions = check_functions(system, functions)
+    nodes = function_nodes(system, functions)
+    ModelEquations(system, 1, nodes)  # a non-rational model is refused before any work
     eps = 1.0 - prob_threshold
     t0 = time.perf_counter()
-    local = analyze_initial(system, dict(initial or {}), seed=seed, prob_threshold=1.0 - eps / 2,
+    local = analyze_initial(system, dict(initial or {}), seed=seed, prob_threshold=1.0 - eps / 4,
                             max_order=max_order)
     seconds = {"local": time.perf_counter() - t0}
     verdicts = {**dict(local.observable), **dict(local.identifiable)}
     order = _rank_order(local.ranks)
-    run = _Run(system, checked, verdicts, order, local, eps, seed, seconds)
+    closed = local.stop is not StopKind.MAX_ORDER
+    f_outcomes, f_bound = local_functions(system, checked, functions, local.order, seed, 1.0 - eps / 4, closed)
+    verdicts.update({name: _FROM_OUTCOME[o] for name, o in f_outcomes.items()})
+    seconds["local"] = time.perf_counter() - t0
+    run = _Run(system, checked, verdicts, order, local, eps, seed, seconds, nodes, f_bound)
     return run.answer(timeout, None if memory_gb is None else int(memory_gb * 2**30), progress)
 
 
@@ -113,6 +124,11 @@ def _check_options(system, seed, prob_threshold, timeout, memory_gb):
         raise OptionError(f"memory_gb must be a positive number of GiB, got {memory_gb!r}")
 
 
+#: A function's local membership decision as the local test's verdict.
+_FROM_OUTCOME = {Outcome.DEPENDENT: Verdict.DETERMINED, Outcome.INDEPENDENT: Verdict.NOT_DETERMINED,
+                 Outcome.UNDECIDED: Verdict.UNDECIDED}
+
+
 def _rank_order(ranks) -> int:
     """The last order at which the rank grew (0 when it never did)."""
     last, prev = 0, 0
@@ -125,13 +141,16 @@ def _rank_order(ranks) -> int:
 class _Run:
     """One global question after the local test."""
 
-    def __init__(self, system, checked, verdicts, order, local, eps, seed, seconds):
+    def __init__(self, system, checked, verdicts, order, local, eps, seed, seconds, nodes, function_bound):
         self.system, self.checked, self.verdicts, self.order = system, checked, verdicts, order
         self.local, self.eps, self.seed, self.seconds = local, eps, seed, seconds
+        self.nodes, self.function_bound = nodes, function_bound
         self.states = tuple(local.states)
         self.params = tuple(local.params)
+        self.functions = tuple(nodes)
         self.unknowns = list(self.states) + list(self.params)
-        self.determined = [u for u in self.unknowns if verdicts[u] is Verdict.DETERMINED]
+        self.asked = self.unknowns + list(self.functions)
+        self.determined = [u for u in self.asked if verdicts[u] is Verdict.DETERMINED]
         self.notes = []
 
     def answer(self, timeout, memory_bytes, progress) -> GlobalResult:
@@ -139,10 +158,13 @@ class _Run:
         if not self.determined:
             return self._result({}, None, [], [], None, 0.0, None)
         t0 = time.perf_counter()
-        eqs = ModelEquations(self.system, self.order + 4)
+        eqs = ModelEquations(self.system, self.order + 4, self.nodes)
         known = {s: self._known(eqs, v) for s, v in self.checked.items()}
         beta = {y: self.order + 1 for y in eqs.outputs}
         trunc = truncate(eqs, beta, known)
+        for k, name in enumerate(eqs.functions):
+            trunc.polys.append(eqs.function_equation(k))
+            trunc.labels.append(f"function {name}")
         degree = sian_degree(trunc, eqs, len(self.determined))
         D = sample_range(degree, self.eps / 2)
         point_bound = float(Fraction(degree, D + 1))
@@ -194,7 +216,7 @@ class _Run:
         names = {f"v{i}": ring.labels[i] for i in range(len(ring.labels))}
         solutions = SolutionSet(param, names)
         truth = {u: point.values[ring.index[(u, 0)]] for u in self.unknowns}
-        asked = {ring.labels[ring.index[(u, 0)]]: u for u in self.unknowns}
+        asked = {ring.labels[ring.index[(u, 0)]]: u for u in self.asked}
         solutions.element = {asked.get(k, k): e for k, e in solutions.element.items()}
         if not solutions.squarefree or not solutions.contains(truth):
             return self._result({}, None, [], fibre.fixed, "msolve's solutions do not contain the point drawn "
@@ -212,7 +234,7 @@ class _Run:
 
     def _result(self, counts, solution_count, symmetries, fixed, reason, point_bound, prime) -> GlobalResult:
         verdict, value_counts = {}, {}
-        for u in self.unknowns:
+        for u in self.asked:
             local = self.verdicts[u]
             if local is Verdict.NOT_DETERMINED:
                 verdict[u] = GlobalVerdict.NOT
@@ -227,12 +249,13 @@ class _Run:
             reason = "; ".join(r for r in (reason, f"the local test did not decide every unknown by order "
                                           f"{self.local.order}") if r)
         return GlobalResult(
-            system_name=self.system.name, states=self.states, params=self.params, global_identifiability=verdict,
+            system_name=self.system.name, states=self.states, params=self.params, functions=self.functions,
+            global_identifiability=verdict,
             value_counts=value_counts, solution_count=solution_count,
             symmetries=tuple(s for s, _ in symmetries), symmetry_kinds=tuple(k for _, k in symmetries),
             specialised=tuple(fixed), initial=dict(self.local.initial), order=self.order,
-            error_bound=self.local.error_bound + point_bound, point_bound=point_bound,
-            local_error_bound=self.local.error_bound, prime=prime, prob_threshold=1.0 - self.eps,
+            error_bound=self.local.error_bound + self.function_bound + point_bound, point_bound=point_bound,
+            local_error_bound=self.local.error_bound + self.function_bound, prime=prime, prob_threshold=1.0 - self.eps,
             undecided_reason=reason, seconds=self.seconds, notes=tuple(self._notes(fixed, prime)))
 
     def _notes(self, fixed, prime):

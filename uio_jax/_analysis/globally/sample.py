@@ -155,6 +155,11 @@ class Point:
                     values[ring.index[(s, k + 1)]] = self._leader(eqs.x_equation(i, k), ring.index[(s, k + 1)],
                                                                   values)
         values[ring.index[("z", 0)]] = pow(int(self.mod(eqs.Q)(*values)), -1, p)
+        for name, (num, den) in zip(eqs.functions, eqs.function_fractions):
+            d = int(self.mod(den)(*values))
+            if d == 0:
+                return False
+            values[ring.index[(name, 0)]] = int(self.mod(num)(*values)) * pow(d, -1, p) % p
         self.values = values
         return True
 
