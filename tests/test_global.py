@@ -190,3 +190,40 @@ def test_cli_bad_input_exit_2(tmp_path, capsys, model, extra, message):
     assert cli.main(["analyze", str(s), "--global", *extra]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_memory_limit_answers_undecided():
+    result = uj.global_identifiability(uj.load_system("tests/data/global/bilirubin2_io.toml"), memory_gb=0.02)
+    assert all(v is U for v in result.global_identifiability.values())
+    assert "memory limit of 0.02 GiB" in result.undecided_reason
+
+
+def test_ctrl_c_stops_msolve_and_keeps_going():
+    """A dense random system of 10 quadrics (1024 solutions, about 20 s here): a Ctrl-C while
+    msolve runs kills it at once and answers INTERRUPTED (the caller keeps the local verdicts)."""
+    import random
+    import time
+
+    from uio_jax._analysis.globally.msolve import Outcome, input_text, run_msolve
+
+    rng, p, names = random.Random(1), 65521, [f"x{i}" for i in range(10)]
+
+    def quadric():
+        terms = [f"{rng.randrange(1, p)}*{a}*{b}" for i, a in enumerate(names) for b in names[i:]]
+        return "+".join(terms + [f"{rng.randrange(1, p)}*{a}" for a in names] + ["1"])
+
+    def interrupt(elapsed):
+        raise KeyboardInterrupt
+
+    t0 = time.perf_counter()
+    solved = run_msolve(input_text(names, p, [quadric() for _ in names]), timeout=120, on_wait=interrupt)
+    assert solved.outcome is Outcome.INTERRUPTED and "Ctrl-C" in solved.reason
+    assert time.perf_counter() - t0 < 10
+
+
+def test_a_state_named_z(tmp_path):
+    """The saturating variable z of SIAN's system is no name of the model's: a state called z
+    is a state (HIV's model has one)."""
+    s = build(tmp_path, "z", ["z"], ["a"], {"y": "z"}, {"z": "-a**2*z"})
+    result = uj.global_identifiability(s)
+    assert verdicts(result, ["z", "a"]) == {"z": G, "a": L}

@@ -20,7 +20,7 @@ polynomial), so the independence is certain; a point where the rank drops only m
 choice fail (undecided), never wrong.
 """
 
-from .jets import flint_module
+from .jets import SATURATION, flint_module
 from .msolve import input_text, poly_text
 
 
@@ -43,7 +43,7 @@ class Fibre:
         eqs, ring = point.eqs, point.eqs.ring
         self.point = point
         self.polys = [point.specialise(f) for f in polys]
-        z = point.ctx_p.gens()[ring.index[("z", 0)]]
+        z = point.ctx_p.gens()[ring.index[(SATURATION, 0)]]
         self.polys.append(z * point.specialise(eqs.Q) - 1)
         occurring = set()
         for f in self.polys:

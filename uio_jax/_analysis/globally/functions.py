@@ -33,7 +33,7 @@ def check_functions(system, functions) -> dict:
     taken = set(system.states) | set(system.params) | set(system.known) | set(system.outputs)
     out = {}
     for name, fn in functions.items():
-        if not isinstance(name, str) or not name.isidentifier() or name in taken or name == "z":
+        if not isinstance(name, str) or not name.isidentifier() or name in taken:
             raise OptionError(f"functions: {name!r} must be a new identifier (not a state, parameter, input "
                               "or output name)")
         if not callable(fn):

@@ -35,6 +35,10 @@ def flint_module():
     return flint
 
 
+#: The key of the saturating variable ``z`` (not an identifier: no model name can take it).
+SATURATION = "<z>"
+
+
 class JetRing:
     """The variables of the jet polynomials and their total derivative.
 
@@ -61,7 +65,7 @@ class JetRing:
             self._add("param", name, 0)
         for name in functions:
             self._add("function", name, 0)
-        self._add("z", "z", 0)
+        self._add("z", SATURATION, 0)
         flint = flint_module()
         self.ctx = flint.fmpq_mpoly_ctx.get(tuple(f"v{i}" for i in range(len(self.labels))), ordering="degrevlex")
         self.gens = self.ctx.gens()
@@ -69,7 +73,8 @@ class JetRing:
     def _add(self, kind, name, order):
         i = len(self.labels)
         self.index[(name, order)] = i
-        self.labels.append(name if kind in ("param", "z", "function") else f"{name}^({order})")
+        label = "z (saturation)" if kind == "z" else name if kind in ("param", "function") else f"{name}^({order})"
+        self.labels.append(label)
         self.kinds.append(kind)
         self.base.append((name, order))
 
@@ -225,4 +230,4 @@ def refuse_unsupported(system) -> None:
         raise ModelError("a System needs at least one output")
 
 
-__all__ = ["JetRing", "ModelEquations", "refuse_unsupported", "flint_module"]
+__all__ = ["SATURATION", "JetRing", "ModelEquations", "refuse_unsupported", "flint_module"]

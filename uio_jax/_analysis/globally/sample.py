@@ -27,7 +27,7 @@ import math
 import random
 from fractions import Fraction
 
-from .jets import flint_module
+from .jets import SATURATION, flint_module
 
 #: The primes are drawn in ``[2^29, 2^30)``.
 PRIME_RANGE = (2**29, 2**30)
@@ -154,7 +154,7 @@ class Point:
                 if k + 1 <= upto.get(s, 0):
                     values[ring.index[(s, k + 1)]] = self._leader(eqs.x_equation(i, k), ring.index[(s, k + 1)],
                                                                   values)
-        values[ring.index[("z", 0)]] = pow(int(self.mod(eqs.Q)(*values)), -1, p)
+        values[ring.index[(SATURATION, 0)]] = pow(int(self.mod(eqs.Q)(*values)), -1, p)
         for name, (num, den) in zip(eqs.functions, eqs.function_fractions):
             d = int(self.mod(den)(*values))
             if d == 0:
