@@ -151,7 +151,6 @@ class _Run:
         self.unknowns = list(self.states) + list(self.params)
         self.asked = self.unknowns + list(self.functions)
         self.determined = [u for u in self.asked if verdicts[u] is Verdict.DETERMINED]
-        self.notes = []
 
     def answer(self, timeout, memory_bytes, progress) -> GlobalResult:
         """Build, solve and read; a limit or a failure makes the determined unknowns undecided."""
