@@ -22,7 +22,7 @@ saturation). ``d0``, the largest degree of ``Q`` and of the numerators of ``Q x_
 
 from ..._calculus.generators import builder_for
 from ..._errors import ModelError, OptionError
-from .rational import Fractions, flint_fmpq
+from .rational import Fractions, flint_fmpq, fraction_sum, normal_fraction
 
 
 def flint_module():
@@ -138,7 +138,7 @@ class ModelEquations:
                else [[zero] * n])[0]
         for u, fn in joint.known.items():
             field = fractions.of(list(builder.field(u, fn).expr)[:n])
-            rhs = [_sum(a, _times(ring.var(u), b)) for a, b in zip(rhs, field)]
+            rhs = [fraction_sum(a, _times(ring.var(u), b)) for a, b in zip(rhs, field)]
         outs = fractions.of([builder.scalar(k, fn).expr for k, fn in joint.outputs.items()])
         self.state_fractions, self.output_fractions = rhs, outs
         self.fractions = fractions
@@ -190,24 +190,7 @@ class ModelEquations:
 
 def _times(poly, frac):
     num, den = frac
-    return _reduce(poly * num, den)
-
-
-def _sum(a, b):
-    (p, q), (r, s) = a, b
-    if q == s:
-        return _reduce(p + r, q)
-    return _reduce(p * s + r * q, q * s)
-
-
-def _reduce(num, den):
-    if num.is_zero():
-        return num, den.context().constant(1)
-    g = num.gcd(den)
-    if not g.is_constant():
-        num, den = num / g, den / g
-    lc = den.leading_coefficient()
-    return (num / lc, den / lc) if lc != 1 else (num, den)
+    return normal_fraction(poly * num, den)
 
 
 def _lcm(a, b):

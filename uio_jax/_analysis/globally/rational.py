@@ -71,20 +71,17 @@ class Fractions:
                 if num.is_zero():
                     self._refuse(k, "a negative power of zero")
                 num, den, e = den, num, -e
-            return _normal(num ** e, den ** e)
+            return normal_fraction(num ** e, den ** e)
         if op == "add":
-            (a, b), (c, d) = memo[args[0]], memo[args[1]]
-            if b == d:
-                return _normal(a + c, b)
-            return _normal(a * d + c * b, b * d)
+            return fraction_sum(memo[args[0]], memo[args[1]])
         if op == "mul":
             (a, b), (c, d) = memo[args[0]], memo[args[1]]
-            return _normal(a * c, b * d)
+            return normal_fraction(a * c, b * d)
         if op == "div":
             (a, b), (c, d) = memo[args[0]], memo[args[1]]
             if c.is_zero():
                 self._refuse(k, "a division by zero")
-            return _normal(a * d, b * c)
+            return normal_fraction(a * d, b * c)
         self._refuse(k, f"the operation {op!r}, which is not a rational function")
 
 
@@ -96,7 +93,15 @@ def flint_fmpq(value):
     return flint.fmpq(value.numerator, value.denominator)
 
 
-def _normal(num, den):
+def fraction_sum(x, y):
+    """``x + y`` of two fractions ``(num, den)``, reduced."""
+    (a, b), (c, d) = x, y
+    if b == d:
+        return normal_fraction(a + c, b)
+    return normal_fraction(a * d + c * b, b * d)
+
+
+def normal_fraction(num, den):
     """``num / den`` with the common factor divided out and ``den`` monic (leading
     coefficient 1 in the ring's order)."""
     if num.is_zero():
@@ -111,4 +116,4 @@ def _normal(num, den):
     return num, den
 
 
-__all__ = ["Fractions", "flint_fmpq"]
+__all__ = ["Fractions", "flint_fmpq", "normal_fraction", "fraction_sum"]
