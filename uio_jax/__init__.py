@@ -52,6 +52,9 @@ from ._analysis.results.kinds import Route as Route
 from ._analysis.results.kinds import Answer as Answer
 from ._analysis.results.kinds import Plan as Plan
 from ._analysis.plan import plan as plan
+from ._analysis.globally.run import global_identifiability as global_identifiability
+from ._analysis.globally.result import GlobalVerdict as GlobalVerdict
+from ._analysis.globally.result import GlobalResult as GlobalResult
 
 # follow-up questions of a report
 from ._analysis.followups.questions import observable_functions as observable_functions
@@ -89,6 +92,7 @@ __all__ = [
     "analyze", "Report", "Step", "Certificate", "plot_analysis",
     "Question", "IdentifiabilityReport", "Verdict", "Method", "Route", "Answer", "Plan", "plan",
     "observable_functions", "find_symmetries", "reparametrise",
+    "global_identifiability", "GlobalVerdict", "GlobalResult",
     "run_montecarlo", "trajectories", "MonteCarloResult",
     "plot_montecarlo", "plot_trajectories", "plot_errors", "plot_nees",
     "load_system", "save_model", "load_experiment", "system_from_sympy", "system_from_dynamics",
