@@ -176,7 +176,7 @@ def test_cli_global(tmp_path, capsys):
     assert cli.main(["analyze", str(s), "--global", "--json", str(out_json)]) == 0
     out = capsys.readouterr().out
     assert "a  local  (2 values)" in out
-    assert json.loads(out_json.read_text())["global_identifiability"]["a"] == "local"
+    assert json.loads(out_json.read_text())["global"]["global_identifiability"]["a"] == "local"
 
 
 @pytest.mark.parametrize("model,extra,message", [

@@ -17,6 +17,7 @@ from .decisions.context import Context
 from .decisions.memory import check_memory
 from .decisions.settle import new_settler
 from .decisions.symmetry import symmetry_notes, verify_symmetries
+from .globally.run import DEFAULT_TIMEOUT, check_global, global_identifiability
 from .options import DEFAULTS, check_options
 from .plan import plan
 from .recursions.eorc import eorc_report
@@ -32,7 +33,7 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
             seed: int = DEFAULTS["seed"], rtol: float | None = DEFAULTS["rtol"],
             max_order: int | None = DEFAULTS["max_order"], k_max: int | None = DEFAULTS["k_max"],
             known_inputs: str = DEFAULTS["known_inputs"], prob_threshold: float = DEFAULTS["prob_threshold"],
-            initial=None, shared=None):
+            initial=None, shared=None, scope: str = DEFAULTS["scope"], global_timeout: float | None = None):
     """Which states of ``system`` are observable: the observable codistribution.
 
     Main arguments:
@@ -70,6 +71,11 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
             a parameter's name, a function of ``p``; one per experiment for several) and the shared
             parameters (default: those common to all): then the question is local identifiability
             at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`, :func:`_identifiability`).
+        scope: ``"local"`` (default) or ``"global"``: also how many values each parameter and
+            unknown initial state takes (``rep.global_identifiability``, ``rep.value_counts``;
+            SIAN's route solved by msolve, the ``global`` extra: :mod:`uio_jax._analysis.globally`,
+            ``docs/global.md``), within ``global_timeout`` seconds (default 600; past it the
+            answer is "undecided" with the reason).
 
     Returns:
         :class:`~uio_jax.Report`. For a System with ``params``, the analysis runs on
@@ -88,6 +94,25 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
     References:
         Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
+    scope = check_options(scope=scope)["scope"]
+    if scope == "global":  # what the global question refuses, refused before any work
+        if not isinstance(system, System) or shared is not None:
+            raise OptionError("scope='global' answers one System (with or without initial=), not several experiments")
+        check_global(system, initial, seed=seed, prob_threshold=prob_threshold,
+                     timeout=DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+    report = _local(system, method=method, samples=samples, seed=seed, rtol=rtol, max_order=max_order, k_max=k_max,
+                    known_inputs=known_inputs, prob_threshold=prob_threshold, initial=initial, shared=shared)
+    if scope == "global":
+        answer = global_identifiability(system, initial=initial, seed=seed, prob_threshold=prob_threshold,
+                                        max_order=max_order,
+                                        timeout=DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+        report = dataclasses.replace(report, global_answer=answer)
+    return report
+
+
+def _local(system, *, method, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold, initial, shared):
+    """The local question: the observable codistribution at generic states, or identifiability
+    at t = 0 with ``initial=`` or several experiments."""
     if initial is not None or shared is not None or not isinstance(system, System):
         return _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,

@@ -15,10 +15,14 @@ METHODS = ("auto", "orc", "single_ui", "general_ui", "eorc", "series", "fast")
 #: The meanings of a known input (``known_inputs``): may jump, or generic smooth in time.
 KNOWN_INPUTS = KNOWN_INPUT_MEANINGS
 
+#: The questions ``scope`` may ask: ``"local"`` (observable / locally identifiable) or also
+#: ``"global"`` (how many values each unknown takes: :mod:`uio_jax._analysis.globally`).
+SCOPES = ("local", "global")
+
 #: Default of every analysis option (``rtol`` None: :func:`~uio_jax._analysis.decisions.rank.default_rtol`;
 #: ``max_order`` None: no cap; ``k_max`` None: ``n + 2``).
 DEFAULTS = {"method": "auto", "samples": 4096, "seed": 0, "rtol": None, "max_order": None, "k_max": None,
-            "known_inputs": "switchable", "prob_threshold": DEFAULT_PROB_THRESHOLD}
+            "known_inputs": "switchable", "prob_threshold": DEFAULT_PROB_THRESHOLD, "scope": "local"}
 
 #: Smallest sample count: fewer random states cannot certify a rank.
 MIN_SAMPLES = 8
@@ -28,13 +32,13 @@ def check_options(**options) -> dict:
 
     Args:
         **options: any of ``method``, ``samples``, ``seed``, ``rtol``, ``max_order``,
-            ``k_max``, ``known_inputs``, ``prob_threshold`` (those not given take
+            ``k_max``, ``known_inputs``, ``prob_threshold``, ``scope`` (those not given take
             :data:`DEFAULTS`). The memory a run needs
             depends on the model and is checked where the analysis knows its size
             (:func:`~uio_jax._analysis.decisions.memory.check_memory`).
 
     Returns:
-        dict of all eight: ``method`` (str), ``samples`` and ``seed`` (int), ``rtol``
+        dict of all nine: ``method`` (str), ``scope`` (str), ``samples`` and ``seed`` (int), ``rtol``
         (float; None resolved to :func:`~uio_jax._analysis.decisions.rank.default_rtol`),
         ``max_order`` and ``k_max`` (int, or None), ``known_inputs`` (str),
         ``prob_threshold`` (float).
@@ -45,7 +49,7 @@ def check_options(**options) -> dict:
             not a finite number in (0, 1) (NaN refused),
             ``max_order`` not a non-negative integer, ``k_max`` not a positive integer,
             ``known_inputs`` not one of :data:`KNOWN_INPUTS`, ``prob_threshold`` not a
-            number in (0, 1).
+            number in (0, 1), ``scope`` not one of :data:`SCOPES`.
     """
     unknown = set(options) - set(DEFAULTS)
     if unknown:
@@ -73,7 +77,9 @@ def check_options(**options) -> dict:
     prob = opts["prob_threshold"]
     if isinstance(prob, bool) or not (isinstance(prob, numbers.Real) and 0 < prob < 1):
         raise OptionError(f"prob_threshold must be a number in (0, 1), got {prob!r}")
-    return {"method": method, "samples": int(samples), "seed": seed, "rtol": float(rtol),
+    if opts["scope"] not in SCOPES:
+        raise OptionError(f"unknown scope {opts['scope']!r}; choose one of {', '.join(SCOPES)}")
+    return {"method": method, "samples": int(samples), "seed": seed, "rtol": float(rtol), "scope": opts["scope"],
             "known_inputs": known_inputs, "prob_threshold": float(prob),
             "max_order": None if max_order is None else int(max_order),
             "k_max": None if k_max is None else int(k_max)}

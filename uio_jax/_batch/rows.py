@@ -42,6 +42,8 @@ class BatchRow:
             ``undecided`` are not certified); None for a failed model.
         undecided: the states and parameters whose verdict is not certified.
         functions: the named observable functions (:func:`uio_jax.observable_functions`).
+        global_verdicts: with ``scope="global"``, ``"name: verdict"`` per unknown that is not
+            globally identifiable (``"a: local (2 values)"``; ``"all global"`` when every one is).
         functions_complete: whether they span the observable codistribution (their number
             is ``dim``); None for a failed model.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
@@ -66,6 +68,7 @@ class BatchRow:
     undecided: tuple[str, ...] = ()
     functions: tuple[str, ...] = ()
     functions_complete: bool | None = None
+    global_verdicts: tuple[str, ...] = ()
     report: object = field(default=None, repr=False, compare=False)
 
     @property
@@ -89,6 +92,7 @@ class BatchRow:
             "error": self.error, "reached": self.reached, "exact": self.exact,
             "observable_inputs": list(self.inputs), "status": self.status,
             "undecided": list(self.undecided), "observable_functions": list(self.functions),
+            **({"global": list(self.global_verdicts)} if self.global_verdicts else {}),
             "functions_complete": self.functions_complete,
         }
         return d
@@ -212,15 +216,18 @@ class BatchResult:
 
     def _cells(self):
         has_params = any(r.params for r in self.rows)
+        has_global = any(r.global_verdicts for r in self.rows)
         headers = ["model", "method", "dim / n", "observable states"]
         if has_params:
             headers.append("identifiable params")
-        headers += ["unobs.", "observable functions", "fraction", "gap (dec.)", "time (s)", "status"]
+        headers += ["unobs.", "observable functions"] + (["global"] if has_global else []) + [
+            "fraction", "gap (dec.)", "time (s)", "status"]
         body = []
         for r in self.rows:
             if not r.ok:
                 cells = [r.model, r.method or "-", "-", "-"] + (["-"] if has_params else [])
-                cells += ["-", "-", "-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
+                cells += ["-", "-"] + (["-"] if has_global else [])
+                cells += ["-", "-", f"{r.seconds:.2f}", f"FAILED: {r.error}"]
             else:
                 method = r.method + ("" if r.exact is not False else " (suff.)")
                 cells = [r.model, method, f"{r.dim} / {r.n}", _names(r.observable, r.n - len(r.params))]
@@ -228,8 +235,9 @@ class BatchResult:
                     cells.append(_names(r.identifiable, len(r.params)) if r.params else "-")
                 status = {"undecided": "UNDECIDED: " + ", ".join(r.undecided) if r.undecided else "UNDECIDED",
                           "escalated": "escalated", "ok": "ok"}.get(r.status or "ok", r.status)
-                cells += [str(r.unobservable), _functions(r), _pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}",
-                          status]  # "ok" in Markdown too: an empty cell reads as missing
+                cells += [str(r.unobservable), _functions(r)] + (["; ".join(r.global_verdicts)] if has_global else [])
+                # "ok" in Markdown too: an empty cell reads as missing
+                cells += [_pct(r.fraction), _gap(r.gap_decades), f"{r.seconds:.2f}", status]
             body.append([printable(c) for c in cells])  # names and errors from model files
         return headers, body
 
@@ -253,7 +261,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         fraction=fraction, gap_decades=gap, seconds=seconds, error=error, report=report,
         exact=bool(rep.exact), inputs=_observable_inputs(rep),
         status=rep.certificate.status, undecided=tuple(rep.undecided),
-        functions=named.texts, functions_complete=named.complete,
+        functions=named.texts, functions_complete=named.complete, global_verdicts=_global_verdicts(rep),
     )
 
 
@@ -265,6 +273,18 @@ def _observable_inputs(rep) -> tuple[str, ...]:
         return tuple(k for k, v in details["unknown_inputs_observable"].items() if v)
     last = rep.history[-1].extra.get("observable_inputs", ()) if rep.history else ()
     return tuple(last)
+
+
+def _global_verdicts(rep) -> tuple[str, ...]:
+    """``"name: verdict"`` of the unknowns not globally identifiable (``scope="global"``), or
+    ``("all global",)``; empty when the global question was not asked."""
+    answer = rep.global_answer
+    if answer is None:
+        return ()
+    counts = answer.value_counts
+    out = tuple(f"{k}: {v.value}" + (f" ({counts[k]} values)" if v.value == "local" and k in counts else "")
+                for k, v in answer.global_identifiability.items() if v.value != "global")
+    return out or ("all global",)
 
 
 def verdict(row: BatchRow) -> str:

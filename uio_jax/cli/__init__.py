@@ -69,6 +69,10 @@ def _analysis_options(p):
     p.add_argument("--known-inputs", default=d["known_inputs"], choices=KNOWN_INPUTS,
                    help="what a known input is: switchable (default: it may jump, the papers' "
                         "meaning) or smooth (a generic smooth function of time, TUIO6's)")
+    p.add_argument("--global", dest="scope", action="store_const", const="global", default=d["scope"],
+                   help="also the global question: how many values each parameter and unknown initial state "
+                        "takes (global / local / not / undecided; SIAN's algorithm solved by msolve, the "
+                        "'global' extra: pip install 'uio_jax[global]'; docs/global.md)")
 
 
 def main(argv=None) -> int:

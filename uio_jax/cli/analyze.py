@@ -18,9 +18,6 @@ def add_parser(subparsers, analysis_options):
                    help="a known initial state (repeat for several): a number, a parameter, or an expression "
                         "in the parameters; answers identifiability at t = 0 at that initial state "
                         "(a model file's [initial] table is used too)")
-    a.add_argument("--global", dest="global_", action="store_true",
-                   help="global identifiability: how many values each parameter and unknown initial state takes "
-                        "(global / local / not / undecided; SIAN's algorithm, msolve: pip install 'uio_jax[global]')")
     a.add_argument("--global-timeout", type=float, default=None, metavar="SECONDS",
                    help="seconds the global solve may take (default 600); past it the answer is undecided")
     a.add_argument("--json", metavar="FILE", help="also write the report as JSON")
@@ -46,8 +43,9 @@ def run(args) -> int:
                   max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
                   known_inputs=args.known_inputs)  # before loading the model
     given = _initial_pairs(args.initial)
-    if args.global_ or args.global_timeout is not None:
-        return _run_global(args, given)
+    if args.global_timeout is not None and args.scope != "global":
+        raise UsageError("--global-timeout applies with --global")
+    scope = {"scope": args.scope, "global_timeout": args.global_timeout}
     if args.plot and given:
         raise UsageError("--plot draws the codistribution's steps; it does not apply with --initial")
     if args.plot:
@@ -63,11 +61,11 @@ def run(args) -> int:
         initial = {**file_initial(system), **given}
         if initial:
             rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
-                          max_order=args.max_order, prob_threshold=args.prob_threshold)
+                          max_order=args.max_order, prob_threshold=args.prob_threshold, **scope)
         else:
             rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                           rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold)
+                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold, **scope)
     if initial:
         return _print_initial(rep, args.json)
     # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
@@ -86,34 +84,6 @@ def run(args) -> int:
 
         plot_analysis(rep, args.plot)
         print(f"figure written to {args.plot}")
-    return 0
-
-
-def _run_global(args, given) -> int:
-    """``--global``: print the global identifiability (and write its JSON); exit code 0."""
-    from .._analysis.globally.run import DEFAULT_TIMEOUT, global_identifiability
-    from .._io.initial_values import file_initial, initial_values
-    from .._io.loading import load_system
-
-    if not args.global_:
-        raise UsageError("--global-timeout applies with --global")
-    if args.plot:
-        raise UsageError("--plot draws the codistribution's steps; it does not apply with --global")
-    refuse_for(args.model, args)
-    load_options = sbml_options(args)
-    check_writable(args.json, names=("--json",), inputs=[args.model])
-    with model_prints_on_stderr():
-        system = load_system(args.model, **load_options)
-        initial = {**file_initial(system), **given}
-        result = global_identifiability(
-            system, initial=initial_values(system, initial) if initial else None, seed=args.seed,
-            prob_threshold=args.prob_threshold, max_order=args.max_order,
-            timeout=DEFAULT_TIMEOUT if args.global_timeout is None else args.global_timeout,
-            progress=False if args.no_progress else None)
-    print(result)
-    if args.json:
-        write_output(args.json, json.dumps(result.to_dict(), indent=2))
-        print(f"report written to {args.json}")
     return 0
 
 

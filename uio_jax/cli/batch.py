@@ -101,7 +101,7 @@ def _run(args, outputs) -> int:
                 on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
                 method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
                 max_order=args.max_order, k_max=args.k_max, known_inputs=args.known_inputs,
-                prob_threshold=args.prob_threshold)
+                prob_threshold=args.prob_threshold, scope=args.scope)
     except BatchInterrupted as exc:
         result, code = exc.result, EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
         print(f"uio-jax: {result.partial}", file=sys.stderr)

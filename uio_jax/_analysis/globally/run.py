@@ -87,14 +87,8 @@ def global_identifiability(system: System, *, initial=None, seed: int = 0,
             optional extra missing (one line).
         ModelError: a model that is not rational (the expression named).
     """
-    _check_options(system, seed, prob_threshold, timeout, memory_gb)
-    refuse_unsupported(system)
-    flint_module()
-    require_msolve()
-    checked = check_initial(system, initial) if initial else {}
-    functions = check_functions(system, functions)
-    nodes = function_nodes(system, functions)
-    ModelEquations(system, 1, nodes)  # a non-rational model is refused before any work
+    checked, functions, nodes = check_global(system, initial, seed=seed, prob_threshold=prob_threshold,
+                                             timeout=timeout, memory_gb=memory_gb, functions=functions)
     eps = 1.0 - prob_threshold
     t0 = time.perf_counter()
     local = analyze_initial(system, dict(initial or {}), seed=seed, prob_threshold=1.0 - eps / 4,
@@ -108,6 +102,23 @@ def global_identifiability(system: System, *, initial=None, seed: int = 0,
     seconds["local"] = time.perf_counter() - t0
     run = _Run(system, checked, verdicts, order, local, eps, seed, seconds, nodes, f_bound)
     return run.answer(timeout, None if memory_gb is None else int(memory_gb * 2**30), progress)
+
+
+def check_global(system, initial=None, *, seed=0, prob_threshold=DEFAULT_PROB_THRESHOLD, timeout=DEFAULT_TIMEOUT,
+                 memory_gb=None, functions=None):
+    """Everything :func:`global_identifiability` refuses, checked before any work (one line
+    each): the options, unknown inputs and explicit time, the optional extra, a bad
+    ``initial`` or ``functions``, a model that is not rational. Returns ``(checked initial,
+    checked functions, their graph nodes)``."""
+    _check_options(system, seed, prob_threshold, timeout, memory_gb)
+    refuse_unsupported(system)
+    flint_module()
+    require_msolve()
+    checked = check_initial(system, initial) if initial else {}
+    functions = check_functions(system, functions)
+    nodes = function_nodes(system, functions)
+    ModelEquations(system, 1, nodes)  # a non-rational model is refused before any work
+    return checked, functions, nodes
 
 
 def _check_options(system, seed, prob_threshold, timeout, memory_gb):
@@ -219,13 +230,16 @@ class _Run:
         truth = {u: point.values[ring.index[(u, 0)]] for u in self.unknowns}
         asked = {ring.labels[ring.index[(u, 0)]]: u for u in self.asked}
         solutions.element = {asked.get(k, k): e for k, e in solutions.element.items()}
+        # the unknowns the solve has: those fixed at their drawn values, and those that enter
+        # no equation (a parameter multiplied by 0), are not among its variables
+        truth = {u: v for u, v in truth.items() if u in solutions.element}
         if not solutions.squarefree or not solutions.contains(truth):
             return self._result({}, None, [], fibre.fixed, "msolve's solutions do not contain the point drawn "
                                 "(an unlucky prime, or an answer this reader does not understand)", point_bound,
                                 point.p)
         counts = {u: solutions.count(u, COUNT_CAP) for u in self.determined}
         found, kinds = [], []
-        for sol in solutions.rational_solutions(self.unknowns):
+        for sol in solutions.rational_solutions(list(truth)):
             sym = symmetry(truth, sol, point.p)
             if sym is not None and sym.text not in found:
                 found.append(sym.text)

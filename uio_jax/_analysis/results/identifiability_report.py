@@ -11,7 +11,7 @@ from types import MappingProxyType
 from ..._output import printable
 from .evidence import Arithmetic, jsonable
 from .kinds import Answer, Verdict
-from .report import Question, refuse
+from .report import Question, global_answer, refuse
 
 
 class StopKind(enum.Enum):
@@ -51,6 +51,8 @@ class IdentifiabilityReport:
         notes: remarks.
         experiments: per experiment: ``name``, ``initial``, ``order``, ``closed`` and
             ``added`` (the unknowns it made determined).
+        global_answer: the :class:`~uio_jax.GlobalResult` of ``scope="global"`` (None when
+            not asked): :attr:`global_identifiability`, :attr:`value_counts`.
         space: the span of the decisions, which :meth:`is_observable` queries
             (:class:`~uio_jax._analysis.at_t0.space.InitialSpace`).
         generic_experiments: for each distinct System, the smallest number of generic
@@ -79,6 +81,7 @@ class IdentifiabilityReport:
     experiments: tuple = ()
     generic_experiments: tuple = ()
     space: object = dataclasses.field(default=None, repr=False)
+    global_answer: object = dataclasses.field(default=None, repr=False)
 
     def __post_init__(self):
         for name in ("observable", "identifiable", "initial"):
@@ -114,6 +117,16 @@ class IdentifiabilityReport:
         if self.exact:
             return Answer.EXACT
         return Answer.SUFFICIENT_ONLY if self.question.sufficient_only else Answer.NOT_CERTIFIED
+
+    @property
+    def global_identifiability(self) -> Mapping:
+        """Unknown -> :class:`~uio_jax.GlobalVerdict`, with ``scope="global"``; refused otherwise."""
+        return global_answer(self, "global_identifiability").global_identifiability
+
+    @property
+    def value_counts(self) -> Mapping:
+        """How many values each unknown takes where known (``scope="global"``)."""
+        return global_answer(self, "value_counts").value_counts
 
     def is_observable(self, fn) -> bool:
         """Whether the function ``fn(z)`` of the System's ``z = [x; p]`` (or ``fn(x, p)``) is
@@ -176,6 +189,7 @@ class IdentifiabilityReport:
             "experiments": [dict(e) for e in self.experiments],
             "generic_experiments": [dict(g) for g in self.generic_experiments],
             "notes": list(self.notes),
+            **({} if self.global_answer is None else {"global": self.global_answer.to_dict()}),
         })
 
     def to_json(self, **kw) -> str:
@@ -204,6 +218,7 @@ class IdentifiabilityReport:
         lines.append(f"certificate: {self.decisions} decisions ({self.undecided_decisions} undecided), "
                      f"{self.arithmetic.value}, p = {prime}, P(some exact decision wrong) <= "
                      f"{self.error_bound:.1e} (required <= {1 - self.prob_threshold:.0e})")
+        lines += [] if self.global_answer is None else self.global_answer.lines()
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(map(printable, lines))
 

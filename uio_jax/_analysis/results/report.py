@@ -101,6 +101,18 @@ def refuse(what: str, why: str) -> ModelError:
     return ModelError(f"{what}: {why}")
 
 
+#: Why a report has no global answer.
+GLOBAL_NOT_ASKED = "the global question was not asked: uj.analyze(system, scope='global') (uio-jax analyze --global)"
+
+
+def global_answer(report, what: str):
+    """``report.global_answer`` (the :class:`~uio_jax.GlobalResult` of ``scope="global"``), or
+    a one-line refusal naming ``what`` was asked."""
+    if report.global_answer is None:
+        raise refuse(what, GLOBAL_NOT_ASKED)
+    return report.global_answer
+
+
 @dataclass(eq=False)
 class FollowUps:
     """The follow-up answers computed on one report so far, each once (a cache the
@@ -162,6 +174,8 @@ class Report:
             ``is_observable``, the singular values; the follow-up questions read its
             generators).
         followups: the follow-up answers computed so far (:class:`FollowUps`).
+        global_answer: the :class:`~uio_jax.GlobalResult` of ``scope="global"`` (None when the
+            global question was not asked): :attr:`global_identifiability`, :attr:`value_counts`.
     """
 
     method: Method
@@ -184,6 +198,7 @@ class Report:
     plan: Plan | None = None
     space: object = field(default=None, repr=False)
     followups: FollowUps = field(default_factory=FollowUps, repr=False)
+    global_answer: object = field(default=None, repr=False)
 
     def __post_init__(self):
         params = tuple(self.params)
@@ -258,6 +273,17 @@ class Report:
             v: Verdict.UNDECIDED if v in open_ else Verdict.DETERMINED if ok else
             Verdict.NOT_DETERMINED if proved_not else Verdict.UNDECIDED
             for v, ok in {**self.observable, **self.identifiable}.items()})
+
+    @property
+    def global_identifiability(self) -> Mapping:
+        """Parameter or unknown initial state -> :class:`~uio_jax.GlobalVerdict` (``global``,
+        ``local``, ``not``, ``undecided``), with ``scope="global"``; refused otherwise."""
+        return global_answer(self, "global_identifiability").global_identifiability
+
+    @property
+    def value_counts(self) -> Mapping:
+        """How many values each unknown takes where known (``scope="global"``)."""
+        return global_answer(self, "value_counts").value_counts
 
     @property
     def fully_determined(self) -> bool:
@@ -427,6 +453,7 @@ class Report:
             "route": self.route.value,
             "plan": None if self.plan is None else self.plan.to_dict(),
             **self.followups.to_dict(),
+            **({} if self.global_answer is None else {"global": self.global_answer.to_dict()}),
             **(directions.directions_dict(self, self.space) if self.params else {}),
         })
 

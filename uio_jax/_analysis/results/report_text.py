@@ -79,6 +79,8 @@ def report_text(report) -> str:
             lines.append(f"  {p:<{width}}  {verdict}")
     lines += followup_lines(report)
     lines.append(f"certificate: {report.certificate}")
+    if report.global_answer is not None:
+        lines += report.global_answer.lines()
     for note in report.notes:
         lines.append(f"note: {note}")
     return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
