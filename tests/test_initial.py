@@ -118,10 +118,9 @@ def test_known_input_and_unknown_input():
 
 
 @pytest.mark.parametrize("initial, message", [
-    ({"x2": 5.0}, "lies outside its domain [0, 2]"),
     ({"x9": 0.0}, "'x9' is not a state"),
     ({"k1": 0.0}, "'k1' is a parameter, not a state"),
-    ({"x2": float("nan")}, "is nan: give a finite number"),
+    ({"x2": float("nan")}, "is nan: not a real number"),
     ({"x2": "q7"}, "'q7' is neither a number nor a parameter"),
     ({"x2": True}, "must be a number"),
     ([("x2", 0)], "must be a mapping"),
@@ -178,7 +177,6 @@ def test_cli_initial_and_the_model_file_table(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--initial", "x2=5"], "outside its domain"),
     (["--initial", "x9=0"], "'x9' is not a state"),
     (["--initial", "x2=nan"], "is nan"),
     (["--initial", "x2=q*2"], "name 'q' is not allowed"),

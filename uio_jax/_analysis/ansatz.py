@@ -149,10 +149,13 @@ class ModularSpan:
         atoms: graph nodes the polynomial ansatz is written in (the coordinates, and
             elementary functions of one coordinate such as ``cos(theta)``).
         seed: seed of the points.
+        fixed: ``{coordinate: value}`` of coordinates held at given values (integers,
+            Fractions) at every point: the points are then random points of that section.
     """
 
-    def __init__(self, graph, kept, atoms=(), seed: int = 0, p: int = graph_exact.PRIME):
+    def __init__(self, graph, kept, atoms=(), seed: int = 0, p: int = graph_exact.PRIME, fixed=None):
         self.graph, self.kept, self.atoms = graph, list(kept), list(atoms)
+        self.fixed = {int(i): graph_exact.const_mod(v, int(p)) for i, v in (fixed or {}).items()}
         self.rng = np.random.default_rng([int(seed), 0xA25A72])
         self.p = int(p)
         self.points = []  # Point per drawn point
@@ -160,8 +163,8 @@ class ModularSpan:
     def point(self, i: int):
         """The ``i``-th :class:`Point` (drawn on first use, in batches: one evaluation of the
         kept generators and the atoms at every point of a batch; a point where the kept rows
-        lose rank, or a zero coordinate or atom, is dropped), or None when no point could be
-        drawn."""
+        lose rank, or a zero coordinate (not a fixed one) or atom, is dropped), or None when no
+        point could be drawn."""
         if len(self.points) <= i:
             self.draw(i + 1 - len(self.points))
         return self.points[i] if i < len(self.points) else None
@@ -189,6 +192,9 @@ class ModularSpan:
         p, N, r = self.p, self.graph.n, len(self.kept)
         words = self.rng.integers(0, 2**63, size=(size, N, 3))
         zs = [[((int(a) << 126) | (int(b) << 63) | int(c)) % p for a, b, c in pt] for pt in words]
+        for z in zs:
+            for i, v in self.fixed.items():
+                z[i] = v
         ev = graph_exact.ModularEvaluator(self.graph, zs, p)
         try:
             ev.evaluate(self.kept + self.atoms)
@@ -202,7 +208,7 @@ class ModularSpan:
             K = [[int(v) for v in row[:, j]] for row in kept]
             V = kernel(K, N, p)
             vals = [int(v[j]) for v in values]
-            if len(V) == N - r and all(z) and all(vals):
+            if len(V) == N - r and all(v for i, v in enumerate(z) if i not in self.fixed) and all(vals):
                 gr = [{i: int(v) for i, v in enumerate(g[:, j]) if v} for g in grads]
                 out.append(Point(z, K, V, vals, gr))
         return out

@@ -71,11 +71,11 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
     exps = [Experiment(s, i, coords, max(cap, 1), f"[{e + 1}]" if many else "", shared)
             for e, (s, i) in enumerate(zip(systems, checked))]
     target = Graph(len(coords.names))
+    lo, hi = coords.box()
     for ex in exps:
         ex.attach(target)
         where = ", ".join(f"{k}{ex.suffix} = {v.text}" for k, v in ex.initial.items()) or "generic"
-        check_defined(target, [r.expr for r in ex.order(0) + ex.order(1)], seed, where)
-    lo, hi = coords.box()
+        check_defined(target, ex.order(0) + ex.order(1), seed, where, (lo, hi))
     settler = Settler(target, lo, hi, seed, prob_threshold)
     span = Span(settler, [i for ex in exps for i in ex.seeds])
     determined, contributions, ranks = {}, [], []
@@ -231,6 +231,11 @@ def _notes(exps, verdict, coords, contributions, free):
         notes.append(f"undecided: not determined by the output coefficients up to order {order}; at a specific "
                      "initial state an order that adds nothing proves nothing and no order bound is known "
                      "(raise max_order to look further)")
+    inexact = [f"{k}{ex.suffix} = {v.text}" for ex in exps for k, v in ex.initial.items() if isinstance(v.value, float)]
+    if inexact:
+        notes.append(f"{', '.join(inexact)}: a constant known in float64 only (a non-rational function of "
+                     "constants), so no decision that uses it is exact; give an exact value (a number, a fraction) "
+                     "if that is what is meant (sin(pi) is 0)")
     if free:
         notes.append("unknown inputs: their derivatives at t = 0 are free unknowns of the Jacobian (an "
                      "analytic unknown input); 'determined' is proven, 'undecided' is not a proof")
