@@ -192,11 +192,14 @@ def _with_symmetries(report, system, seed):
     """``report`` with the notes and ``details["symmetries"]`` of the System's verified
     symmetries (:mod:`uio_jax._analysis.symmetry`): the coordinates they move are proved
     unobservable, and a verdict that contradicts one is flagged."""
-    bound = verify_symmetries(system, seed=seed)
+    cert = report.certificate
+    bound = verify_symmetries(system, seed=seed, prob_threshold=cert.prob_threshold)
     verdicts = {**report.observable, **report.identifiable}
     notes, _ = symmetry_notes(bound, verdicts, "the final span", report.dim)
     details = {**report.details, "symmetries": bound.to_dict()}
-    return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details)
+    if bound.probability:  # the verification's bound, charged to the report's certificate
+        cert = dataclasses.replace(cert, error_bound=cert.error_bound + bound.probability)
+    return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details, certificate=cert)
 
 
 def _run(system, method, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold):

@@ -37,6 +37,7 @@ from .._engine import graph_exact
 from .._errors import ModelError
 from .._model.system import System, derived_system
 from . import ansatz
+from .settle import DEFAULT_PROB_THRESHOLD
 from .symmetry import verify_symmetries
 
 #: Highest degree of the field ansatz (1: translations, rotations, scalings, linear fields).
@@ -95,7 +96,7 @@ class FoundSymmetries:
                 "complete": self.complete, "searched": self.searched or None}
 
 
-def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
+def find_symmetries(parts, system, seed: int = 0, prob_threshold: float = DEFAULT_PROB_THRESHOLD) -> FoundSymmetries:
     """Verified symmetries of the System a report is about.
 
     Args:
@@ -104,6 +105,7 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
             general solution: the System before the extension, its unknown inputs as unknown
             inputs; the codistribution may live on more coordinates).
         seed: seed of the ansatz points.
+        prob_threshold: the probability of correctness of the symmetry check's zero tests.
     """
     n = parts.n
     hidden = n - parts.dim
@@ -126,7 +128,7 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
     monos, vectors = found
     vectors = _symmetric(monos, vectors, system, n, seed)
     fields = sorted((_Field(monos, v, n) for v in vectors), key=lambda f: f.size)
-    return FoundSymmetries(_verified(fields, system, span, hidden, seed), hidden)
+    return FoundSymmetries(_verified(fields, system, span, hidden, seed, prob_threshold), hidden)
 
 
 def _symmetric(monos, vectors, system, n, seed) -> list:
@@ -191,7 +193,7 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
     return ansatz.readable_fields(fields, monos, n, p)
 
 
-def _verified(fields, system, span, hidden, seed) -> tuple:
+def _verified(fields, system, span, hidden, seed, prob_threshold) -> tuple:
     """The candidate fields that pass the symmetry check of declared symmetries on
     ``system`` (:func:`uio_jax._analysis.symmetry.verify_symmetries`), independent of those
     kept before (rank modulo p at the span's first point), at most ``hidden``."""
@@ -202,7 +204,7 @@ def _verified(fields, system, span, hidden, seed) -> tuple:
     with derived_system():
         probe = System(system.states, dict(system.outputs), dict(system.known), dict(system.unknown),
                        system.drift, dict(system.domain), system.angles, system.name, symmetries=declared)
-    bound = verify_symmetries(probe, seed=seed)
+    bound = verify_symmetries(probe, seed=seed, prob_threshold=prob_threshold)
     kept, echelon, point = [], graph_exact.Echelon(), span.point(0)
     for f, check in zip(fields, bound.checks if bound else ()):
         if check.verified and point is not None and echelon.add(f.at(point.z)):
