@@ -43,7 +43,7 @@ def _exact_rank(h, drift, coords, syms_drift, point, extra=()):
     for _ in range(len(coords)):
         rows.append([sp.diff(lie, c) for c in coords])
         lie = sum(sp.diff(lie, v) * f for v, f in zip(syms_drift, drift))
-    mat = sp.Matrix([[sp.nsimplify(e.subs(point)) for e in r] for r in rows] + [list(e) for e in extra])
+    mat = sp.Matrix([[e.subs(point) for e in r] for r in rows] + [list(e) for e in extra])
     return mat.rank()
 
 

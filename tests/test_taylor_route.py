@@ -181,8 +181,11 @@ def test_report_text_and_names_on_the_taylor_route():
     text = str(report)
     assert "Taylor series" in text and "symmetries found: not searched" in text
     named = report.named_functions
-    assert set(named.texts) == {v for v, seen in {**report.observable, **report.identifiable}.items() if seen}
-    assert not named.complete  # a0 * b is observable, neither factor: given only as generators
+    seen = {v for v, ok in {**report.observable, **report.identifiable}.items() if ok}
+    # the observable coordinates, and a0 * b (observable, neither factor is): named by the
+    # model's subexpressions, each checked at the route's random point (issue 47 item 8)
+    assert set(named.texts) == seen | {"a0*b"} and named.complete and len(named.texts) == report.dim
+    assert report.is_observable(lambda x, a: a[0] * a[12]) and "24 of 24 named" in named.summary()
     assert report.to_dict()["dim"] == report.dim
 
 

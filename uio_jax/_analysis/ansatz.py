@@ -274,7 +274,7 @@ def polynomial_functions(span: ModularSpan, degree: int, atoms=None):
     return monos, _readable(sol, p)
 
 
-def laurent_monomials(span: ModularSpan, m: int):
+def laurent_monomials(span: ModularSpan, m: int, among=None):
     """Integer exponent vectors ``a`` (length ``m``) of the observable Laurent monomials
     ``prod z_i^(a_i)`` of the first ``m`` coordinates (a basis of their lattice, read back
     from the reduced echelon form), or None.
@@ -284,12 +284,13 @@ def laurent_monomials(span: ModularSpan, m: int):
     (``v_i = 0``), so it is free, and a monomial with such a factor is that observable
     coordinate times a monomial of the others. The rows a point adds are the rank of the
     directions on the moved coordinates (3 of the 83 directions of an EORC on 148
-    coordinates, say), which sets how many points are drawn."""
+    coordinates, say), which sets how many points are drawn. ``among``: the coordinates the
+    monomials may use (default: the first ``m``)."""
     p = span.p
     first = span.point(0)
     if first is None:
         return None
-    moved = [i for i in range(m) if any(v[i] for v in first.V)]
+    moved = [i for i in range(m) if any(v[i] for v in first.V) and (among is None or i in among)]
     if len(moved) > MAX_UNKNOWNS:
         return None
     if not moved:
@@ -312,6 +313,27 @@ def laurent_monomials(span: ModularSpan, m: int):
             full[i] = a
         out.append(full)
     return out
+
+
+def atom_monomials(span: ModularSpan, atoms):
+    """Integer exponent vectors ``a`` of the observable products ``prod_t A_t^(a_t)`` of the
+    span's atoms ``A_t``, ``t`` in ``atoms`` (the model's subexpressions: rational functions
+    of the coordinates), a basis of their lattice; or None. A product is observable iff its
+    ``d log`` is: ``sum_t a_t (d A_t . v) / A_t = 0`` for every unobservable direction ``v``."""
+    atoms = list(atoms)
+    if not atoms or len(atoms) > MAX_UNKNOWNS:
+        return None
+    p = span.p
+
+    def equations(pt):
+        inv = [pow(pt.values[t], -1, p) for t in atoms]
+        return [[sum(g * v[i] for i, g in pt.grads[t].items()) * w % p for t, w in zip(atoms, inv)] for v in pt.V]
+
+    first = span.point(0)
+    if first is None:
+        return None
+    sol = span.solve(equations, len(atoms), max(1, span.graph.n - len(span.kept)))
+    return None if sol is None else _readable(sol, p)
 
 
 def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
@@ -429,5 +451,6 @@ def _lower(e, t):
 
 
 __all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
-           "polynomial_functions", "laurent_monomials", "polynomial_fields", "restricted_rows", "readable_fields",
+           "polynomial_functions", "laurent_monomials", "atom_monomials", "polynomial_fields", "restricted_rows",
+           "readable_fields",
            "MAX_UNKNOWNS", "MAX_POINTS", "MAX_COEFFICIENT", "CANDIDATE_PRIME"]

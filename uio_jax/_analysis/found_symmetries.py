@@ -127,7 +127,7 @@ def find_symmetries(parts, system, seed: int = 0, prob_threshold: float = DEFAUL
         return FoundSymmetries((), hidden, "the field ansatz could not be solved")
     monos, vectors = found
     vectors = _symmetric(monos, vectors, system, n, seed)
-    fields = sorted((_Field(monos, v, n) for v in vectors), key=lambda f: f.size)
+    fields = sorted((PolynomialField(monos, v, n) for v in vectors), key=lambda f: f.size)
     return FoundSymmetries(_verified(fields, system, span, hidden, seed, prob_threshold), hidden)
 
 
@@ -151,7 +151,8 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
     known = [builder.field(k, fn) for k, fn in system.fields().items() if k not in system.unknown]
     unknown = [builder.field(k, fn) for k, fn in system.unknown.items()]
     try:
-        xis = [builder.field(f"candidate field {i}", _Field(monos, v, n).callable()) for i, v in enumerate(vectors)]
+        xis = [builder.field(f"candidate field {i}", PolynomialField(monos, v, n).callable())
+               for i, v in enumerate(vectors)]
     except ModelError:
         return vectors
     conds = [[(builder.lie(xi, h).expr,) for h in outputs] + [builder.bracket(xi, f).expr for f in known]
@@ -214,8 +215,10 @@ def _verified(fields, system, span, hidden, seed, prob_threshold) -> tuple:
     return tuple(kept)
 
 
-class _Field:
-    """A polynomial vector field from the ansatz' integer coefficients."""
+class PolynomialField:
+    """A polynomial vector field from the ansatz' integer coefficients (unknown ``(i, a)``
+    of component ``i`` and monomial ``monos[a]`` at ``i * len(monos) + a``): its values modulo
+    p, a JAX callable, its components as text and its kind."""
 
     def __init__(self, monos, vector, N):
         M = len(monos)
@@ -296,4 +299,4 @@ def _poly_text(terms, names) -> str:
     return text
 
 
-__all__ = ["FoundSymmetry", "FoundSymmetries", "find_symmetries", "DEGREE"]
+__all__ = ["FoundSymmetry", "FoundSymmetries", "PolynomialField", "find_symmetries", "DEGREE"]

@@ -34,6 +34,7 @@ from .._model.system import System
 from .evidence import Arithmetic
 from .identifiability_report import IdentifiabilityReport, StopKind, Verdict
 from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial
+from .initial_proofs import Search, prove_not_determined
 from .report import Question
 from .settle import Outcome, Settler
 
@@ -82,8 +83,10 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
     for e, ex in enumerate(exps):
         contributions.append(_absorb(ex, span, settler, coords, exps[:e + 1], determined, ranks, cap, many))
     proved_not = all(c["closed"] for c in contributions)
+    search = _symmetry_proofs(exps, settler, coords, determined, proved_not, seed, prob_threshold)
+    moved = {i for proof in search.proofs for i in proof.moved}
     verdict = {i: Verdict.DETERMINED if i in determined else
-               Verdict.NOT_DETERMINED if proved_not else Verdict.UNDECIDED
+               Verdict.NOT_DETERMINED if proved_not or i in moved else Verdict.UNDECIDED
                for i in coords.of(Role.STATE, Role.PARAM)}
     generic_rows = []
     if generic:
@@ -94,7 +97,19 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
                 generic_rows += [g for g in [generic_experiments(s, shared, seed, prob_threshold)] if g]
     escalations = list(span.escalations)
     return _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
-                   prob_threshold, many, generic_rows)
+                   prob_threshold, many, generic_rows, search)
+
+
+def _symmetry_proofs(exps, settler, coords, determined, proved_not, seed, prob_threshold) -> Search:
+    """Proofs that undecided unknowns are not determined, by symmetries keeping the known
+    initial values (:mod:`.initial_proofs`); one experiment only."""
+    undecided = [i for i in coords.of(Role.STATE, Role.PARAM) if i not in determined]
+    if not undecided or proved_not:
+        return Search((), "")
+    if len(exps) > 1:
+        return Search((), "no symmetry search for several experiments (a symmetry would have to act on every "
+                          "experiment at once)")
+    return prove_not_determined(exps[0], settler, undecided, seed, prob_threshold)
 
 
 def _check_experiments(systems, initials, shared):
@@ -195,7 +210,7 @@ def generic_experiments(system, shared, seed, prob_threshold):
 
 
 def _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler, prob_threshold, many,
-            generic_rows):
+            generic_rows, search):
     """The :class:`IdentifiabilityReport` of a run."""
     free = any(ex.joint.unknown for ex in exps)
     question = ((Question.EXPERIMENTS_FREE_INPUT_JETS if free else Question.EXPERIMENTS) if many else
@@ -209,7 +224,7 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
     params = [i for i in coords.of(Role.PARAM)]
     stop = (StopKind.ALL_DETERMINED if all(v is Verdict.DETERMINED for v in verdict.values()) else
             StopKind.SPAN_CLOSED if all(c["closed"] for c in contributions) else StopKind.MAX_ORDER)
-    notes = _notes(exps, verdict, coords, contributions, free)
+    notes = _notes(exps, verdict, coords, contributions, free, search)
     return IdentifiabilityReport(
         question=question, system_name=systems[0].name,
         states=tuple(coords.names[i] for i in states), params=tuple(coords.names[i] for i in params),
@@ -223,14 +238,19 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
         experiments=tuple(contributions) if many else (), generic_experiments=tuple(generic_rows))
 
 
-def _notes(exps, verdict, coords, contributions, free):
+def _notes(exps, verdict, coords, contributions, free, search):
     """What the verdicts rest on, in words."""
     notes = []
-    if any(v is Verdict.UNDECIDED for v in verdict.values()):
+    for proof in search.proofs:
+        notes.append(f"not determined (proved at this initial state): {proof.text(coords.names)}, which keeps the "
+                     f"known initial values; {proof.how}")
+    undecided = [coords.names[i] for i, v in verdict.items() if v is Verdict.UNDECIDED]
+    if undecided:
         order = max(c["order"] for c in contributions)
-        notes.append(f"undecided: not determined by the output coefficients up to order {order}; at a specific "
-                     "initial state an order that adds nothing proves nothing and no order bound is known "
-                     "(raise max_order to look further)")
+        tried = f"; {search.tried}" if search.tried else ""
+        notes.append(f"undecided ({', '.join(undecided)}): not determined by the output coefficients up to order "
+                     f"{order}; at a specific initial state an order that adds nothing proves nothing and no order "
+                     f"bound is known (raise max_order to look further){tried}")
     inexact = [f"{k}{ex.suffix} = {v.text}" for ex in exps for k, v in ex.initial.items() if isinstance(v.value, float)]
     if inexact:
         notes.append(f"{', '.join(inexact)}: a constant known in float64 only (a non-rational function of "

@@ -20,7 +20,8 @@ from .driver import Stop
 from .evidence import Arithmetic, Certificate, Step, jsonable
 from .found_symmetries import FoundSymmetries, find_symmetries
 from .functions_of_z import function_of_z
-from .observable_functions import ObservableFunctions, coordinate_functions, name_functions
+from .observable_functions import ObservableFunctions, name_functions
+from .point_naming import name_at_point
 from .reparametrise import reparametrised_model
 from .report_text import report_text
 
@@ -299,8 +300,7 @@ class Report:
         checks). Computed on first access (it costs about as much as a small analysis) and
         kept."""
         if not self._named and not hasattr(self._space, "parts"):  # the Taylor route: no symbolic generators
-            self._named.append(coordinate_functions({**self.observable, **self.identifiable}, self.dim,
-                                                    self.generators))
+            self._named.append(name_at_point(self._space, self.dim, self.generators))
         if not self._named:
             inputs = len(self.details.get("extended_state", ())) - self.n if self.method == "eorc" else 0
             self._named.append(name_functions(self._space.parts(), inputs=max(inputs, 0)))
