@@ -30,6 +30,7 @@ from .eorc import eorc_report
 from .general_ui import check_applicable as general_ui_applicable
 from .general_ui import general_ui_report
 from .identifiability import analyze_experiments, analyze_initial
+from .initial import unused_note, unused_parameters
 from .memory import check_memory
 from .options import DEFAULTS, check_options
 from .orc import run_orc
@@ -109,7 +110,14 @@ def analyze(
         Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
     if initial is not None or shared is not None or not isinstance(system, System):
-        return _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
+        report = _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
+        given = {"samples": samples, "rtol": rtol, "k_max": k_max, "known_inputs": known_inputs}
+        ignored = [f"{k}={v!r}" for k, v in given.items() if v != DEFAULTS[k]]
+        if not ignored:
+            return report
+        return dataclasses.replace(report, notes=tuple(report.notes) + (
+            f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), no EORC "
+            "(k_max), and known inputs are generic (known_inputs)",))
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
                          max_order=max_order, k_max=k_max, known_inputs=known_inputs,
                          prob_threshold=prob_threshold)
@@ -151,6 +159,9 @@ def _with_notes(report, system, k_max, seed):
     ``k_max`` given to a method that does not use it, the declared symmetries (verified;
     the EORC uses them itself), the meaning of switchable known inputs."""
     report = _with_idle_outputs_note(report, system)
+    unused = unused_parameters(system)
+    if unused:
+        report = dataclasses.replace(report, notes=tuple(report.notes) + (unused_note(unused),))
     if k_max is not None and report.method != "eorc":  # given, but not used: said, not silent
         report = dataclasses.replace(report, notes=tuple(report.notes) + (
             f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "

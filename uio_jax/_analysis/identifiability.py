@@ -33,7 +33,7 @@ from .._errors import OptionError
 from .._model.system import System
 from .evidence import Arithmetic
 from .identifiability_report import IdentifiabilityReport, StopKind, Verdict
-from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial
+from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial, unused_note, unused_parameters
 from .initial_proofs import Search, prove_not_determined
 from .report import Question
 from .settle import Outcome, Settler
@@ -131,6 +131,9 @@ def _check_experiments(systems, initials, shared):
         raise OptionError("shared must be a sequence of parameter names, got a string")
     else:
         shared = tuple(shared)
+        repeated = sorted({p for p in shared if shared.count(p) > 1}, key=str)
+        if repeated:
+            raise OptionError(f"shared names {', '.join(map(repr, repeated))} more than once")
         for p in shared:
             if p not in common:
                 raise OptionError(f"shared parameter {p!r} is not a parameter of every experiment")
@@ -251,6 +254,9 @@ def _notes(exps, verdict, coords, contributions, free, search):
         notes.append(f"undecided ({', '.join(undecided)}): not determined by the output coefficients up to order "
                      f"{order}; at a specific initial state an order that adds nothing proves nothing and no order "
                      f"bound is known (raise max_order to look further){tried}")
+    unused = sorted({p for ex in exps for p in unused_parameters(ex.system)})
+    if unused:
+        notes.append(unused_note(unused))
     inexact = [f"{k}{ex.suffix} = {v.text}" for ex in exps for k, v in ex.initial.items() if isinstance(v.value, float)]
     if inexact:
         notes.append(f"{', '.join(inexact)}: a constant known in float64 only (a non-rational function of "

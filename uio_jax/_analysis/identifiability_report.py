@@ -8,7 +8,7 @@ import json
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from .._output import printable
+from .._output import printable, wrapped
 from .evidence import Arithmetic, jsonable
 from .report import Question
 
@@ -176,7 +176,7 @@ class IdentifiabilityReport:
                      f"{self.arithmetic.value}, p = {prime}, P(some exact decision wrong) <= "
                      f"{self.error_bound:.1e} (required <= {1 - self.prob_threshold:.0e})")
         lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(map(printable, lines))
+        return wrapped("\n".join(map(printable, lines)))
 
 
 __all__ = ["Verdict", "StopKind", "IdentifiabilityReport"]

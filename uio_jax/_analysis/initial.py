@@ -252,6 +252,29 @@ def _function_value(system, name, fn) -> InitialValue:
     return InitialValue(name, fn, text)
 
 
+def unused_parameters(system) -> tuple:
+    """The parameters of ``system`` (a user's System, or the joint System of one) that appear
+    in none of its outputs and fields: declared, but no equation uses them."""
+    joint = system.autonomous() if system.params else system
+    names = joint.joint_param_names
+    if not names:
+        return ()
+    builder = builder_for(joint)
+    graph = builder.graph
+    roots = [builder.scalar(k, fn).expr for k, fn in joint.outputs.items()]
+    roots += [e for k, fn in joint.fields().items() for e in builder.field(k, fn).expr]
+    used = {graph.param[k] for k in graph.reachable(roots) if graph.op[k] == "x"}
+    first = joint.states.index(names[0])
+    return tuple(nm for i, nm in enumerate(names) if first + i not in used)
+
+
+def unused_note(names) -> str:
+    """The note of parameters that no equation uses."""
+    many = len(names) > 1
+    return (f"parameter{'s' if many else ''} {', '.join(names)} appear{'' if many else 's'} in no equation "
+            f"(output or field): declared but unused, {'they are' if many else 'it is'} not identifiable")
+
+
 class Coordinates:
     """The coordinates of a target graph: one per unknown and per input derivative."""
 
@@ -442,5 +465,6 @@ class Span:
         return esc.result
 
 
-__all__ = ["Role", "InitialValue", "check_initial", "Coordinates", "Experiment", "Span", "check_defined",
+__all__ = ["Role", "InitialValue", "check_initial", "initial_value", "number_text", "unused_parameters",
+           "unused_note", "Coordinates", "Experiment", "Span", "check_defined",
            "JET_BOX", "NO_VOTE"]

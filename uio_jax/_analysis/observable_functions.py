@@ -58,6 +58,7 @@ import numpy as np
 
 from .._engine import graph_exact
 from .._engine.graph_numpy import columns
+from .._output import abridged
 from . import ansatz
 from .expression_text import Printer, text_size
 
@@ -165,7 +166,7 @@ class ObservableFunctions:
             head = f"{named} of {self.dim} named (they span the observable codistribution)"
         else:
             head = (f"{named} of {self.dim} named; the other {self.dim - named} given only as generators "
-                    f"(the kept generators span it: {', '.join(self.generators)})")
+                    f"(the kept generators span it: {abridged(self.generators)})")
         how = ("exact mod p, P(wrong) <= " f"{self.error_bound:.1e}" if self.arithmetic == "exact mod p"
                else f"decided in {self.arithmetic}, not exact")
         combos = ""

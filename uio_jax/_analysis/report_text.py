@@ -1,6 +1,6 @@
 """A Report as text: what ``print(report)`` shows."""
 
-from .._output import printable
+from .._output import printable, wrapped
 
 
 def report_text(report) -> str:
@@ -51,7 +51,7 @@ def report_text(report) -> str:
     lines.append(f"certificate: {report.certificate}")
     for note in report.notes:
         lines.append(f"note: {note}")
-    return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
+    return wrapped("\n".join(map(printable, lines)))  # no model text raw, no line of kilobytes
 
 
 __all__ = ["report_text"]
