@@ -92,12 +92,17 @@ BUSY = """
     """
 
 
+#: ``uio-jax`` with Ctrl-C at Python's default (a test runner may start its children with
+#: SIGINT ignored; a ``preexec_fn`` would run JAX's fork hooks in the child)
+UIO_JAX = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+           "from uio_jax.cli import main; sys.exit(main(sys.argv[1:]))")
+
+
 def _interrupt(argv, marker, env=None):
-    """Start ``python -m uio_jax ARGV`` (SIGINT at its default), wait for the file
+    """Start ``uio-jax ARGV`` (SIGINT at its default), wait for the file
     ``marker``, send SIGINT; returns (exit code, seconds to exit, stderr)."""
-    proc = subprocess.Popen([sys.executable, "-m", "uio_jax", *argv], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True, env=env,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen([sys.executable, "-c", UIO_JAX, *argv], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, env=env)
     try:
         deadline = time.monotonic() + 300
         while not os.path.exists(marker) and proc.poll() is None and time.monotonic() < deadline:
@@ -129,13 +134,12 @@ def test_ctrl_c_inside_a_collector_callback_ends_the_command(tmp_path):
 def test_ctrl_c_while_printing_a_large_report_ends_with_one_line(tmp_path):
     """stdout is a pipe nobody reads (the report blocks on it): Ctrl-C ends the command with
     its one line even though the unflushed report cannot be written."""
-    names = [f"state_with_a_rather_long_name_number_{i:05d}" for i in range(1200)]  # a report of 130 kB
+    names = [f"state_with_a_rather_long_name_number_{i:05d}" for i in range(800)]  # a report of 90 kB
     path = tmp_path / "wide.toml"
     path.write_text('states = [' + ", ".join(f'"{s}"' for s in names) + f']\n[outputs]\ny = "{names[0]} + {names[1]}"\n'
                     "[drift]\n" + "".join(f'{s} = "0"\n' for s in names))
-    proc = subprocess.Popen([sys.executable, "-m", "uio_jax", "analyze", str(path), "--no-progress"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen([sys.executable, "-c", UIO_JAX, "analyze", str(path), "--no-progress"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         head = proc.stdout.read(64)  # the report has started
         assert head

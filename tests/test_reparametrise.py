@@ -162,7 +162,7 @@ def test_random_product_plus_parameter_models_reparametrised_keep_every_combinat
     """Random models with a product-plus-parameter combination, reparametrised and analysed
     again: the dimension is the original's, every parameter identifiable, the functions the
     original's at the fixed values (sympy, exact)."""
-    assert _run_random(_random_cases(6, 47), tmp_path) >= 4
+    assert _run_random(_random_cases(4, 47), tmp_path) >= 3
 
 
 @pytest.mark.slow

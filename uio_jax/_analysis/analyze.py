@@ -87,10 +87,9 @@ def analyze(
             jump: Martinelli's papers, the classical ORC/EORC) or ``"smooth"`` (a generic smooth
             function of time, known with its derivatives: TUIO6's); the answers can differ (004
             11.1.1: dim 2 switchable, 1 smooth). ``Report.known_inputs`` records it.
-        initial, shared: a known initial state ``state -> value`` (a number in the state's box,
-            a parameter's name, a function of ``p``; one per experiment for several) and the shared
-            parameters (default: those common to all): then the question is local identifiability
-            at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`, :func:`_identifiability`).
+        initial, shared: a known initial state ``state -> value`` (a number, a parameter's name,
+            a function of ``p``; one per experiment for several) and the shared parameters (default:
+            those common to all): local identifiability at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`).
 
     Returns:
         :class:`~uio_jax.Report`. For a System with ``params``, the analysis runs on
@@ -111,13 +110,7 @@ def analyze(
     """
     if initial is not None or shared is not None or not isinstance(system, System):
         report = _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
-        given = {"samples": samples, "rtol": rtol, "k_max": k_max, "known_inputs": known_inputs}
-        ignored = [f"{k}={v!r}" for k, v in given.items() if v != DEFAULTS[k]]
-        if not ignored:
-            return report
-        return dataclasses.replace(report, notes=tuple(report.notes) + (
-            f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), no EORC "
-            "(k_max), and known inputs are generic (known_inputs)",))
+        return _with_unused_options_note(report, samples=samples, rtol=rtol, k_max=k_max, known_inputs=known_inputs)
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
                          max_order=max_order, k_max=k_max, known_inputs=known_inputs,
                          prob_threshold=prob_threshold)
@@ -152,6 +145,16 @@ def _identifiability(system, initial, shared, method, seed, max_order, prob_thre
     if isinstance(system, (list, tuple)):
         return analyze_experiments(system, initial, shared=shared, **kw)
     raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
+
+
+def _with_unused_options_note(report, **given):
+    """``report`` (at t = 0) with a note naming the options given that it does not use."""
+    ignored = [f"{k}={v!r}" for k, v in given.items() if v != DEFAULTS[k]]
+    if not ignored:
+        return report
+    return dataclasses.replace(report, notes=tuple(report.notes) + (
+        f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), no EORC "
+        "(k_max), and known inputs are generic (known_inputs)",))
 
 
 def _with_notes(report, system, k_max, seed):

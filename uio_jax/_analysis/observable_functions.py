@@ -299,7 +299,8 @@ class _Run:
         elementary = [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
         # the simplest subexpressions of several coordinates, as atoms of the last tier and
         # of the products of their powers (rational functions outside the other forms)
-        compound = [node for fn, node in self.subexpressions if len(fn.variables) > 1][:SUB_ATOMS]
+        compound = [node for fn, node in self.subexpressions
+                    if len(fn.variables) > 1 and self.settler.exact_capable([node])][:SUB_ATOMS]
         self.atoms = list(g.coords[:self.m]) + elementary + compound
         self.atom_cols = [None] * self.m + [next(iter(cols[k])) for k in elementary] + ["sub"] * len(compound)
         self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed,
