@@ -44,6 +44,7 @@ import numpy as np
 from .._calculus.generators import builder_for
 from .._engine import graph_exact
 from .._engine.graph_elementary import Singular
+from .._errors import ModelError
 from .._model.system import System, derived_system
 from . import ansatz
 from .found_symmetries import PolynomialField
@@ -97,7 +98,10 @@ def prove_not_determined(ex, settler, undecided, seed: int, prob_threshold: floa
     ansatz_ = _Ansatz(ex, undecided, seed)
     if ansatz_.refusal:
         return Search((), f"no symmetry search ({ansatz_.refusal})")
-    vectors = ansatz_.solve()
+    try:
+        vectors = ansatz_.solve()
+    except ValueError:  # a node without a value modulo p (erf, a constant known in float64 only)
+        return Search((), "no symmetry search (the model is not made rational: no exact check applies)")
     tried = ("a search for symmetries keeping the known initial values (vector fields of degree <= 1 in the "
              "states and parameters, each checked exactly)")
     if vectors is None:
@@ -105,7 +109,10 @@ def prove_not_determined(ex, settler, undecided, seed: int, prob_threshold: floa
     if not vectors:
         return Search((), f"{tried} found none")
     fields = [PolynomialField(ansatz_.monos, v, ansatz_.N) for v in vectors]
-    proofs = _verified(ex, fields, settler, undecided, seed, prob_threshold)
+    try:
+        proofs = _verified(ex, fields, settler, undecided, seed, prob_threshold)
+    except ModelError as exc:  # a candidate the symmetry check cannot take: no proof from it
+        return Search((), f"{tried} found candidates the check could not take ({exc})")
     if not proofs:
         return Search((), f"{tried} found {len(fields)} candidate field{'s' if len(fields) > 1 else ''}, none "
                           "verified that moves them")
@@ -220,7 +227,7 @@ class _Ansatz:
                     z[k] = int(first.V[node][0]) % q
                 ev = self._evaluator(z, nodes)
                 break
-            except (Singular, ValueError):
+            except Singular:
                 continue
         else:
             return None
