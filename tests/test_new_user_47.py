@@ -98,16 +98,17 @@ UIO_JAX = ("import signal, sys; signal.signal(signal.SIGINT, signal.default_int_
            "from uio_jax.cli import main; sys.exit(main(sys.argv[1:]))")
 
 
-def _interrupt(argv, marker, env=None):
-    """Start ``uio-jax ARGV`` (SIGINT at its default), wait for the file
-    ``marker``, send SIGINT; returns (exit code, seconds to exit, stderr)."""
+def _interrupt(argv, ready, env=None):
+    """Start ``uio-jax ARGV`` (SIGINT at its default), wait until ``ready(pid)`` (the command
+    is past its imports, doing its work), send SIGINT; returns (exit code, seconds to exit,
+    stderr)."""
     proc = subprocess.Popen([sys.executable, "-c", UIO_JAX, *argv], stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, env=env)
     try:
         deadline = time.monotonic() + 300
-        while not os.path.exists(marker) and proc.poll() is None and time.monotonic() < deadline:
+        while not ready(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert os.path.exists(marker), proc.stderr.read() if proc.poll() is not None else "no marker"
+        assert proc.poll() is None and ready(proc.pid), proc.stderr.read() if proc.poll() is not None else "not ready"
         time.sleep(0.5)
         start = time.monotonic()
         proc.send_signal(signal.SIGINT)
@@ -126,7 +127,7 @@ def test_ctrl_c_inside_a_collector_callback_ends_the_command(tmp_path):
     zoo.write_text(textwrap.dedent(BUSY))
     marker = tmp_path / "started"
     env = dict(os.environ, BUSY_FILE=str(marker))
-    code, seconds, err = _interrupt(["analyze", f"{zoo}:busy", "--no-progress"], marker, env)
+    code, seconds, err = _interrupt(["analyze", f"{zoo}:busy", "--no-progress"], lambda pid: marker.exists(), env)
     assert code == 130 and err.strip() == "uio-jax: interrupted", err
     assert seconds < 60  # the watchdog ends it by 5 s in any case; the callback's deferral sooner
 
@@ -170,8 +171,13 @@ def test_ctrl_c_during_save_model_of_a_large_sbml_file(tmp_path):
     for i in range(1999):
         b.reaction(f"R{i}", {f"S{i}": 1}, {f"S{i + 1}": 1}, f"k{i}*S{i}")
     xml = b.write(tmp_path / "big.xml")
-    marker = tmp_path / "big.xml"  # exists: interrupt a few seconds into the load
-    code, seconds, err = _interrupt(["save-model", xml, str(tmp_path / "big.toml"), "--outputs", "y=S0"], marker)
+    def reading(pid):  # the command has the SBML file open: it is loading it
+        try:
+            return any(os.readlink(f"/proc/{pid}/fd/{fd}") == xml for fd in os.listdir(f"/proc/{pid}/fd"))
+        except OSError:
+            return False
+
+    code, seconds, err = _interrupt(["save-model", xml, str(tmp_path / "big.toml"), "--outputs", "y=S0"], reading)
     assert code == 130 and err.strip() == "uio-jax: interrupted", err
     assert seconds < 60 and not (tmp_path / "big.toml").exists()
 

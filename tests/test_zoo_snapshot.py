@@ -29,7 +29,8 @@ Refreshed when the symmetry check settled its zero tests with the Settler (issue
 ``how`` of every found or declared symmetry and the probability it reports, charged to the five
 reports whose EORC or declared symmetries use it) and the named functions gained the
 identifiable combinations (``observable_functions.combinations``, ``combinations_dim``): every
-verdict, dimension, named function and symmetry field unchanged. Entries added, no report moved: the Vi-SfM with partial input knowledge at the paper's orders
+verdict, dimension, named function and symmetry field unchanged. Entries added, no report
+moved: the Vi-SfM with partial input knowledge at the paper's orders
 (``visual_inertial_no_offset.py``) and the standard Vi-SfM with a full IMU
 (``visual_inertial_standard.py``). A change that
 should move no number (a refactor) must leave every report equal. Integers, booleans,
