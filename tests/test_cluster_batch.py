@@ -352,7 +352,8 @@ def test_a_worker_claims_a_cpu_no_other_worker_holds(tmp_path):
             "cpu = claim_one_cpu(); print(cpu, sorted(os.sched_getaffinity(0)), flush=True); "
             "time.sleep(float(sys.argv[1]))")
     env = dict(os.environ, TMPDIR=str(tmp_path))
-    first = subprocess.Popen([sys.executable, "-c", code, "30"], stdout=subprocess.PIPE, text=True, env=env)
+    # the first holds its CPU until it is killed below (however slow the others start)
+    first = subprocess.Popen([sys.executable, "-c", code, "3600"], stdout=subprocess.PIPE, text=True, env=env)
     try:
         cpu1, mask1 = first.stdout.readline().split(" ", 1)
         out = subprocess.run([sys.executable, "-c", code, "0"], capture_output=True, text=True, env=env,

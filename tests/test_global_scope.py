@@ -16,7 +16,8 @@ MODEL = ('name = "square"\nstates = ["x"]\n[params]\na = [0.5, 1.5]\nb = [0.5, 1
 
 def _square():
     """``x' = -a^2 x``, ``y = x``: ``a`` takes two values (``a -> -a``), ``x`` one."""
-    return uj.System(states=("x",), outputs={"y": lambda x, p: x[0]}, drift=lambda x, p: jnp.stack([-(p[0] ** 2) * x[0]]),
+    return uj.System(states=("x",), outputs={"y": lambda x, p: x[0]},
+                     drift=lambda x, p: jnp.stack([-(p[0] ** 2) * x[0]]),
                      params={"a": (0.5, 1.5)}, domain={"x": (0.5, 1.5)}, name="square")
 
 
@@ -53,8 +54,8 @@ def test_bad_options(kwargs, match):
 
 
 def test_unknown_inputs_are_refused_before_any_work():
-    system = uj.System(states=("x",), outputs={"y": lambda x: x[0]}, unknown={"w": lambda x: jnp.stack([1.0 + 0 * x[0]])},
-                       drift=lambda x: jnp.stack([-x[0]]))
+    system = uj.System(states=("x",), outputs={"y": lambda x: x[0]},
+                       unknown={"w": lambda x: jnp.stack([1.0 + 0 * x[0]])}, drift=lambda x: jnp.stack([-x[0]]))
     with pytest.raises(uj.OptionError, match="unknown input"):
         uj.analyze(system, scope="global")
 

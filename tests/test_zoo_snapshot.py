@@ -25,7 +25,12 @@ report keeps its StopReason member as ``stop``; every verdict, dimension and ste
 57 of 57 analysed reports exact in arithmetic), then when every answer for switchable known
 inputs gained the note on the other meaning (issue 40), and when every report gained
 ``question`` (``generic_states``; issue 39: the known-initial-state analysis answers another).
-Entries added, no report moved: the Vi-SfM with partial input knowledge at the paper's orders
+Refreshed when the symmetry check settled its zero tests with the Settler (issue 47 item 7: the
+``how`` of every found or declared symmetry and the probability it reports, charged to the five
+reports whose EORC or declared symmetries use it) and the named functions gained the
+identifiable combinations (``observable_functions.combinations``, ``combinations_dim``): every
+verdict, dimension, named function and symmetry field unchanged. Entries added, no report
+moved: the Vi-SfM with partial input knowledge at the paper's orders
 (``visual_inertial_no_offset.py``) and the standard Vi-SfM with a full IMU
 (``visual_inertial_standard.py``). Refreshed when the analysis wing got its floor plan (issue
 44): every report gained ``answer``, ``route`` and ``plan`` (what the chooser decided before

@@ -79,3 +79,37 @@ def printable(text, keep: str = "") -> str:
     if not _UNSAFE.search(text):
         return text
     return _UNSAFE.sub(lambda m: m.group() if m.group() in keep else _escape(m), text)
+
+
+#: Lines of a text report longer than this are wrapped (at :data:`WRAP_WIDTH` columns).
+WRAP_LIMIT = 160
+#: Width of the wrapped lines.
+WRAP_WIDTH = 100
+
+
+def wrapped(text, limit: int = WRAP_LIMIT, width: int = WRAP_WIDTH) -> str:
+    """``text`` with every line longer than ``limit`` characters broken at spaces into lines
+    of at most ``width`` (a word longer than that kept whole), the continuation lines
+    indented four spaces past the line's own indentation: a report never prints a line of
+    kilobytes (a 401-coordinate point, a long list of generators)."""
+    import textwrap
+
+    out = []
+    for line in str(text).split("\n"):
+        if len(line) <= limit:
+            out.append(line)
+            continue
+        indent = line[:len(line) - len(line.lstrip(" "))]
+        out += textwrap.wrap(line, width=width, subsequent_indent=indent + "    ", break_long_words=False,
+                             break_on_hyphens=False) or [line]
+    return "\n".join(out)
+
+
+def abridged(items, head: int = 6, tail: int = 2) -> str:
+    """``a, b, c`` for a short list; the first ``head``, ``...``, the last ``tail`` and the
+    count for a long one (``y, L_f0 y, ..., y_30 (31 in all)``)."""
+    items = [str(i) for i in items]
+    if len(items) <= head + tail + 1:
+        return ", ".join(items)
+    return ", ".join(items[:head]) + ", ..., " + ", ".join(items[-tail:]) + f" ({len(items)} in all)"
+

@@ -13,6 +13,7 @@ from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
 from .._model.system import System
 from .at_t0.identifiability import analyze_experiments, analyze_initial
+from .at_t0.initial import unused_note, unused_parameters
 from .decisions.context import Context
 from .decisions.memory import check_memory
 from .decisions.settle import new_settler
@@ -67,10 +68,9 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
             jump: Martinelli's papers, the classical ORC/EORC) or ``"smooth"`` (a generic smooth
             function of time, known with its derivatives: TUIO6's); the answers can differ (004
             11.1.1: dim 2 switchable, 1 smooth). ``Report.known_inputs`` records it.
-        initial, shared: a known initial state ``state -> value`` (a number in the state's box,
-            a parameter's name, a function of ``p``; one per experiment for several) and the shared
-            parameters (default: those common to all): then the question is local identifiability
-            at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`, :func:`_identifiability`).
+        initial, shared: a known initial state ``state -> value`` (a number, a parameter's name,
+            a function of ``p``; one per experiment for several) and the shared parameters (default:
+            those common to all): local identifiability at ``t = 0`` (an :class:`~uio_jax.IdentifiabilityReport`).
         scope: ``"local"`` (default) or ``"global"``: also how many values each parameter and
             unknown initial state takes (``rep.global_identifiability``, ``rep.value_counts``;
             SIAN's route solved by msolve, the ``global`` extra: :mod:`uio_jax._analysis.globally`,
@@ -114,7 +114,8 @@ def _local(system, *, method, samples, seed, rtol, max_order, k_max, known_input
     """The local question: the observable codistribution at generic states, or identifiability
     at t = 0 with ``initial=`` or several experiments."""
     if initial is not None or shared is not None or not isinstance(system, System):
-        return _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
+        report = _identifiability(system, initial, shared, method, seed, max_order, prob_threshold)
+        return _with_unused_options_note(report, samples=samples, rtol=rtol, k_max=k_max, known_inputs=known_inputs)
     opts = check_options(method=method, samples=samples, seed=seed, rtol=rtol,
                          max_order=max_order, k_max=k_max, known_inputs=known_inputs,
                          prob_threshold=prob_threshold)
@@ -154,11 +155,24 @@ def _identifiability(system, initial, shared, method, seed, max_order, prob_thre
     raise OptionError(f"analyze needs a uio_jax.System, got {type(system).__name__}")
 
 
+def _with_unused_options_note(report, **given):
+    """``report`` (at t = 0) with a note naming the options given that it does not use."""
+    ignored = [f"{k}={v!r}" for k, v in given.items() if v != DEFAULTS[k]]
+    if not ignored:
+        return report
+    return dataclasses.replace(report, notes=tuple(report.notes) + (
+        f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), no EORC "
+        "(k_max), and known inputs are generic (known_inputs)",))
+
+
 def _with_notes(report, system, k_max, seed):
     """``report`` with what the run alone does not say: outputs that add nothing, a
     ``k_max`` given to a method that does not use it, the declared symmetries (verified;
     the EORC uses them itself), the meaning of switchable known inputs."""
     report = _with_idle_outputs_note(report, system)
+    unused = unused_parameters(system)
+    if unused:
+        report = dataclasses.replace(report, notes=tuple(report.notes) + (unused_note(unused),))
     if k_max is not None and report.method is not Method.EORC:  # given, but not used: said, not silent
         report = dataclasses.replace(report, notes=tuple(report.notes) + (
             f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
@@ -200,11 +214,14 @@ def _with_symmetries(report, system, seed):
     """``report`` with the notes and ``details["symmetries"]`` of the System's verified
     symmetries (:mod:`uio_jax._analysis.decisions.symmetry`): the coordinates they move are proved
     unobservable, and a verdict that contradicts one is flagged."""
-    bound = verify_symmetries(system, seed=seed)
+    cert = report.certificate
+    bound = verify_symmetries(system, seed=seed, prob_threshold=cert.prob_threshold)
     verdicts = {**report.observable, **report.identifiable}
     notes, _ = symmetry_notes(bound, verdicts, "the final span", report.dim)
     details = {**report.details, "symmetries": bound.to_dict()}
-    return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details)
+    if bound.probability:  # the verification's bound, charged to the report's certificate
+        cert = dataclasses.replace(cert, error_bound=cert.error_bound + bound.probability)
+    return dataclasses.replace(report, notes=tuple(report.notes) + tuple(notes), details=details, certificate=cert)
 
 
 def dispatch(system, chosen, settler, *, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold):

@@ -361,9 +361,10 @@ def _named(system, path, name):
 
 def listed_entries(path: str, build: bool = False):
     """The models of a zoo file found by reading it, not importing it: a deferred entry per
-    public top-level ``def`` that takes no required argument and per public top-level
-    ``NAME = ...System(...)`` (``__all__`` respected when it is a literal list), in file
-    order; names ending in ``_experiment`` and functions annotated to return another type
+    public top-level ``def`` that takes no required argument, per public top-level
+    ``NAME = ...System(...)`` and per ``NAME = factory(...)`` of a function defined in the file
+    (``__all__`` respected when it is a literal list), in file order; names ending in
+    ``_experiment`` and functions annotated to return another type
     are skipped as :func:`_zoo_entries` skips them. The worker that runs an entry imports
     the file (:func:`build_deferred`). ``build`` is unused (always deferred)."""
     import ast
@@ -377,6 +378,7 @@ def listed_entries(path: str, build: bool = False):
     except (OSError, ValueError, RecursionError, MemoryError) as exc:
         return [Entry(path, error=f"model file {path} fails to load: {one_line(exc)}")], []
     public = _literal_all(tree)
+    defined = {node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))}
     found = {}
     for node in tree.body:
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
@@ -386,8 +388,8 @@ def listed_entries(path: str, build: bool = False):
             if required == 0:
                 returns = ast.unparse(node.returns) if node.returns is not None else ""
                 found[node.name] = _skip_without_calling(node.name, None, returns)
-        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) and \
-                "system" in ast.unparse(node.value.func).lower():
+        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) and (
+                "system" in ast.unparse(node.value.func).lower() or _local_call(node.value, defined)):
             found.update((t.id, "") for t in node.targets if isinstance(t, ast.Name))
     entries, skipped = [], []
     for name, why in found.items():
@@ -403,6 +405,15 @@ def listed_entries(path: str, build: bool = False):
                                   "arguments (read, not imported: with a time limit the workers "
                                   "import zoo files)")], []
     return entries, skipped
+
+
+def _local_call(call, defined) -> bool:
+    """Whether ``call`` calls a function defined at the top of the same file (a factory such
+    as ``name = _alias("target", "doc")``, whose result a worker inspects: a function without
+    required arguments or a System is a model, anything else is skipped)."""
+    import ast
+
+    return isinstance(call.func, ast.Name) and call.func.id in defined
 
 
 def _literal_all(tree):

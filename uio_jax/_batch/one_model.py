@@ -4,6 +4,7 @@ import time
 
 from .._analysis.analyze import analyze
 from .._errors import UioJaxError, exit_message
+from .._io.initial_values import file_initial
 from .._io.loading import load_system
 from .._model.system import System
 from .discovery import Entry, Skipped, build_deferred
@@ -49,4 +50,16 @@ def run_entry(entry: Entry, analyze_kwargs, keep_report=True, on_system=None):
     except SystemExit as exc:  # a model function that calls sys.exit: its row, not the batch's end
         return BatchRow(entry.label, error=f"{entry.label} {exit_message(exc)}",
                         seconds=time.perf_counter() - t0)
-    return row_from_report(entry.label, rep, time.perf_counter() - t0, rep if keep_report else None)
+    return row_from_report(entry.label, rep, time.perf_counter() - t0, rep if keep_report else None,
+                           notes=initial_table_note(system))
+
+
+def initial_table_note(system) -> tuple[str, ...]:
+    """The note of a model loaded with a known initial state (a model file's ``[initial]``
+    table), which a batch does not use: it answers the generic question."""
+    table = file_initial(system)
+    if not table:
+        return ()
+    values = ", ".join(f"{k} = {v}" for k, v in table.items())
+    return (f"its [initial] table ({values}) is not used: batch answers the question at generic states; "
+            "'uio-jax analyze' on the file answers at that initial state",)

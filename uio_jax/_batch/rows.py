@@ -48,6 +48,8 @@ class BatchRow:
             is ``dim``); None for a failed model.
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
+        notes: what the row does not say by itself (a model file's ``[initial]`` table that
+            the batch, which answers the generic question, does not use).
     """
 
     model: str
@@ -70,6 +72,7 @@ class BatchRow:
     functions_complete: bool | None = None
     global_verdicts: tuple[str, ...] = ()
     report: object = field(default=None, repr=False, compare=False)
+    notes: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -93,7 +96,7 @@ class BatchRow:
             "observable_inputs": list(self.inputs), "status": self.status,
             "undecided": list(self.undecided), "observable_functions": list(self.functions),
             **({"global": list(self.global_verdicts)} if self.global_verdicts else {}),
-            "functions_complete": self.functions_complete,
+            "functions_complete": self.functions_complete, "notes": list(self.notes),
         }
         return d
 
@@ -178,13 +181,22 @@ class BatchResult:
         headers, body = self._cells()
         lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |" for row in body]
+        notes = self._notes()
+        if notes:
+            lines += [""] + [f"* {n}" for n in notes]
         if self.partial:
             lines += ["", f"*Partial table: {self.partial}.*"]
         return "\n".join(lines) + "\n"
 
+    def _notes(self) -> list[str]:
+        return [printable(f"note: {r.model}: {n}") for r in self.rows for n in r.notes]
+
     def table(self) -> str:
-        """The table for a terminal: aligned columns, then one line per failed model's error."""
+        """The table for a terminal: aligned columns (a list cell longer than
+        :data:`TABLE_CELL` characters abridged with how many more it holds: the Markdown,
+        JSON and CSV keep it whole), then one line per failed model's error and the notes."""
         headers, body = self._cells()
+        body = [[c if i in (0, len(row) - 1) else _abridged_cell(c) for i, c in enumerate(row)] for row in body]
         widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
                   for i, h in enumerate(headers)]
         right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
@@ -195,7 +207,7 @@ class BatchResult:
 
         lines = [fmt(headers), fmt(["-" * w for w in widths])]
         lines += [fmt(row) for row in body]
-        return "\n".join(lines)
+        return "\n".join(lines + self._notes())
 
     def summary(self) -> str:
         """One line: models passed / failed, total time, functions skipped, files not
@@ -242,10 +254,10 @@ class BatchResult:
         return headers, body
 
 
-def row_from_report(label, rep, seconds, report=None) -> BatchRow:
+def row_from_report(label, rep, seconds, report=None, notes=()) -> BatchRow:
     """The row of an analysed model from its :class:`~uio_jax.Report` ``rep`` (``seconds``:
-    its wall time; ``report``: what the row keeps, None for nothing). A NaN certificate is
-    the row's error."""
+    its wall time; ``report``: what the row keeps, None for nothing; ``notes``: the row's
+    notes). A NaN certificate is the row's error."""
     params = tuple(getattr(rep, "params", ()) or ())
     ident = getattr(rep, "identifiable", {}) or {}
     cert = rep.certificate
@@ -262,6 +274,7 @@ def row_from_report(label, rep, seconds, report=None) -> BatchRow:
         exact=bool(rep.exact), inputs=_observable_inputs(rep),
         status=rep.certificate.status, undecided=tuple(rep.undecided),
         functions=named.texts, functions_complete=named.complete, global_verdicts=_global_verdicts(rep),
+        notes=tuple(notes),
     )
 
 
@@ -303,6 +316,24 @@ def one_line(exc, with_type=True) -> str:
     text = str(exc).strip()
     first = text.splitlines()[0] if text else ""
     return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
+
+
+#: Longest list cell of the terminal table (characters).
+TABLE_CELL = 72
+
+
+def _abridged_cell(cell: str) -> str:
+    """A list cell (``; `` or ``, `` separated) cut after the items that fit in
+    :data:`TABLE_CELL` characters, with how many more there are."""
+    if len(cell) <= TABLE_CELL:
+        return cell
+    sep = "; " if "; " in cell else ", "
+    items, kept = cell.split(sep), []
+    for item in items:
+        if len(sep.join(kept + [item])) > TABLE_CELL - 12 and kept:
+            break
+        kept.append(item)
+    return sep.join(kept) + f" (+{len(items) - len(kept)} more)" if len(kept) < len(items) else cell
 
 
 def _functions(row) -> str:

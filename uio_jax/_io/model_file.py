@@ -205,6 +205,10 @@ def save_model(system, path) -> None:
     if isinstance(system, dict):
         spec = spec_from_dict(system, "model dictionary")
         system = build_system(spec)
+    from .._model.system import System
+
+    if not isinstance(system, System):
+        raise ModelError(f"save_model needs a uio_jax.System or a model dictionary, got {type(system).__name__}")
     spec = getattr(system, "source", None)
     if not isinstance(spec, ModelSpec):
         label = f" {system.name!r}" if getattr(system, "name", "") else ""

@@ -190,10 +190,17 @@ class _Roles:
                 if value is None:
                     raise OptionError(f"{self.where}: {nm!r} in fixed has no value in the file: "
                                       "give one (NAME=VALUE)")
+                if ent.kind == "compartment" and not value > 0:
+                    given = "fixed" if self.fixed[nm] is not None else "its size in the file, fixed"
+                    raise OptionError(f"{self.where}: compartment {nm!r} of size {value} ({given}): a compartment's "
+                                      "size must be positive (the rates of its species are divided by it)")
                 constants[nm] = value
             elif ent.kind in ("parameter", "local") or nm in self.estimate or ent.value is None:
                 params[nm] = _box(ent.value)
             else:
+                if ent.kind == "compartment" and not ent.value > 0:
+                    raise ModelError(f"{self.where}: compartment {nm!r} has size {ent.value} in the file: a "
+                                     "compartment's size must be positive (fix it with fixed={name: size})")
                 constants[nm] = ent.value
         for nm in extra:
             params[nm] = _box(None)

@@ -24,6 +24,7 @@ from .._errors import UioJaxError, exit_message
 from .._output import printable
 from . import analyze, batch, montecarlo, save_model
 from .common import EXIT_USAGE, Parser, UsageError, add_cache_options, check_cache_options, compile_cache
+from .interrupts import prompt_interrupts
 
 #: Exit code when the reader of stdout left early (128 + SIGPIPE, as ``yes | head`` gives).
 EXIT_STDOUT_CLOSED = 141
@@ -88,7 +89,9 @@ def main(argv=None) -> int:
         check_cache_options(args)  # a usage error before any side effect
         if args.command == "montecarlo":
             montecarlo.split_host_devices()  # before anything starts JAX's backend
-        with compile_cache(args, compiles=args.command in COMPILING):
+        # Ctrl-C ends the command promptly, never swallowed (batch cleans up its workers itself)
+        with compile_cache(args, compiles=args.command in COMPILING), \
+                prompt_interrupts(watchdog=args.command != "batch"):
             try:
                 return COMMANDS[args.command].run(args)
             except SystemExit as exc:  # a model or experiment function JAX traced in the run

@@ -61,7 +61,8 @@ def run(args) -> int:
         initial = {**file_initial(system), **given}
         if initial:
             rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
-                          max_order=args.max_order, prob_threshold=args.prob_threshold, **scope)
+                          max_order=args.max_order, prob_threshold=args.prob_threshold, samples=args.samples,
+                          rtol=args.rtol, k_max=args.k_max, known_inputs=args.known_inputs, **scope)
         else:
             rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
                           rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,

@@ -37,7 +37,8 @@ from ..results.evidence import Arithmetic, Finding, Settlement
 from ..results.identifiability_report import IdentifiabilityReport, StopKind
 from ..results.kinds import Verdict
 from ..results.report import Question
-from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial
+from .initial import Coordinates, Experiment, Role, Span, check_defined, check_initial, unused_note, unused_parameters
+from .initial_proofs import Search, prove_not_determined
 from .space import InitialSpace
 
 
@@ -74,19 +75,21 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
     exps = [Experiment(s, i, coords, max(cap, 1), f"[{e + 1}]" if many else "", shared)
             for e, (s, i) in enumerate(zip(systems, checked))]
     target = Graph(len(coords.names))
+    lo, hi = coords.box()
     for ex in exps:
         ex.attach(target)
         where = ", ".join(f"{k}{ex.suffix} = {v.text}" for k, v in ex.initial.items()) or "generic"
-        check_defined(target, [r.expr for r in ex.order(0) + ex.order(1)], seed, where)
-    lo, hi = coords.box()
+        check_defined(target, ex.order(0) + ex.order(1), seed, where, (lo, hi))
     settler = Settler(target, lo, hi, seed, prob_threshold)
     span = Span(settler, [i for ex in exps for i in ex.seeds])
     determined, contributions, ranks = {}, [], []
     for e, ex in enumerate(exps):
         contributions.append(_absorb(ex, span, settler, coords, exps[:e + 1], determined, ranks, cap, many))
     proved_not = all(c["closed"] for c in contributions)
+    search = _symmetry_proofs(exps, settler, coords, determined, proved_not, seed, prob_threshold)
+    moved = {i for proof in search.proofs for i in proof.moved}
     verdict = {i: Verdict.DETERMINED if i in determined else
-               Verdict.NOT_DETERMINED if proved_not else Verdict.UNDECIDED
+               Verdict.NOT_DETERMINED if proved_not or i in moved else Verdict.UNDECIDED
                for i in coords.of(Role.STATE, Role.PARAM)}
     generic_rows = []
     if generic:
@@ -97,9 +100,21 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
                 generic_rows += [g for g in [generic_experiments(s, shared, seed, prob_threshold)] if g]
     escalations = list(span.escalations)
     report = _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
-                     prob_threshold, many, generic_rows)
+                     prob_threshold, many, generic_rows, search)
     space = InitialSpace(span, exps, proved_not, report.order)
     return dataclasses.replace(report, space=space)
+
+
+def _symmetry_proofs(exps, settler, coords, determined, proved_not, seed, prob_threshold) -> Search:
+    """Proofs that undecided unknowns are not determined, by symmetries keeping the known
+    initial values (:mod:`.initial_proofs`); one experiment only."""
+    undecided = [i for i in coords.of(Role.STATE, Role.PARAM) if i not in determined]
+    if not undecided or proved_not:
+        return Search((), "")
+    if len(exps) > 1:
+        return Search((), "no symmetry search for several experiments (a symmetry would have to act on every "
+                          "experiment at once)")
+    return prove_not_determined(exps[0], settler, undecided, seed, prob_threshold)
 
 
 def _check_experiments(systems, initials, shared):
@@ -121,6 +136,9 @@ def _check_experiments(systems, initials, shared):
         raise OptionError("shared must be a sequence of parameter names, got a string")
     else:
         shared = tuple(shared)
+        repeated = sorted({p for p in shared if shared.count(p) > 1}, key=str)
+        if repeated:
+            raise OptionError(f"shared names {', '.join(map(repr, repeated))} more than once")
         for p in shared:
             if p not in common:
                 raise OptionError(f"shared parameter {p!r} is not a parameter of every experiment")
@@ -200,7 +218,7 @@ def generic_experiments(system, shared, seed, prob_threshold):
 
 
 def _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler, prob_threshold, many,
-            generic_rows):
+            generic_rows, search):
     """The :class:`IdentifiabilityReport` of a run."""
     free = any(ex.joint.unknown for ex in exps)
     question = ((Question.EXPERIMENTS_FREE_INPUT_JETS if free else Question.EXPERIMENTS) if many else
@@ -214,7 +232,7 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
     params = [i for i in coords.of(Role.PARAM)]
     stop = (StopKind.ALL_DETERMINED if all(v is Verdict.DETERMINED for v in verdict.values()) else
             StopKind.SPAN_CLOSED if all(c["closed"] for c in contributions) else StopKind.MAX_ORDER)
-    notes = _notes(exps, verdict, coords, contributions, free)
+    notes = _notes(exps, verdict, coords, contributions, free, search)
     return IdentifiabilityReport(
         question=question, system_name=systems[0].name,
         states=tuple(coords.names[i] for i in states), params=tuple(coords.names[i] for i in params),
@@ -228,14 +246,27 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
         experiments=tuple(contributions) if many else (), generic_experiments=tuple(generic_rows))
 
 
-def _notes(exps, verdict, coords, contributions, free):
+def _notes(exps, verdict, coords, contributions, free, search):
     """What the verdicts rest on, in words."""
     notes = []
-    if any(v is Verdict.UNDECIDED for v in verdict.values()):
+    for proof in search.proofs:
+        notes.append(f"not determined (proved at this initial state): {proof.text(coords.names)}, which keeps the "
+                     f"known initial values; {proof.how}")
+    undecided = [coords.names[i] for i, v in verdict.items() if v is Verdict.UNDECIDED]
+    if undecided:
         order = max(c["order"] for c in contributions)
-        notes.append(f"undecided: not determined by the output coefficients up to order {order}; at a specific "
-                     "initial state an order that adds nothing proves nothing and no order bound is known "
-                     "(raise max_order to look further)")
+        tried = f"; {search.tried}" if search.tried else ""
+        notes.append(f"undecided ({', '.join(undecided)}): not determined by the output coefficients up to order "
+                     f"{order}; at a specific initial state an order that adds nothing proves nothing and no order "
+                     f"bound is known (raise max_order to look further){tried}")
+    unused = sorted({p for ex in exps for p in unused_parameters(ex.system)})
+    if unused:
+        notes.append(unused_note(unused))
+    inexact = [f"{k}{ex.suffix} = {v.text}" for ex in exps for k, v in ex.initial.items() if isinstance(v.value, float)]
+    if inexact:
+        notes.append(f"{', '.join(inexact)}: a constant known in float64 only (a non-rational function of "
+                     "constants), so no decision that uses it is exact; give an exact value (a number, a fraction) "
+                     "if that is what is meant (sin(pi) is 0)")
     if free:
         notes.append("unknown inputs: their derivatives at t = 0 are free unknowns of the Jacobian (an "
                      "analytic unknown input); 'determined' is proven, 'undecided' is not a proof")

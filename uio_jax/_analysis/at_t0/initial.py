@@ -39,19 +39,21 @@ x2, x2' = b, y = x1`` from ``x1 = x2 = 0``: ``y_1 = 0`` adds no rank, ``y_2 = a 
 no a-priori order bound is known (StructuralIdentifiability.jl issue 168, STRIKE-GOLDD issue
 7): an unknown not determined at the cap is reported undecided with the order reached,
 unless a declared symmetry of the System, verified, tangent to the set of initial states and
-moving it, proves it is not (:mod:`uio_jax._analysis.initial_proofs`).
+moving it, proves it is not (:mod:`uio_jax._analysis.at_t0.initial_proofs`).
 """
 
 import dataclasses
+import decimal
 import enum
 import math
 import numbers
+import sys
 from fractions import Fraction
 
 import numpy as np
 
 from ..._calculus.generators import Node, builder_for
-from ..._engine import graph_exact
+from ..._engine import graph_exact, graph_numpy
 from ..._engine.graph import Graph, exact_literal
 from ..._engine.graph_elementary import Singular
 from ..._engine.graph_trace import FunctionOfSlice
@@ -82,8 +84,9 @@ class InitialValue:
 
     Attributes:
         state: the state's name.
-        value: a :class:`~fractions.Fraction` (a number, read as its decimal), a parameter
-            name (``str``), or a function ``p (len(params),) -> ()`` of the parameters.
+        value: a :class:`~fractions.Fraction` (a number, read as its decimal), a ``float``
+            (a constant known in float64 only, ``sin(pi)``), a parameter name (``str``), or
+            a function ``p (len(params),) -> ()`` of the parameters.
         text: how the value reads in reports.
     """
 
@@ -95,14 +98,15 @@ class InitialValue:
 def check_initial(system, initial) -> dict:
     """``{state: InitialValue}`` from ``initial`` (``state -> value``), checked.
 
-    A value is a finite number (in the state's domain box: a number outside it is refused,
-    declare the box), a string holding a number or a parameter's name, or a function of the
-    parameter vector ``p`` (JAX-traceable, returning a scalar).
+    One validation for every way a value arrives (:func:`initial_value`): a number (Python,
+    :class:`~fractions.Fraction`, a numpy or JAX scalar), a string holding a number or a
+    parameter's name, or a function of the parameter vector ``p`` (JAX-traceable, returning a
+    scalar; the expressions of ``--initial`` and of a model file's ``[initial]`` table arrive
+    as such functions).
 
     Raises:
-        OptionError: not a mapping, a name that is not a state, NaN/inf, a value outside
-            the domain, a string that is neither a number nor a parameter, a function on a
-            System without parameters, a time-varying System (one line each).
+        OptionError: not a mapping, a name that is not a state, a time-varying System, or a
+            value refused by :func:`initial_value` (one line each).
     """
     if not hasattr(initial, "items"):
         raise OptionError(f"initial must be a mapping state -> value, got {type(initial).__name__}")
@@ -113,11 +117,36 @@ def check_initial(system, initial) -> dict:
         if not isinstance(name, str) or name not in system.states:
             what = "a parameter, not a state" if name in system.params else "not a state"
             raise OptionError(f"initial: {name!r} is {what} (states: {', '.join(system.states)})")
-        out[name] = _initial_value(system, name, value)
+        out[name] = initial_value(system, name, value)
     return out
 
 
-def _initial_value(system, name, value) -> InitialValue:
+#: Parameter values at which a function-valued initial value must be real somewhere (float64,
+#: drawn in the parameters' boxes): one that is not real at any of them is refused.
+FUNCTION_SAMPLES = 64
+
+
+def initial_value(system, name, value) -> InitialValue:
+    """The known initial value of state ``name``, checked: a real number or a function of the
+    parameters that is real somewhere in their box.
+
+    A known value is not bounded by the state's sampling box (the box is where *generic*
+    states are drawn; a known value such as ``x2(0) = 0`` may lie anywhere the model is
+    defined: :func:`check_defined`). Every value becomes one of
+
+    * an exact :class:`~fractions.Fraction`: a number (a float means its shortest decimal, as
+      every literal does: ``docs/exactness.md``), or a function whose graph folds to an exact
+      constant (``3 * 1``, ``1 / 3``);
+    * a ``float``: a constant known in float64 only (a non-rational function of constants,
+      ``sin(pi)``): the decisions that use it are not exact, and the report says so;
+    * a parameter's name (``str``), or the function itself (it depends on the parameters).
+
+    Raises:
+        OptionError: a value that is not a real number (NaN, infinite, complex, ``1/0``,
+            ``sqrt(-1)``, an overflow such as ``exp(1000)``), a boolean or another type, a
+            string that is neither a number nor a parameter, a function that raises, does not
+            translate, or is not real at any parameter value of the box.
+    """
     params = tuple(system.params)
     if isinstance(value, str):
         text = value.strip()
@@ -130,22 +159,121 @@ def _initial_value(system, name, value) -> InitialValue:
                 f"initial value of {name}: {value!r} is neither a number nor a parameter "
                 f"(parameters: {', '.join(params) or 'none'}); an expression in the parameters is a "
                 "function of p in Python, text in a model file's [initial] or --initial") from None
-        value = Fraction(text) if math.isfinite(number) else number
+        if not math.isfinite(number):
+            raise OptionError(f"initial value of {name} is {text}: not a real number")
+        return _constant(name, Fraction(text), text)
     if callable(value):
-        if not params:
-            raise OptionError(f"initial value of {name}: a function of the parameters, but the System has none")
-        return InitialValue(name, value, getattr(value, "text", None) or f"{getattr(value, '__name__', 'f')}(p)")
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, Fraction)):
+        return _function_value(system, name, value)
+    return _constant(name, _real(name, value), None)
+
+
+def _real(name, value):
+    """A Python number, Fraction, numpy or JAX scalar as an exact Fraction (OptionError if
+    it is not a finite real number)."""
+    if isinstance(value, Fraction):
+        return value
+    if hasattr(value, "dtype") and hasattr(value, "shape") and not isinstance(value, numbers.Number):
+        arr = np.asarray(value)
+        if arr.shape != ():
+            raise OptionError(f"initial value of {name} must be a scalar, got an array of shape {arr.shape}")
+        value = arr[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Number):
         raise OptionError(f"initial value of {name} must be a number, a parameter name or a function of "
                           f"the parameters, got {type(value).__name__}")
-    exact = exact_literal(value)
+    if isinstance(value, numbers.Complex) and not isinstance(value, numbers.Real):
+        raise OptionError(f"initial value of {name} is {value}: not a real number")
+    exact = exact_literal(float(value) if isinstance(value, np.floating) else value)
     if exact is None:
-        raise OptionError(f"initial value of {name} is {float(value)}: give a finite number")
-    lo, hi = system.domain[name]
-    if not lo <= exact <= hi:
-        raise OptionError(f"initial value of {name}, {float(exact):g}, lies outside its domain [{lo:g}, {hi:g}] "
-                          f"(declare domain={{{name!r}: (lo, hi)}} containing it)")
-    return InitialValue(name, exact, f"{float(exact):g}" if exact.denominator != 1 else str(exact.numerator))
+        raise OptionError(f"initial value of {name} is {value}: not a real number")
+    return exact
+
+
+def _constant(name, value, text) -> InitialValue:
+    """A constant initial value: exact (Fraction) or known in float64 only (float)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        shown = f"{text} = {value}" if text else f"{value}"
+        raise OptionError(f"initial value of {name} is {shown}: not a real number")
+    if abs(value) > sys.float_info.max:
+        raise OptionError(f"initial value of {name}{f' ({text})' if text else ''} lies outside the float64 range "
+                          "(the model is evaluated in float64 too)")
+    shown = number_text(value)
+    if text is None:
+        text = shown
+    elif isinstance(value, float) or not _same_number(text, value):
+        text = f"{text} = {shown}"
+    return InitialValue(name, value, text)
+
+
+def _same_number(text, value) -> bool:
+    try:
+        return Fraction(text) == value
+    except (ValueError, ZeroDivisionError):
+        return False
+
+
+def number_text(value) -> str:
+    """A number as reports show it: an integer exactly, a fraction or a float to 6 digits,
+    never a nonzero value printed as 0 (``1e-400``)."""
+    if isinstance(value, Fraction):
+        if value.denominator == 1:
+            return str(value.numerator)
+        with decimal.localcontext() as ctx:
+            ctx.prec = 40
+            return format(decimal.Decimal(value.numerator) / decimal.Decimal(value.denominator), ".6g")
+    return f"{value:.6g}"
+
+
+def _function_value(system, name, fn) -> InitialValue:
+    """A function of the parameters, translated into the model's graph once and checked: a
+    constant result becomes a number (:func:`_constant`); otherwise it must be real at some
+    parameter value of the box (float64)."""
+    text = getattr(fn, "text", None) or f"{getattr(fn, '__name__', 'f')}(p)"
+    joint = system.autonomous()
+    builder = builder_for(joint)
+    ns = len(system.states)
+    try:
+        node = builder.function(f"initial value of {name}", lambda z: fn(z[ns:])).expr
+    except Exception as exc:  # the user's function raised: one line, not their traceback
+        why = str(exc) if isinstance(exc, ModelError) else f"the function raised {type(exc).__name__}: {exc}"
+        if not system.params:
+            why = f"a function of the parameters, but the System has none ({why})"
+        raise OptionError(f"initial value of {name}: {why}") from None
+    graph = builder.graph
+    if graph.op[node] == "c":
+        exact = graph.exact_value(node)
+        return _constant(name, exact if exact is not None else graph.value_of(node), text)
+    lo, hi = joint.box()
+    rng = np.random.default_rng(0x1417)
+    zs = lo + rng.random((FUNCTION_SAMPLES, len(lo))) * (hi - lo)
+    with np.errstate(all="ignore"):
+        values = graph_numpy.evaluate(graph, [node], zs, gradients=False)[:, 0]
+    if not np.isfinite(values).any():
+        raise OptionError(f"initial value of {name} ({text}) is not a real number at any of {FUNCTION_SAMPLES} "
+                          "parameter values drawn in their box")
+    return InitialValue(name, fn, text)
+
+
+def unused_parameters(system) -> tuple:
+    """The parameters of ``system`` (a user's System, or the joint System of one) that appear
+    in none of its outputs and fields: declared, but no equation uses them."""
+    joint = system.autonomous() if system.params else system
+    names = joint.joint_param_names
+    if not names:
+        return ()
+    builder = builder_for(joint)
+    graph = builder.graph
+    roots = [builder.scalar(k, fn).expr for k, fn in joint.outputs.items()]
+    roots += [e for k, fn in joint.fields().items() for e in builder.field(k, fn).expr]
+    used = {graph.param[k] for k in graph.reachable(roots) if graph.op[k] == "x"}
+    first = joint.states.index(names[0])
+    return tuple(nm for i, nm in enumerate(names) if first + i not in used)
+
+
+def unused_note(names) -> str:
+    """The note of parameters that no equation uses."""
+    many = len(names) > 1
+    return (f"parameter{'s' if many else ''} {', '.join(names)} appear{'' if many else 's'} in no equation "
+            f"(output or field): declared but unused, {'they are' if many else 'it is'} not identifiable")
 
 
 class Coordinates:
@@ -241,6 +369,8 @@ class Experiment:
         ns = len(system.states)
         if isinstance(v.value, Fraction):
             return target.const(v.value)
+        if isinstance(v.value, float):  # known in float64 only: no exact decision uses it
+            return target.inexact_const(v.value)
         params = tuple(system.params)
         p_nodes = [target.x(self.z_index[ns + i]) for i in range(len(params))]
         if isinstance(v.value, str):
@@ -256,11 +386,30 @@ class Experiment:
         return [Node(f"y_{k}[{h}]{self.suffix}", "scalar", k, e) for h, e in zip(self.outputs, exprs)]
 
 
-def check_defined(graph: Graph, exprs, seed: int, where: str) -> None:
-    """Refuse (ModelError) rows that divide by zero at every random point of ``F_p``: the model
-    is not defined at the initial state for any value of the unknowns. Graphs that are not
-    rational are not checked here (their decisions say so)."""
+def check_defined(graph: Graph, rows, seed: int, where: str, box) -> None:
+    """Refuse (ModelError, one line) rows that are not defined at the initial state for any
+    value of the unknowns: not finite in float64 at every point of the unknowns' ``box``
+    (``y = 1/x`` or ``log x`` at ``x(0) = 0`` fold to a constant ``inf``; ``sqrt x`` at 0 has
+    an infinite first coefficient), or dividing by zero at every random point of ``F_p``.
+
+    Args:
+        graph: the target graph.
+        rows: the Nodes of the first orders ``y_0, y_1``.
+        seed: seed of the points.
+        where: the initial state, as text.
+        box: ``(lo, hi)`` of the target coordinates.
+    """
+    exprs = [r.expr for r in rows]
+    lo, hi = (np.asarray(b, dtype=float) for b in box)
     rng = np.random.default_rng([int(seed), 0xDEF1])
+    zs = lo + rng.random((16, graph.n)) * (hi - lo)
+    with np.errstate(all="ignore"):
+        values = graph_numpy.evaluate(graph, exprs, zs, gradients=False)
+    for r, row in enumerate(rows):
+        if not np.isfinite(values[:, r]).any():
+            raise ModelError(f"the model is not defined at the initial state ({where}): {row.label} is not finite "
+                             "there for any value of the unknowns tried (a division by zero or a function outside "
+                             "its domain)")
     for _ in range(3):
         point = [int(v) for v in rng.integers(1, 2**62, size=graph.n)]
         try:
@@ -317,5 +466,6 @@ class Span:
         return esc.result
 
 
-__all__ = ["Role", "InitialValue", "check_initial", "Coordinates", "Experiment", "Span", "check_defined",
+__all__ = ["Role", "InitialValue", "check_initial", "initial_value", "number_text", "unused_parameters",
+           "unused_note", "Coordinates", "Experiment", "Span", "check_defined",
            "JET_BOX", "NO_VOTE"]

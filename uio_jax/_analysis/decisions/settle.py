@@ -74,6 +74,11 @@ POINTS = 1
 #: :data:`POINTS`, while the degree bound needs them: ``(D / p)^points <= MAX_BOUND``).
 MAX_POINTS = 4
 
+#: Most draws of one modular point where square roots' arguments are no squares modulo p
+#: (each root halves the chance of a draw: 64 draws fail with probability ``(1 - 2^-r)^64``,
+#: under 1e-3 up to ``r = 3`` roots).
+SQUARE_DRAWS = 64
+
 #: Decimal digits of the two mpmath evaluations.
 DIGITS = (30, 60)
 
@@ -240,6 +245,18 @@ class Settler:
         ev = self._modular_evaluator(0, exprs)
         return None if ev is None else [int(ev.V[e][0]) % graph_exact.PRIME for e in exprs]
 
+    def add_bound(self, bound: float) -> None:
+        """Charge the probability bound of decisions made elsewhere for this analysis (the
+        verification of its symmetries, :mod:`.symmetry`) to :attr:`error_bound`."""
+        self.error_bound += float(bound)
+
+    def values_extended(self, exprs) -> list:
+        """The values (mpmath numbers, at the higher precision of :data:`DIGITS`) of the graph
+        nodes ``exprs`` at the first extended-precision point, drawn in the box."""
+        self._extended_points()
+        ev = self._extended[0][-1].ev
+        return list(ev.gradients(list(exprs))[0])
+
     def count_bound(self, exprs, minors: int, size: int) -> None:
         """Add to :attr:`error_bound` the Schwartz-Zippel bound of ``minors`` decisions, each
         on a minor of at most ``size`` rows of the nodes ``exprs``, taken at one point."""
@@ -273,8 +290,11 @@ class Settler:
     def _modular_evaluator(self, point: int, exprs):
         """The :class:`~uio_jax._engine.graph_exact.ModularEvaluator` of random point
         ``point`` of ``F_p^n`` with ``exprs`` evaluated (the point drawn again where a
-        denominator vanishes, at most four times); None if every draw is singular."""
-        for _ in range(4):
+        denominator vanishes, at most four times, or where a square root's argument is no
+        square modulo p, which half the points are per root: at most :data:`SQUARE_DRAWS`
+        times); None if every draw is singular."""
+        singular = not_square = 0
+        while singular < 4 and not_square < SQUARE_DRAWS:
             if self._modular.get(point) is None:
                 # uniform modulo p (three 63-bit words, 189 bits, reduced: the bias is
                 # below 2^-60), so that the Schwartz-Zippel bound D / p of a point holds
@@ -284,8 +304,11 @@ class Settler:
             try:
                 self._modular[point].evaluate(exprs)
                 return self._modular[point]
+            except graph_elementary.NotSquare:
+                not_square += 1
             except graph_exact.Singular:
-                self._modular[point], self._echelons[point] = None, {}
+                singular += 1
+            self._modular[point], self._echelons[point] = None, {}
         return None
 
     def _echelon(self, point: int, kept: tuple, evaluator):
@@ -445,5 +468,5 @@ class _Orthonormal:
 
 
 __all__ = ["model_roots", "new_settler", "DEFAULT_PROB_THRESHOLD", "DECISIONS_BUDGET", "WEAK_BELOW", "WEAK_ABOVE",
-           "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND",
+           "WEAK_FRACTION", "POINTS", "MAX_POINTS", "DIGITS", "MAX_BOUND", "SQUARE_DRAWS",
            "Settler", "is_weak", "median_decades"]

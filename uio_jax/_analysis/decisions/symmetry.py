@@ -36,19 +36,25 @@ and holds for smooth known inputs too (their jets enter a drift whose bracket wi
 still vanishes).
 
 **Verification.** The conditions are identities of the model's functions, tested in its
-expression graph (:mod:`uio_jax._engine.graph`) at :data:`POINTS` random points: exactly
-modulo ``p = 2^127 - 1`` for rational models (a nonzero rational function of degree ``D``
-vanishes at a uniform random point with probability at most ``D / p``, Schwartz-Zippel;
-``B`` is solved at the first point and checked at the others), in :data:`DIGITS`-digit
-mpmath arithmetic otherwise (a value under ``10^(-DIGITS/2)`` of its terms counts as zero).
-The rank of the fields is taken at the first point (modulo p never above the generic rank,
-so the bound is never too low). A claim that fails any test, a function without an
-expression in the graph, or unknown-input fields of lower rank than their number at the
-point: the symmetry is reported unverified and not used.
+expression graph (:mod:`uio_jax._engine.graph`) by the zero test of the analyses'
+:class:`~uio_jax._analysis.settle.Settler` (:meth:`~uio_jax._analysis.settle.Settler.vanishes`):
+one settlement mechanism for every exact decision. Modulo ``p = 2^127 - 1`` where the graph
+is made rational (square roots and the elementary functions included: a point where a root's
+argument is no square modulo p is drawn again): a nonzero value proves "not zero"; zeros are
+"zero" with the Schwartz-Zippel bound ``D / p`` per point, points added while the bound
+exceeds the share of the caller's ``1 - prob_threshold`` per decision, the bounds summed into
+:attr:`SymmetryBound.probability` and charged to the caller's certificate. Elsewhere (a
+function not made rational) in mpmath at two precisions, labelled not exact. For (S3) the
+unknown-input fields are solved on ``m`` coordinates where they are independent
+(``B = G_I^-1 [xi, g]_I``, by the adjugate in the graph): ``B`` is constant when its gradient
+vanishes, and (S3) holds when ``[xi, g] - G B`` vanishes on every coordinate. The rank of the
+fields is taken at the Settler's first point (modulo p never above the generic rank, so the
+bound is never too low). A claim that fails any test, a function without an expression in the
+graph, a test that cannot be decided (every point singular, the precisions disagree), or
+unknown-input fields dependent at the point: the symmetry is reported unverified and not used.
 """
 
 import dataclasses
-import random
 
 import numpy as np
 
@@ -58,12 +64,7 @@ from ..._errors import ModelError
 from ..._model.smooth_inputs import known_coordinates
 from ..._model.symmetries import symmetry_fields
 from ..results.kinds import Arithmetic
-from .settle import new_settler
-
-#: Random points each condition is tested at.
-POINTS = 3
-#: Decimal digits of the mpmath test (models that are not rational).
-DIGITS = 50
+from .settle import DEFAULT_PROB_THRESHOLD, Settler
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,8 +74,8 @@ class SymmetryCheck:
     Attributes:
         name: its name in ``System.symmetries``.
         verified: every condition holds at every point.
-        how: the arithmetic and points (``"exact mod p = 2^127 - 1 at 3 points"``), or why it
-            could not be tested.
+        how: the arithmetic (``"exact mod p = 2^127 - 1 (zero tests of the Settler, P(wrong)
+            <= 1.2e-36)"``), or why it could not be tested.
         failure: the first condition found false (empty when verified).
         mixing: ``{g_j: {g_l: b_jl}}``, the nonzero constants of (S3), as text.
     """
@@ -116,7 +117,8 @@ class SymmetryBound:
             provably unobservable.
         checks: one :class:`SymmetryCheck` per declared symmetry.
         probability: upper bound on the probability that a verification passed a false
-            identity (exact route; None when a check used mpmath).
+            identity (exact route: the sum of the zero tests' bounds, charged to the caller;
+            None when a check used mpmath).
     """
 
     dim: int
@@ -135,13 +137,18 @@ class SymmetryBound:
                             "failure": c.failure, "mixing": c.mixing} for c in self.checks]}
 
 
-def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
+def verify_symmetries(system, seed: int = 0, prob_threshold: float = DEFAULT_PROB_THRESHOLD,
+                      charge=None) -> SymmetryBound | None:
     """Verify the declared symmetries of an analysed System and bound its observable space.
 
     Args:
         system: the System an analysis runs on (:meth:`~uio_jax.System.autonomous`); its
             symmetries are :func:`uio_jax._model.symmetries.symmetry_fields`.
         seed: seed of the random points.
+        prob_threshold: the caller's probability of correctness: each zero test is certified
+            under its share of ``1 - prob_threshold`` (:class:`~uio_jax._analysis.settle.Settler`).
+        charge: the caller's Settler, whose ``error_bound`` receives the bound of these tests
+            (so that the caller's certificate counts them), or None.
 
     Returns:
         The :class:`SymmetryBound` (``rank`` 0 and ``dim = n`` when none verified), or
@@ -152,14 +159,14 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
         return None
     builder = builder_for(system)
     graph = builder.graph
+    lo, hi = system.box()
+    settler = Settler(graph, lo, hi, int(seed) + 0x5E77, prob_threshold)
     n_rep = system.n - known_coordinates(system)
     outputs = [builder.scalar(k, fn) for k, fn in system.outputs.items()]
     known = [builder.field(k, fn) for k, fn in system.fields().items() if k not in system.unknown]
     unknown = [builder.field(k, fn) for k, fn in system.unknown.items()]
     names = list(system.unknown)
-    rng = random.Random(int(seed) * 1_000_003 + 0x5E77)
-    chooser = new_settler(system, seed)  # the one place the arithmetic is chosen
-    checks, verified_rows, probability = [], [], 0.0
+    checks, verified_rows, exact = [], [], True
     moved, unobservable = set(), set()
     for name, fn in fields.items():
         try:
@@ -170,35 +177,27 @@ def verify_symmetries(system, seed: int = 0) -> SymmetryBound | None:
             continue
         conditions = ([(f"L_{name} {h.label}", (builder.lie(xi, h).expr,)) for h in outputs]
                       + [(f"[{name}, {f.label}]", builder.bracket(xi, f).expr) for f in known])
-        mixing = [builder.bracket(xi, g).expr for g in unknown]
-        roots = [e for _, es in conditions for e in es] + [e for es in mixing for e in es] \
-            + [e for g in unknown for e in g.expr] + list(xi.expr)
-        rational = chooser.arithmetic(roots) is Arithmetic.EXACT
-        test = _Modular(graph, roots, rng) if rational else _Extended(system, graph, roots, rng)
-        if test.values is None:
-            checks.append(SymmetryCheck(name, False, test.how, "every point drawn was singular"))
-            continue
-        failure = next((f"{what} is not zero" for what, es in conditions if not test.zero(es)), "")
+        test = _Test(settler, graph)
+        failure = next((f for f in (test.zero(what, es) for what, es in conditions) if f), "")
         B = None
         if not failure and unknown:
-            G = [g.expr for g in unknown]
-            B, failure = test.mixing(mixing, G, names, name)
+            B, failure = test.mixing(builder, xi, unknown, names, name)
+        exact = exact and test.exact
         if failure:
-            checks.append(SymmetryCheck(name, False, test.how, failure))
+            checks.append(SymmetryCheck(name, False, test.how(), failure))
             continue
-        checks.append(SymmetryCheck(name, True, test.how, "", _mixing_text(B, names, test)))
-        row = test.row(xi.expr)
+        checks.append(SymmetryCheck(name, True, test.how(), "", _mixing_text(B, names, test)))
         verified_rows.append(xi.expr)
-        moved.update(i for i in range(n_rep) if test.nonzero(row[i]))
+        moved.update(i for i in range(n_rep) if test.nonzero(xi.expr[i]))
         if B is not None:
             unobservable.update(names[c] for c in range(len(names)) if any(test.nonzero(B[j][c])
                                                                            for j in range(len(names))))
-        if probability is not None:
-            probability = None if not rational else max(probability, test.probability(roots))
-    rank = _rank(system, graph, verified_rows, n_rep, rng, chooser)
+    rank = _rank(settler, graph, verified_rows, n_rep)
+    if charge is not None:
+        charge.add_bound(settler.error_bound)
     return SymmetryBound(n_rep - rank, rank, tuple(system.states[i] for i in sorted(moved)),
                          tuple(nm for nm in names if nm in unobservable), tuple(checks),
-                         probability if verified_rows else None)
+                         settler.error_bound if verified_rows and exact else None)
 
 
 def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int) -> tuple[list, bool]:
@@ -235,21 +234,21 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
-def _rank(system, graph, fields, n_rep, rng, chooser) -> int:
-    """Rank of the verified fields (their expressions) at ONE new random point, on the
-    reported coordinates: modulo p where they are rational (never above the generic rank),
-    else by the SVD of their mpmath values (relative threshold 1e-12, far above the round-off
-    of 50 digits)."""
+def _rank(settler, graph, fields, n_rep) -> int:
+    """Rank of the verified fields (their expressions) at the Settler's first point, on the
+    reported coordinates: modulo p where they are made rational (never above the generic
+    rank), else by the SVD of their values in mpmath (relative threshold 1e-12, far above the
+    round-off of 60 digits)."""
     if not fields:
         return 0
     roots = [e for f in fields for e in f]
-    if chooser.arithmetic(roots) is Arithmetic.EXACT:
-        test = _Modular(graph, roots, rng)
-        if test.values is None:
-            return 0  # no point where they are defined: no bound from them
-        return graph_exact.rank_mod_p([test.row(f)[:n_rep] for f in fields])
-    test = _Extended(system, graph, roots, rng)
-    mat = np.array([[float(v) for v in test.row(f)[:n_rep]] for f in fields])
+    values = settler.values_mod_p(roots)
+    if values is not None:
+        rows = [values[i * len(f):i * len(f) + n_rep] for i, f in enumerate(fields)]
+        return graph_exact.rank_mod_p(rows)
+    if settler.arithmetic(roots) is Arithmetic.EXACT:
+        return 0  # no point where they are defined: no bound from them
+    mat = np.array([[float(v) for v in settler.values_extended(f)[:n_rep]] for f in fields])
     sv = np.linalg.svd(mat, compute_uv=False)
     return int((sv > 1e-12 * max(sv.max(), 1e-300)).sum())
 
@@ -265,62 +264,102 @@ def _mixing_text(B, names, test) -> dict:
     return out
 
 
-class _Modular:
-    """The conditions' values modulo ``p`` at :data:`POINTS` uniform random points."""
+class _Test:
+    """The zero tests of one symmetry, by the Settler; records the arithmetic used."""
 
-    def __init__(self, graph, roots, rng):
-        p = self.p = graph_exact.PRIME
-        self.graph, self.values = graph, None
-        self.how = f"exact mod p = 2^127 - 1 at {POINTS} points"
-        for _ in range(4):
-            points = [[rng.randrange(1, p) for _ in range(graph.n)] for _ in range(POINTS)]
-            ev = graph_exact.ModularEvaluator(graph, points)
-            try:
-                ev.evaluate(roots)
-            except graph_exact.Singular:
-                continue
-            self.values = {r: [int(v) % p for v in ev.V[r]] for r in roots}
-            return
+    def __init__(self, settler, graph):
+        self.settler, self.graph = settler, graph
+        self.hows = set()
+        self.exact = True
 
-    def zero(self, exprs) -> bool:
-        return all(v == 0 for e in exprs for v in self.values[e])
+    def how(self) -> str:
+        if not self.hows:
+            return "no test"
+        if self.hows == {"exact mod p"}:
+            return f"exact mod p = 2^127 - 1 (zero tests of the Settler, P(wrong) <= {self.settler.error_bound:.1e})"
+        return ("mpmath at 30 and 60 digits (not exact: the model is not rational)" if "mpmath" in self.hows
+                else "undecided")
 
-    def nonzero(self, v) -> bool:
-        return int(v) % self.p != 0
+    def vanishes(self, exprs):
+        """``(zero, decided)`` of the nodes ``exprs``."""
+        zero, how = self.settler.vanishes(list(exprs))
+        if how:
+            self.hows.add(how)
+            self.exact = self.exact and how == "exact mod p"
+        return zero, bool(how)
 
-    def row(self, exprs) -> list:
-        return [self.values[e][0] for e in exprs]
+    def zero(self, what, exprs) -> str:
+        """The failure text of the condition ``exprs == 0`` (empty when it holds)."""
+        zero, decided = self.vanishes(exprs)
+        if not decided:
+            return (f"{what} could not be decided (every point drawn was singular, or the two "
+                    "precisions disagree)")
+        return "" if zero else f"{what} is not zero"
 
-    def mixing(self, brackets, G, names, name):
-        """Solve ``[xi, g_j] = sum_l b_jl g_l`` at the first point, test it at the others."""
-        p, m = self.p, len(G)
-        at = [[[self.values[e][pt] for e in g] for g in G] for pt in range(POINTS)]  # (P, m, N)
-        B = []
+    def nonzero(self, node) -> bool:
+        """Whether the node is not identically zero (decided; an undecided test counts as
+        zero: a coordinate is only called moved when proved)."""
+        zero, decided = self.vanishes([node])
+        return decided and not zero
+
+    def mixing(self, builder, xi, unknown, names, name):
+        """(S3): ``B`` (graph nodes, ``m x m``) with ``[xi, g_j] = sum_l b_jl g_l`` and ``B``
+        constant, or ``(None, failure)``."""
+        g = self.graph
+        G = [u.expr for u in unknown]
+        m = len(G)
+        rows = self._independent_rows(G)
+        if rows is None:
+            return None, "the unknown-input fields are dependent at a point"
+        brackets = [builder.bracket(xi, u).expr for u in unknown]
+        GI = [[G[l_][i] for l_ in range(m)] for i in rows]  # m x m: row i, column l
+        B = g.solve(GI, [[br[i] for i in rows] for br in brackets])  # B[j][l]
         for j, br in enumerate(brackets):
-            b = graph_exact.solve_mod_p([list(col) for col in zip(*at[0])], [self.values[e][0] for e in br], p)
-            if b is None:
-                return None, (f"[{name}, {names[j]}] is not a combination of the unknown-input fields"
-                              if _rank_full(at[0], p, m) else "the unknown-input fields are dependent at a point")
-            for pt in range(1, POINTS):
-                for c, e in enumerate(br):
-                    if (self.values[e][pt] - sum(b[i] * at[pt][i][c] for i in range(m))) % p:
-                        return None, (f"[{name}, {names[j]}] is not a CONSTANT combination of the "
-                                      "unknown-input fields")
-            B.append(b)
+            residual = [g.sub(br[c], g.dot([G[l_][c] for l_ in range(m)], B[j])) for c in range(g.n)]
+            failure = self.zero(f"[{name}, {names[j]}] minus its combination of the unknown-input fields", residual)
+            if failure:
+                return None, (f"[{name}, {names[j]}] is not a combination of the unknown-input fields ({failure})"
+                              if "not zero" in failure else failure)
+            units = [tuple(g.one if c == i else g.zero for c in range(g.n)) for i in range(g.n)]
+            slopes = [d for t in units for d in g.jvp(B[j], t)]
+            failure = self.zero(f"the gradient of the mixing of [{name}, {names[j]}]", slopes)
+            if failure:
+                return None, (f"[{name}, {names[j]}] is not a CONSTANT combination of the unknown-input fields"
+                              if "not zero" in failure else failure)
         return B, ""
 
-    def show(self, b) -> str:
-        return str(_rational(int(b), self.p))
+    def _independent_rows(self, G):
+        """``m`` coordinates where the unknown-input fields ``G`` (``m`` fields of ``n``
+        nodes) are independent at the Settler's first point, or None."""
+        m = len(G)
+        flat = [e for col in G for e in col]
+        values = self.settler.values_mod_p(flat)
+        n = self.graph.n
+        if values is not None:
+            ech, rows = graph_exact.Echelon(), []
+            for i in range(n):
+                if ech.add([values[l_ * n + i] for l_ in range(m)]):
+                    rows.append(i)
+            return rows if len(rows) == m else None
+        if self.settler.arithmetic(flat) is Arithmetic.EXACT:
+            return None
+        vals = self.settler.values_extended(flat)
+        mat = np.array([[float(vals[l_ * n + i]) for l_ in range(m)] for i in range(n)])
+        rows, basis = [], np.zeros((0, m))
+        for i in range(n):
+            trial = np.vstack([basis, mat[i]])
+            if np.linalg.matrix_rank(trial, tol=1e-10 * max(np.abs(mat).max(), 1e-300)) > len(rows):
+                rows.append(i)
+                basis = trial
+        return rows if len(rows) == m else None
 
-    def probability(self, roots) -> float:
-        """``(D / p)^(POINTS - 1)``, ``D`` the largest sum of the degree bounds of the terms
-        of one condition (at most the sum over every root)."""
-        D = sum(a + b for a, b in graph_exact.degrees(self.graph, roots))
-        return min(1.0, D / self.p) ** (POINTS - 1)
-
-
-def _rank_full(G0, p, m) -> bool:
-    return graph_exact.rank_mod_p(G0, p) == m
+    def show(self, node) -> str:
+        """The constant ``node`` as text: a small fraction (modulo p, reconstructed) or its
+        value to 6 digits (mpmath)."""
+        values = self.settler.values_mod_p([node])
+        if values is not None:
+            return str(_rational(values[0], graph_exact.PRIME))
+        return f"{float(self.settler.values_extended([node])[0]):.6g}"
 
 
 def _rational(a: int, p: int):
@@ -330,53 +369,3 @@ def _rational(a: int, p: int):
     if f is None:
         return a
     return f.numerator if f.denominator == 1 else f
-
-
-class _Extended:
-    """The conditions' values in :data:`DIGITS`-digit mpmath at :data:`POINTS` points of
-    the sampling box; a value counts as zero under ``10^(-DIGITS/2)`` of the scale."""
-
-    def __init__(self, system, graph, roots, rng):
-        lo, hi = system.box()
-        self.how = f"mpmath at {DIGITS} digits at {POINTS} points (not exact: the model is not rational)"
-        self.tol = 10.0 ** (-DIGITS / 2)
-        evs = []
-        for _ in range(POINTS):
-            pt = lo + np.array([rng.random() for _ in range(graph.n)]) * (hi - lo)
-            ev = graph_exact.ExtendedEvaluator(graph, pt, DIGITS)
-            evs.append(ev.gradients(roots)[0])
-        self.values = {r: [vals[i] for vals in evs] for i, r in enumerate(roots)}
-        self.ctx = ev.ctx  # the arithmetic of the solve (same precision)
-        self.scale = 1.0 + max(abs(float(v)) for vs in self.values.values() for v in vs)
-
-    def zero(self, exprs) -> bool:
-        return all(abs(v) <= self.tol * self.scale for e in exprs for v in self.values[e])
-
-    def nonzero(self, v) -> bool:
-        return abs(v) > self.tol * self.scale
-
-    def row(self, exprs) -> list:
-        return [self.values[e][0] for e in exprs]
-
-    def mixing(self, brackets, G, names, name):
-        ctx, m = self.ctx, len(G)
-        at = [[[self.values[e][pt] for e in g] for g in G] for pt in range(POINTS)]
-        A0 = ctx.matrix([list(col) for col in zip(*at[0])])
-        s = ctx.svd_r(A0, compute_uv=False)
-        if min(s) <= self.tol * max(max(s), 1):
-            return None, "the unknown-input fields are dependent at a point"
-        B = []
-        for j, br in enumerate(brackets):
-            # least squares by the normal equations (A0 has full column rank, checked above;
-            # mpmath's Householder QR divides by zero on a column with zeros under its pivot)
-            b = ctx.lu_solve(A0.T * A0, A0.T * ctx.matrix([self.values[e][0] for e in br]))
-            b = [b[i] for i in range(m)]
-            for pt in range(POINTS):
-                for c, e in enumerate(br):
-                    if abs(self.values[e][pt] - sum(b[i] * at[pt][i][c] for i in range(m))) > self.tol * self.scale:
-                        return None, f"[{name}, {names[j]}] is not a CONSTANT combination of the unknown-input fields"
-            B.append(b)
-        return B, ""
-
-    def show(self, b) -> str:
-        return f"{float(b):.6g}"

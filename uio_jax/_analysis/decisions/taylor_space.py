@@ -111,6 +111,40 @@ class TaylorSpace(Space):
         degree = TaylorDegrees.of(series, 0).degree(series.slot[node.expr], 0)
         return orders.member(row, degree)
 
+    def naming_graph(self):
+        """``(graph, roots, names)``: the model's expression graph, the nodes of its outputs
+        and fields (where the candidates of named functions are read), the coordinates' names."""
+        p = self._problem
+        roots = list(p.outputs) + [e for f in p.fields for e in f if e is not None]
+        return p.graph, roots, tuple(self._ctx.system.states)
+
+    def rows_at_point(self, nodes):
+        """``{node: (gradient row, degree bound)}`` modulo p at the analysis' random point of
+        the nodes made rational there (the others left out)."""
+        graph = self._problem.graph
+        ev = graph_exact.ModularEvaluator(graph, [self._orders.point])
+        out = {}
+        for node in nodes:
+            if self._ctx.settler.arithmetic([node]) is not Arithmetic.EXACT:
+                continue
+            try:
+                ev.evaluate([node])
+            except (graph_elementary.Singular, ValueError):
+                continue
+            num, den = graph_exact.degrees(graph, [node])[0]
+            out[node] = ([int(v) for v in ev.row(node, 0)], num + den)
+        return out
+
+    def member(self, row, degree) -> bool:
+        """Whether the gradient ``row`` (at the analysis' point) lies in the span: exact modulo
+        p, a dependence's Schwartz-Zippel bound counted in :attr:`error_bound`."""
+        return self._orders.member(row, degree)
+
+    @property
+    def error_bound(self) -> float:
+        """The sum of the bounds of the decisions made at the analysis' point so far."""
+        return self._orders.error_bound
+
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` at the margin samples (box-scaled columns)."""
         if not len(self._kept):

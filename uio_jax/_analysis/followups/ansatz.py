@@ -149,10 +149,13 @@ class ModularSpan:
         atoms: graph nodes the polynomial ansatz is written in (the coordinates, and
             elementary functions of one coordinate such as ``cos(theta)``).
         seed: seed of the points.
+        fixed: ``{coordinate: value}`` of coordinates held at given values (integers,
+            Fractions) at every point: the points are then random points of that section.
     """
 
-    def __init__(self, graph, kept, atoms=(), seed: int = 0, p: int = graph_exact.PRIME):
+    def __init__(self, graph, kept, atoms=(), seed: int = 0, p: int = graph_exact.PRIME, fixed=None):
         self.graph, self.kept, self.atoms = graph, list(kept), list(atoms)
+        self.fixed = {int(i): graph_exact.const_mod(v, int(p)) for i, v in (fixed or {}).items()}
         self.rng = np.random.default_rng([int(seed), 0xA25A72])
         self.p = int(p)
         self.points = []  # Point per drawn point
@@ -160,8 +163,8 @@ class ModularSpan:
     def point(self, i: int):
         """The ``i``-th :class:`Point` (drawn on first use, in batches: one evaluation of the
         kept generators and the atoms at every point of a batch; a point where the kept rows
-        lose rank, or a zero coordinate or atom, is dropped), or None when no point could be
-        drawn."""
+        lose rank, or a zero coordinate (not a fixed one) or atom, is dropped), or None when no
+        point could be drawn."""
         if len(self.points) <= i:
             self.draw(i + 1 - len(self.points))
         return self.points[i] if i < len(self.points) else None
@@ -189,6 +192,9 @@ class ModularSpan:
         p, N, r = self.p, self.graph.n, len(self.kept)
         words = self.rng.integers(0, 2**63, size=(size, N, 3))
         zs = [[((int(a) << 126) | (int(b) << 63) | int(c)) % p for a, b, c in pt] for pt in words]
+        for z in zs:
+            for i, v in self.fixed.items():
+                z[i] = v
         ev = graph_exact.ModularEvaluator(self.graph, zs, p)
         try:
             ev.evaluate(self.kept + self.atoms)
@@ -202,7 +208,7 @@ class ModularSpan:
             K = [[int(v) for v in row[:, j]] for row in kept]
             V = kernel(K, N, p)
             vals = [int(v[j]) for v in values]
-            if len(V) == N - r and all(z) and all(vals):
+            if len(V) == N - r and all(v for i, v in enumerate(z) if i not in self.fixed) and all(vals):
                 gr = [{i: int(v) for i, v in enumerate(g[:, j]) if v} for g in grads]
                 out.append(Point(z, K, V, vals, gr))
         return out
@@ -268,7 +274,7 @@ def polynomial_functions(span: ModularSpan, degree: int, atoms=None):
     return monos, _readable(sol, p)
 
 
-def laurent_monomials(span: ModularSpan, m: int):
+def laurent_monomials(span: ModularSpan, m: int, among=None):
     """Integer exponent vectors ``a`` (length ``m``) of the observable Laurent monomials
     ``prod z_i^(a_i)`` of the first ``m`` coordinates (a basis of their lattice, read back
     from the reduced echelon form), or None.
@@ -278,12 +284,13 @@ def laurent_monomials(span: ModularSpan, m: int):
     (``v_i = 0``), so it is free, and a monomial with such a factor is that observable
     coordinate times a monomial of the others. The rows a point adds are the rank of the
     directions on the moved coordinates (3 of the 83 directions of an EORC on 148
-    coordinates, say), which sets how many points are drawn."""
+    coordinates, say), which sets how many points are drawn. ``among``: the coordinates the
+    monomials may use (default: the first ``m``)."""
     p = span.p
     first = span.point(0)
     if first is None:
         return None
-    moved = [i for i in range(m) if any(v[i] for v in first.V)]
+    moved = [i for i in range(m) if any(v[i] for v in first.V) and (among is None or i in among)]
     if len(moved) > MAX_UNKNOWNS:
         return None
     if not moved:
@@ -306,6 +313,27 @@ def laurent_monomials(span: ModularSpan, m: int):
             full[i] = a
         out.append(full)
     return out
+
+
+def atom_monomials(span: ModularSpan, atoms):
+    """Integer exponent vectors ``a`` of the observable products ``prod_t A_t^(a_t)`` of the
+    span's atoms ``A_t``, ``t`` in ``atoms`` (the model's subexpressions: rational functions
+    of the coordinates), a basis of their lattice; or None. A product is observable iff its
+    ``d log`` is: ``sum_t a_t (d A_t . v) / A_t = 0`` for every unobservable direction ``v``."""
+    atoms = list(atoms)
+    if not atoms or len(atoms) > MAX_UNKNOWNS:
+        return None
+    p = span.p
+
+    def equations(pt):
+        inv = [pow(pt.values[t], -1, p) for t in atoms]
+        return [[sum(g * v[i] for i, g in pt.grads[t].items()) * w % p for t, w in zip(atoms, inv)] for v in pt.V]
+
+    first = span.point(0)
+    if first is None:
+        return None
+    sol = span.solve(equations, len(atoms), max(1, span.graph.n - len(span.kept)))
+    return None if sol is None else _readable(sol, p)
 
 
 def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
@@ -423,5 +451,6 @@ def _lower(e, t):
 
 
 __all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
-           "polynomial_functions", "laurent_monomials", "polynomial_fields", "restricted_rows", "readable_fields",
+           "polynomial_functions", "laurent_monomials", "atom_monomials", "polynomial_fields", "restricted_rows",
+           "readable_fields",
            "MAX_UNKNOWNS", "MAX_POINTS", "MAX_COEFFICIENT", "CANDIDATE_PRIME"]

@@ -35,6 +35,7 @@ from ..._calculus.generators import builder_for
 from ..._engine import graph_exact
 from ..._errors import ModelError
 from ..._model.system import System, derived_system
+from ..decisions.settle import DEFAULT_PROB_THRESHOLD
 from ..decisions.symmetry import verify_symmetries
 from ..results.kinds import Arithmetic
 from . import ansatz
@@ -95,7 +96,7 @@ class FoundSymmetries:
                 "complete": self.complete, "searched": self.searched or None}
 
 
-def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
+def find_symmetries(parts, system, seed: int = 0, prob_threshold: float = DEFAULT_PROB_THRESHOLD) -> FoundSymmetries:
     """Verified symmetries of the System a report is about.
 
     Args:
@@ -104,6 +105,7 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
             general solution: the System before the extension, its unknown inputs as unknown
             inputs; the codistribution may live on more coordinates).
         seed: seed of the ansatz points.
+        prob_threshold: the probability of correctness of the symmetry check's zero tests.
     """
     n = parts.n
     hidden = n - parts.dim
@@ -125,8 +127,8 @@ def find_symmetries(parts, system, seed: int = 0) -> FoundSymmetries:
         return FoundSymmetries((), hidden, "the field ansatz could not be solved")
     monos, vectors = found
     vectors = _symmetric(monos, vectors, system, n, seed)
-    fields = sorted((_Field(monos, v, n) for v in vectors), key=lambda f: f.size)
-    return FoundSymmetries(_verified(fields, system, span, hidden, seed), hidden)
+    fields = sorted((PolynomialField(monos, v, n) for v in vectors), key=lambda f: f.size)
+    return FoundSymmetries(_verified(fields, system, span, hidden, seed, prob_threshold), hidden)
 
 
 def _symmetric(monos, vectors, system, n, seed) -> list:
@@ -149,7 +151,8 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
     known = [builder.field(k, fn) for k, fn in system.fields().items() if k not in system.unknown]
     unknown = [builder.field(k, fn) for k, fn in system.unknown.items()]
     try:
-        xis = [builder.field(f"candidate field {i}", _Field(monos, v, n).callable()) for i, v in enumerate(vectors)]
+        xis = [builder.field(f"candidate field {i}", PolynomialField(monos, v, n).callable())
+               for i, v in enumerate(vectors)]
     except ModelError:
         return vectors
     conds = [[(builder.lie(xi, h).expr,) for h in outputs] + [builder.bracket(xi, f).expr for f in known]
@@ -191,7 +194,7 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
     return ansatz.readable_fields(fields, monos, n, p)
 
 
-def _verified(fields, system, span, hidden, seed) -> tuple:
+def _verified(fields, system, span, hidden, seed, prob_threshold) -> tuple:
     """The candidate fields that pass the symmetry check of declared symmetries on
     ``system`` (:func:`uio_jax._analysis.decisions.symmetry.verify_symmetries`), independent of those
     kept before (rank modulo p at the span's first point), at most ``hidden``."""
@@ -202,7 +205,7 @@ def _verified(fields, system, span, hidden, seed) -> tuple:
     with derived_system():
         probe = System(system.states, dict(system.outputs), dict(system.known), dict(system.unknown),
                        system.drift, dict(system.domain), system.angles, system.name, symmetries=declared)
-    bound = verify_symmetries(probe, seed=seed)
+    bound = verify_symmetries(probe, seed=seed, prob_threshold=prob_threshold)
     kept, echelon, point = [], graph_exact.Echelon(), span.point(0)
     for f, check in zip(fields, bound.checks if bound else ()):
         if check.verified and point is not None and echelon.add(f.at(point.z)):
@@ -212,8 +215,10 @@ def _verified(fields, system, span, hidden, seed) -> tuple:
     return tuple(kept)
 
 
-class _Field:
-    """A polynomial vector field from the ansatz' integer coefficients."""
+class PolynomialField:
+    """A polynomial vector field from the ansatz' integer coefficients (unknown ``(i, a)``
+    of component ``i`` and monomial ``monos[a]`` at ``i * len(monos) + a``): its values modulo
+    p, a JAX callable, its components as text and its kind."""
 
     def __init__(self, monos, vector, N):
         M = len(monos)
@@ -302,4 +307,4 @@ def _poly_text(terms, names) -> str:
     return text
 
 
-__all__ = ["FoundSymmetry", "FoundSymmetries", "find_symmetries", "DEGREE"]
+__all__ = ["FoundSymmetry", "FoundSymmetries", "PolynomialField", "find_symmetries", "DEGREE"]

@@ -20,9 +20,18 @@ operators, calls and names of the printed text, then its length):
 3. if these do not reach the dimension: polynomials of degree at most 2 in the coordinates
    and the elementary functions of one coordinate in the model (``cos(theta)``), found by
    ansatz (:mod:`.ansatz`) in tiers, each solved only while short: the coordinates, then with
-   one coordinate's elementary functions at a time, then all of them;
-4. if still short: ratios and products of two of the simplest
-   subexpressions, and polynomials of degree 3.
+   one coordinate's elementary functions at a time, then all of them, then with the
+   :data:`SUB_ATOMS` simplest subexpressions of several coordinates as atoms
+   (``c (b (a + c)) - (a b)(c d)``);
+4. if still short: ratios and products of two of the simplest subexpressions, polynomials of
+   degree 3, and observable products of powers of the coordinates and those subexpressions
+   (rational functions outside the other forms, :func:`~uio_jax._analysis.ansatz.atom_monomials`).
+
+**Identifiable combinations** (:attr:`ObservableFunctions.combinations`): for a model with
+parameters, a second run restricted to candidates of the parameters alone names a basis of
+every observable function of the parameters (``dim (Omega ∩ span{dp})`` of them, counted
+exactly at a random point), so that ``of_only(report.params)`` lists them all whenever they
+can be named, and says how many could not.
 
 **Kept** in that order when (a) the candidate's gradient lies in ``Omega`` and (b) it raises
 the rank of the functions kept so far, until their number is the observable dimension. Both
@@ -30,15 +39,13 @@ are the exact test of :meth:`uio_jax.Report.is_observable`: the rank modulo
 ``p = 2^127 - 1`` at random points of the analysis' own
 :class:`~uio_jax._analysis.decisions.settle.Settler` (a raise is certain; a membership is wrong with
 probability at most ``(D/p)^points``, summed into :attr:`ObservableFunctions.error_bound`).
-Where the graph is not made rational the same test runs in mpmath at two precisions and the
-result says so (:attr:`ObservableFunctions.arithmetic`). Independent functions in ``Omega``
+Elsewhere the same test runs in mpmath, said in :attr:`ObservableFunctions.arithmetic`. Independent functions in ``Omega``
 whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found
 the result says how many, and the kept generators remain a spanning set
 (:attr:`ObservableFunctions.generators`).
 
-For the EORC, whose augmented state holds the unknown inputs ``w``, functions of ``[x; w]``
-that use ``w`` are named apart (:attr:`ObservableFunctions.input_functions`): the inputs'
-reconstructions.
+For the EORC (state ``[x; w]``), functions that use ``w`` are named apart, the inputs'
+reconstructions (:attr:`ObservableFunctions.input_functions`).
 """
 
 import dataclasses
@@ -49,6 +56,7 @@ import numpy as np
 
 from ..._engine import graph_exact
 from ..._engine.graph_numpy import columns
+from ..._output import abridged
 from ..results.evidence import Settlement
 from ..results.kinds import Arithmetic
 from . import ansatz
@@ -61,6 +69,9 @@ MAX_SUBEXPRESSIONS = 400
 ATOM_OPS = frozenset({"sin", "cos", "tan", "exp", "log", "sqrt", "atan", "tanh", "sinh", "cosh"})
 #: Subexpressions combined pairwise (ratios, products) when the first pass falls short.
 PAIR_POOL = 12
+#: The simplest subexpressions of several coordinates taken as atoms of a polynomial tier and
+#: of products of powers (rational functions) when the other forms fall short.
+SUB_ATOMS = 6
 
 
 class Source(enum.Enum):
@@ -106,6 +117,12 @@ class ObservableFunctions:
         error_bound: probability bound that one of the memberships is wrong (exact route).
         seconds: time spent naming them (not in :meth:`to_dict`: the JSON of a report is
             the same at every run).
+        combinations: independent observable functions of the parameters alone (the
+            identifiable combinations), named apart: ``combinations_dim`` of them when all
+            could be named.
+        combinations_dim: ``dim (Omega ∩ span{dp})``, the number of independent observable
+            functions of the parameters alone (at a random point modulo p: the rank of the
+            kept rows minus the rank of their columns off the parameters).
     """
 
     functions: tuple
@@ -115,6 +132,8 @@ class ObservableFunctions:
     arithmetic: str
     error_bound: float
     seconds: float
+    combinations: tuple = ()
+    combinations_dim: int = 0
 
     @property
     def complete(self) -> bool:
@@ -127,9 +146,18 @@ class ObservableFunctions:
         return tuple(f.text for f in self.functions)
 
     def of_only(self, names) -> tuple:
-        """The named functions (states' and inputs') that use nothing but ``names``."""
+        """The named functions (states', inputs' and the identifiable combinations) that use
+        nothing but ``names``. For ``names`` the report's parameters this is a basis of every
+        identifiable combination (:attr:`combinations`: any observable function of the
+        parameters alone is locally a function of them), all ``combinations_dim`` of them when
+        all could be named; for other names, the named functions that happen to use only them."""
         names = set(names)
-        return tuple(f for f in self.functions + self.input_functions if set(f.variables) <= names)
+        out, seen = [], set()
+        for f in self.combinations + self.functions + self.input_functions:
+            if set(f.variables) <= names and f.text not in seen:
+                seen.add(f.text)
+                out.append(f)
+        return tuple(out)
 
     def summary(self) -> str:
         """One line: how many were named, against what, how decided."""
@@ -138,32 +166,36 @@ class ObservableFunctions:
             head = f"{named} of {self.dim} named (they span the observable codistribution)"
         else:
             head = (f"{named} of {self.dim} named; the other {self.dim - named} given only as generators "
-                    f"(the kept generators span it: {', '.join(self.generators)})")
+                    f"(the kept generators span it: {abridged(self.generators)})")
         how = ("exact mod p, P(wrong) <= " f"{self.error_bound:.1e}" if self.arithmetic == "exact mod p"
                else f"decided in {self.arithmetic}, not exact")
-        return f"{head}; {how}"
+        combos = ""
+        if self.combinations_dim:
+            combos = (f"; identifiable combinations: {len(self.combinations)} of {self.combinations_dim} named"
+                      + ("" if len(self.combinations) == self.combinations_dim else
+                         " (the others are no function of the candidate forms)"))
+        return f"{head}{combos}; {how}"
 
     def to_dict(self) -> dict:
         return {"functions": [f.to_dict() for f in self.functions],
                 "input_functions": [f.to_dict() for f in self.input_functions],
                 "dim": self.dim, "named": len(self.functions), "complete": self.complete,
                 "generators": list(self.generators), "arithmetic": self.arithmetic,
-                "error_bound": self.error_bound}
+                "error_bound": self.error_bound,
+                "combinations": [f.to_dict() for f in self.combinations],
+                "combinations_dim": self.combinations_dim}
 
 
-def coordinate_functions(verdicts, dim: int, generators) -> ObservableFunctions:
-    """The observable coordinates as the named functions, where the analysis keeps no
-    symbolic generators to test other candidates against (the Taylor route,
-    :mod:`uio_jax._analysis.recursions.taylor_route`): each one's membership was decided exactly by the
-    analysis itself (its bound is in the certificate).
-
-    Args:
-        verdicts: coordinate name -> observable (states and parameters).
-        dim: the observable dimension.
-        generators: labels of the kept generators.
-    """
-    functions = tuple(NamedFunction(name, Source.VARIABLE, (name,)) for name, seen in verdicts.items() if seen)
-    return ObservableFunctions(functions, (), dim, tuple(generators), "exact mod p", 0.0, 0.0)
+def make_candidate(graph, printer, names, node, source, only=None):
+    """``(NamedFunction, node)`` of a node that prints as an expression and depends on some
+    coordinate (all of them in ``only`` when given), else None."""
+    text = printer.text(node)
+    if text is None:
+        return None
+    cols = columns(graph, graph.reachable([node]))[0][node]
+    if not cols or (only is not None and not set(cols) <= only):
+        return None
+    return NamedFunction(text, source, tuple(names[i] for i in cols)), node
 
 
 def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions:
@@ -185,15 +217,53 @@ def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions
         run.second_pass()
     state = tuple(f for f, _ in run.chosen)
     given = tuple(f for f, _ in run.given)
+    combinations, combinations_dim, bound = _combinations(parts, run, inputs, seed)
     return ObservableFunctions(state, given, parts.dim, tuple(nd.label for nd in parts.nodes),
-                               run.arithmetic, run.error_bound(), time.perf_counter() - start)
+                               run.arithmetic, run.error_bound() + bound, time.perf_counter() - start,
+                               combinations, combinations_dim)
+
+
+def _combinations(parts, run, inputs, seed):
+    """``(functions, count, bound)``: a basis of the observable functions of the parameters
+    alone (named by a run restricted to them, as many as ``dim (Omega ∩ span{dp})``), and the
+    probability bound of its checks. Parameters that are all identifiable are their own basis."""
+    params = parts.original.joint_param_names if parts.original is not None else ()
+    idx = [i for i, nm in enumerate(parts.names[:parts.n]) if nm in params]
+    if not idx:
+        return (), 0, 0.0
+    own = [f for f, _ in run.chosen if f.source is Source.VARIABLE and f.text in params]
+    if len(own) == len(idx):
+        return tuple(own), len(idx), 0.0
+    if not run.exact:
+        return (), 0, 0.0
+    count = _restricted_dim(parts, idx, seed)
+    if not count:
+        return (), 0, 0.0
+    restricted = _Run(parts, parts.n + inputs, seed, only=set(idx), target=count)
+    restricted.first_pass()
+    if restricted.short():
+        restricted.second_pass()
+    return tuple(f for f, _ in restricted.chosen), count, restricted.error_bound()
+
+
+def _restricted_dim(parts, idx, seed) -> int:
+    """``dim (Omega ∩ span{e_i : i in idx})`` at a random point modulo ``p = 2^127 - 1``: the
+    rank ``r`` of the kept rows minus the rank of their columns off ``idx``."""
+    point = ansatz.ModularSpan(parts.builder.graph, [nd.expr for nd in parts.nodes], seed=seed + 7).point(0)
+    if point is None:
+        return 0
+    off = [j for j in range(parts.builder.graph.n) if j not in set(idx)]
+    return len(point.K) - graph_exact.rank_mod_p([[row[j] for j in off] for row in point.K])
 
 
 class _Run:
     """One naming: the candidates, the checks, the kept functions."""
 
-    def __init__(self, parts, m, seed):
+    def __init__(self, parts, m, seed, only=None, target=None):
         self.parts, self.m, self.seed = parts, m, seed
+        #: coordinates the candidates may use (None: any of the first m), and how many
+        #: functions are wanted (default: the dimension)
+        self.only, self.target = only, parts.dim if target is None else target
         self.graph = parts.builder.graph
         self.printer = Printer(self.graph, parts.names[:m])
         self.settler = parts.settler
@@ -224,11 +294,15 @@ class _Run:
         cols = columns(g, order)[0]
         reach = [k for k in order if g.op[k] not in ("x", "c") and cols[k] and max(cols[k]) < self.m]
         subs = [c for c in (self._candidate(k, Source.SUBEXPRESSION) for k in reach) if c is not None]
-        subs.sort(key=_rank)
+        subs.sort(key=simplicity)
         self.subexpressions = subs[:MAX_SUBEXPRESSIONS]
         elementary = [k for k in reach if g.op[k] in ATOM_OPS and len(cols[k]) == 1]
-        self.atoms = list(g.coords[:self.m]) + elementary
-        self.atom_cols = [None] * self.m + [next(iter(cols[k])) for k in elementary]
+        # the simplest subexpressions of several coordinates, as atoms of the last tier and
+        # of the products of their powers (rational functions outside the other forms)
+        compound = [node for fn, node in self.subexpressions
+                    if len(fn.variables) > 1 and self.settler.arithmetic([node]) is Arithmetic.EXACT][:SUB_ATOMS]
+        self.atoms = list(g.coords[:self.m]) + elementary + compound
+        self.atom_cols = [None] * self.m + [next(iter(cols[k])) for k in elementary] + ["sub"] * len(compound)
         self.span = ansatz.ModularSpan(g, [nd.expr for nd in self.parts.nodes], self.atoms, self.seed,
                                         ansatz.CANDIDATE_PRIME)
         hidden = self.exact and self.parts.dim < self.parts.n  # a scaling may hide something
@@ -252,24 +326,20 @@ class _Run:
         self._select([c for c in cands if c is not None])
         if self.exact:
             self._tiers(3)
+        if self.exact and self.short():
+            self._select(self._atom_products())
 
     def short(self) -> bool:
         """Whether fewer functions than wanted are named so far."""
-        return len(self.chosen) < self.parts.dim or len(self.given) < self.m - self.parts.n
+        inputs = 0 if self.only is not None else self.m - self.parts.n
+        return len(self.chosen) < self.target or len(self.given) < inputs
 
     def _candidate(self, node, source):
         """``(NamedFunction, graph node)`` of a printable node not tried yet, else None."""
         if node in self.tried:
             return None
         self.tried.add(node)
-        text = self.printer.text(node)
-        if text is None:
-            return None
-        cols = columns(self.graph, self.graph.reachable([node]))[0][node]
-        if not cols:
-            return None
-        names = self.parts.names
-        return NamedFunction(text, source, tuple(names[i] for i in cols)), node
+        return make_candidate(self.graph, self.printer, self.parts.names, node, source, self.only)
 
     def _tiers(self, degree):
         """The polynomial ansatz of ``degree`` in growing sets of atoms, each solved only while
@@ -277,12 +347,19 @@ class _Run:
         unknowns): the coordinates; the coordinates and the elementary functions of one
         coordinate (``cos(theta)``, ``sin(theta)``), one coordinate at a time; all atoms."""
         m = self.m
-        groups = {}
+        coords = [i for i in range(m) if self.only is None or i in self.only]
+        groups, compound = {}, []
         for t in range(m, len(self.atoms)):
-            groups.setdefault(self.atom_cols[t], []).append(t)
-        tiers = [list(range(m))] + [list(range(m)) + ts for ts in groups.values()]
+            if self.atom_cols[t] == "sub":
+                if self._allowed(self.atoms[t]):
+                    compound.append(t)
+            elif self.only is None or self.atom_cols[t] in self.only:
+                groups.setdefault(self.atom_cols[t], []).append(t)
+        tiers = [coords] + [coords + ts for ts in groups.values()]
         if len(groups) > 1:
-            tiers.append(list(range(len(self.atoms))))
+            tiers.append(coords + [t for ts in groups.values() for t in ts])
+        if compound:
+            tiers.append(coords + compound)
         for tier in tiers:
             if not self.short():
                 return
@@ -303,8 +380,32 @@ class _Run:
             out.append(self._candidate(node, Source.POLYNOMIAL))
         return out
 
+    def _allowed(self, node) -> bool:
+        """Whether a node uses only the coordinates this run may use."""
+        cols = columns(self.graph, self.graph.reachable([node]))[0][node]
+        return bool(cols) and max(cols) < self.m and (self.only is None or set(cols) <= self.only)
+
+    def _atom_products(self):
+        """Products of powers of the coordinates and the subexpression atoms that are
+        observable (:func:`~uio_jax._analysis.ansatz.atom_monomials`): rational functions."""
+        atoms = [t for t in range(len(self.atoms)) if (t < self.m or self.atom_cols[t] == "sub")
+                 and self._allowed(self.atoms[t])]
+        vectors = ansatz.atom_monomials(self.span, atoms)
+        g, out = self.graph, []
+        for vec in vectors or ():
+            if sum(1 for a in vec if a) < 2:
+                continue
+            num, den = g.one, g.one
+            for t, a in zip(atoms, vec):
+                if a > 0:
+                    num = g.mul(num, g.ipow(self.atoms[t], a))
+                elif a < 0:
+                    den = g.mul(den, g.ipow(self.atoms[t], -a))
+            out.append(self._candidate(g.div(num, den), Source.COMBINATION))
+        return out
+
     def _laurent(self):
-        vectors = ansatz.laurent_monomials(self.span, self.m)
+        vectors = ansatz.laurent_monomials(self.span, self.m, among=self.only)
         g, out = self.graph, []
         for vec in vectors or ():
             if sum(1 for a in vec if a) < 2:
@@ -324,9 +425,9 @@ class _Run:
         functions kept so far. Independence is tested first, on the screen (all candidates
         evaluated in one walk of the graph; a candidate dependent there is passed over, which
         never names a wrong function), then membership by the Settler, exactly."""
-        dim, n = self.parts.dim, self.parts.n
-        inputs = self.m - n
-        cands = sorted((c for c in cands if c is not None), key=_rank)
+        dim, n = self.target, self.parts.n
+        inputs = 0 if self.only is not None else self.m - n
+        cands = sorted((c for c in cands if c is not None), key=simplicity)
         rows = self._screen_rows([node for _, node in cands])
         for fn, node in cands:
             uses_inputs = any(self.parts.names.index(v) >= n for v in fn.variables)
@@ -382,7 +483,7 @@ class _Run:
         return esc.result == outcome
 
 
-def _rank(candidate):
+def simplicity(candidate):
     fn = candidate[0]
     return (text_size(fn.text), len(fn.text), fn.text)
 
@@ -395,5 +496,5 @@ def _monomial(g, e, atoms):
     return node
 
 
-__all__ = ["coordinate_functions", "Source", "NamedFunction", "ObservableFunctions", "name_functions",
-           "MAX_SUBEXPRESSIONS", "PAIR_POOL"]
+__all__ = ["make_candidate", "simplicity", "Source", "NamedFunction", "ObservableFunctions", "name_functions",
+           "MAX_SUBEXPRESSIONS", "PAIR_POOL", "SUB_ATOMS"]

@@ -16,7 +16,8 @@ from ..results.kinds import FollowUp, Method, Route
 from ..results.report import Report
 from .found_symmetries import FoundSymmetries
 from .found_symmetries import find_symmetries as _search_symmetries
-from .observable_functions import ObservableFunctions, coordinate_functions, name_functions
+from .observable_functions import ObservableFunctions, name_functions
+from .point_naming import name_at_point
 from .reparametrise import reparametrised_model
 
 
@@ -35,8 +36,9 @@ def observable_functions(rep: Report) -> ObservableFunctions:
     candidates from the model's subexpressions, Laurent monomials, polynomial ansatze;
     each kept on an exact membership and independence test of the analysis' Settler).
 
-    On the Taylor route the named functions are the observable coordinates (the route keeps
-    no symbolic generators). Computed once per report (about the cost of a small analysis)
+    On the Taylor route the candidates that need no ansatz (the coordinates, the model's
+    subexpressions, their simplest ratios and products) are tested at the route's random point
+    (:mod:`uio_jax._analysis.followups.point_naming`). Computed once per report (about the cost of a small analysis)
     and kept in ``rep.followups``.
 
     Args:
@@ -55,7 +57,7 @@ def observable_functions(rep: Report) -> ObservableFunctions:
     if known is not None:
         return known
     if rep.route is Route.TAYLOR:
-        named = coordinate_functions({**rep.observable, **rep.identifiable}, rep.dim, rep.generators)
+        named = name_at_point(rep.space, rep.dim, rep.generators)
     else:
         inputs = len(rep.details.get("extended_state", ())) - rep.n if rep.method is Method.EORC else 0
         named = name_functions(rep.space.parts(), inputs=max(inputs, 0))

@@ -1,7 +1,7 @@
 """The finite system: SIAN's truncation of the equations at the orders the local test proved enough.
 
 The output of a model is determined by infinitely many Taylor coefficients; the question is
-decided on finitely many. The local test (:mod:`uio_jax._analysis.identifiability`, the
+decided on finitely many. The local test (:mod:`uio_jax._analysis.at_t0.identifiability`, the
 project's exact rank decisions on the Jacobian of the output coefficients) absorbs the
 coefficients order by order and stops where the rank of ``d(y_0, .., y_K)`` is the rank of
 all of them: ``beta_j = K + 1`` orders of every output (``y_j^(0..K)``) carry the whole rank.

@@ -152,7 +152,8 @@ class _Eorc(Recursion):
         """The verified symmetries of the analysed System
         (:func:`uio_jax._analysis.decisions.symmetry.verify_symmetries`, once), or None."""
         if self._symmetry is None:
-            self._symmetry = (verify_symmetries(self.analysed, seed=self.seed),)
+            self._symmetry = (verify_symmetries(self.analysed, seed=self.seed, prob_threshold=self.ctx.prob_threshold,
+                                                charge=self.ctx.settler),)
         return self._symmetry[0]
 
     def at_bound(self, last):

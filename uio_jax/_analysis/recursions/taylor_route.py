@@ -114,6 +114,7 @@ class _Orders:
             point = _draw(rng, problem.n)
             draws = graph_elementary.Draws(graph_exact.PRIME, 1, [int(v) % 2**32 for v in point[:64]])
             self.arith = Modular([point], draws)
+            self.point = point
             self.series = problem.series(self.arith)
             try:
                 self.series.coefficient(problem.outputs[0], 0)

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..._errors import ModelError
+from ..._output import abridged, wrapped
 
 CENTRE = "centre of the sampling box of every state and parameter"
 OFF_CENTRE = ("a fixed point off the centre of the sampling box (the codistribution drops "
@@ -156,15 +157,21 @@ def combinations(report, dirs) -> list:
     return combos
 
 
+#: A point with more coordinates than this is printed abridged (its first and last ones).
+POINT_NAMES = 12
+
+
 def format_directions(report, space, summary=None) -> str:
     """Text of :meth:`direction_summary` (default: at the centre of the sampling box).
 
-    One line naming the point, one line per direction (components that print as
-    zero at 3 decimals omitted), and for a model with parameters one line per
-    identifiable combination of parameters that are not identifiable one by one.
+    One line naming the point (abridged past :data:`POINT_NAMES` coordinates), one line per
+    direction (components that print as zero at 3 decimals omitted; a long one wrapped),
+    and for a model with parameters one line per identifiable combination of parameters
+    that are not identifiable one by one.
     """
     summary = direction_summary(report, space) if summary is None else summary
-    at = ", ".join(f"{k}={v:.3g}" for k, v in summary["point"].items())
+    coords = [f"{k}={v:.3g}" for k, v in summary["point"].items()]
+    at = abridged(coords) if len(coords) <= POINT_NAMES else f"{len(coords)} coordinates: {abridged(coords)}"
     known = getattr(space, "known_point", dict)()
     if known:  # a time-varying System: the directions hold at this time
         at += "; " + ", ".join(f"{k}={v:.3g}" for k, v in known.items())
@@ -180,7 +187,7 @@ def format_directions(report, space, summary=None) -> str:
     for c in summary["identifiable_combinations"]:
         lines.append("identifiable combination (its differential at this point): "
                      + linear_text({f"d{k}": v for k, v in c.items()}))
-    return "\n".join(lines)
+    return wrapped("\n".join(lines))
 
 
 def directions_dict(report, space) -> dict:

@@ -8,7 +8,7 @@ import json
 from collections.abc import Mapping
 from types import MappingProxyType
 
-from ..._output import printable
+from ..._output import printable, wrapped
 from .evidence import Arithmetic, jsonable
 from .kinds import Answer, Verdict
 from .report import Question, global_answer, refuse
@@ -220,7 +220,7 @@ class IdentifiabilityReport:
                      f"{self.error_bound:.1e} (required <= {1 - self.prob_threshold:.0e})")
         lines += [] if self.global_answer is None else self.global_answer.lines()
         lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(map(printable, lines))
+        return wrapped("\n".join(map(printable, lines)))
 
 
 __all__ = ["Verdict", "StopKind", "IdentifiabilityReport", "AT_T0"]

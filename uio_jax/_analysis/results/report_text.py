@@ -1,6 +1,6 @@
 """A Report as text: what ``print(report)`` shows, and its answer line."""
 
-from ..._output import printable
+from ..._output import printable, wrapped
 from .kinds import Answer, FollowUp, Method
 
 #: The analysis behind a necessary and sufficient answer, per method.
@@ -83,7 +83,7 @@ def report_text(report) -> str:
         lines += report.global_answer.lines()
     for note in report.notes:
         lines.append(f"note: {note}")
-    return "\n".join(map(printable, lines))  # no text from a model file reaches a terminal raw
+    return wrapped("\n".join(map(printable, lines)))  # no model text raw, no line of kilobytes
 
 
 def followup_lines(report) -> list:
