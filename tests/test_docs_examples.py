@@ -82,6 +82,8 @@ def workdir(tmp_path_factory):
     here = tmp_path_factory.mktemp("examples")
     for d in ("systems", "scripts"):
         os.symlink(os.path.join(ROOT, d), here / d)
+    (here / "tests" / "data").mkdir(parents=True)  # the model files docs/global.md reads
+    os.symlink(os.path.join(ROOT, "tests", "data", "global"), here / "tests" / "data" / "global")
     (Builder().compartment("V", 2.0).species("S1", "V").species("S2", "V")
      .parameter("k_in", 0.5).parameter("k1", 0.3).parameter("k2", 0.2)
      .reaction("inflow", {}, {"S1": 1}, "k_in")

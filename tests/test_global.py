@@ -139,7 +139,7 @@ def test_time_limit_answers_undecided(tmp_path):
 
 @pytest.mark.parametrize("bad,message", [
     (dict(initial={"zz": 0}), "not a state"),
-    (dict(initial={"x": float("nan")}), "finite"),
+    (dict(initial={"x": float("nan")}), "not a real number"),
     (dict(initial={"a": 1.0}), "a parameter, not a state"),
     (dict(timeout=-1), "timeout"),
     (dict(prob_threshold=1.5), "prob_threshold"),

@@ -73,3 +73,19 @@ def test_cli_and_batch(tmp_path, capsys):
     assert cli.main(["batch", str(model), "--global", "--samples", "64"]) == 0
     out = capsys.readouterr().out
     assert "global" in out.splitlines()[0] and "a: local (2 values)" in out and "b: not" in out
+
+
+def test_named_functions_get_their_global_mark():
+    """``x' = -a b x``: the named functions are ``x`` and ``a*b``, both global; with ``x' = -a^2 x``
+    the parameter ``a`` itself is named and takes two values."""
+    product = uj.System(states=("x",), outputs={"y": lambda x, p: x[0]},
+                        drift=lambda x, p: jnp.stack([-(p[0] * p[1]) * x[0]]),
+                        params={"a": (0.5, 1.5), "b": (0.5, 1.5)}, domain={"x": (0.5, 1.5)}, name="ab")
+    rep = uj.analyze(product, samples=64, scope="global")
+    marks = {f.text: f.globally for f in uj.observable_functions(rep).functions}
+    assert marks == {"x": "global", "a*b": "global"}
+    assert "a*b   (globally: global)" in str(rep)
+    rep = uj.analyze(_square(), samples=64, scope="global")
+    assert {f.text: f.globally for f in uj.observable_functions(rep).functions} == {"x": "global", "a": "local"}
+    plain = uj.analyze(product, samples=64)
+    assert all(f.globally is None for f in uj.observable_functions(plain).functions)

@@ -8,6 +8,8 @@ the report keeps the plan (``Report.plan``, ``rep.plan.why``).
 
 import dataclasses
 
+from .._calculus.generators import builder_for
+from .._engine.graph_trace import GraphFunction
 from .._errors import OptionError
 from .._model.experiments import Experiments
 from .._model.symmetries import symmetry_fields
@@ -18,6 +20,7 @@ from .decisions.context import Context
 from .decisions.memory import check_memory
 from .decisions.settle import new_settler
 from .decisions.symmetry import symmetry_notes, verify_symmetries
+from .followups.questions import observable_functions
 from .globally.run import DEFAULT_TIMEOUT, check_global, global_identifiability
 from .options import DEFAULTS, check_options
 from .plan import plan
@@ -27,7 +30,8 @@ from .recursions.orc import run_orc
 from .recursions.series import series_report
 from .recursions.single_ui import single_ui_report
 from .recursions.taylor_route import NotTaken, taylor_report
-from .results.kinds import Method, Route
+from .results.kinds import FollowUp, Method, Route
+from .results.report import Report
 
 
 def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = DEFAULTS["samples"],
@@ -103,11 +107,31 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
     report = _local(system, method=method, samples=samples, seed=seed, rtol=rtol, max_order=max_order, k_max=k_max,
                     known_inputs=known_inputs, prob_threshold=prob_threshold, initial=initial, shared=shared)
     if scope == "global":
-        answer = global_identifiability(system, initial=initial, seed=seed, prob_threshold=prob_threshold,
-                                        max_order=max_order,
-                                        timeout=DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
-        report = dataclasses.replace(report, global_answer=answer)
+        report = _with_global(report, system, initial, seed, prob_threshold, max_order,
+                              DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
     return report
+
+
+def _with_global(report, system, initial, seed, prob_threshold, max_order, timeout):
+    """``report`` with the global answer (``report.global_answer``); on a generic-state report
+    whose functions are named on the model's own graph, the named observable functions are
+    asked too, and each gets its ``globally`` mark."""
+    graph, named = builder_for(system.joint()).graph, None
+    if isinstance(report, Report) and report.route is Route.SYMBOLIC and report.space.parts().builder.graph is graph:
+        named = observable_functions(report)
+    asked = {f"f{i}": GraphFunction(graph, f.node) for i, f in enumerate(named.functions if named else ())
+             if f.node is not None}
+    answer = global_identifiability(system, initial=initial, seed=seed, prob_threshold=prob_threshold,
+                                    max_order=max_order, timeout=timeout, functions=asked or None)
+    if asked:  # the marks go on the named functions; the answer keeps the unknowns
+        marks = answer.global_identifiability
+        marked = [dataclasses.replace(f, globally=marks[f"f{i}"].value) if f"f{i}" in marks else f
+                  for i, f in enumerate(named.functions)]
+        report.followups.keep(FollowUp.OBSERVABLE_FUNCTIONS, dataclasses.replace(named, functions=tuple(marked)))
+        answer = dataclasses.replace(answer, functions=(), global_identifiability={
+            k: v for k, v in marks.items() if k not in asked}, value_counts={
+            k: v for k, v in answer.value_counts.items() if k not in asked})
+    return dataclasses.replace(report, global_answer=answer)
 
 
 def _local(system, *, method, samples, seed, rtol, max_order, k_max, known_inputs, prob_threshold, initial, shared):

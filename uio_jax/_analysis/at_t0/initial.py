@@ -232,7 +232,7 @@ def _function_value(system, name, fn) -> InitialValue:
     builder = builder_for(joint)
     ns = len(system.states)
     try:
-        node = builder.function(f"initial value of {name}", lambda z: fn(z[ns:])).expr
+        node = builder.function(f"initial value of {name}", FunctionOfSlice(fn, ns)).expr
     except Exception as exc:  # the user's function raised: one line, not their traceback
         why = str(exc) if isinstance(exc, ModelError) else f"the function raised {type(exc).__name__}: {exc}"
         if not system.params:

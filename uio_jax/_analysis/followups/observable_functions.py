@@ -1,11 +1,7 @@
-"""Observable functions, named: readable functions whose differentials span the observable
-codistribution (``Report.observable_functions``).
-
-The analyses keep *generators* (Lie derivatives, rescaled fields, ...) whose gradients span the
-observable codistribution ``Omega``: observable by construction, but not readable (``L_V_x
-h_u`` of the vehicle of 002 is a page of algebra). This module names functions of the states
-and parameters instead, in the model's own names, and keeps them only when the exact checks
-say so.
+"""Observable functions, named (``uj.observable_functions(rep)``): readable functions whose
+differentials span the observable codistribution ``Omega``, in place of the generators the
+analyses keep (``L_V_x h_u`` of the vehicle of 002 is a page of algebra), each kept only when
+the exact checks say so.
 
 **Candidates**, ranked by simplicity (:func:`uio_jax._analysis.followups.expression_text.text_size`:
 operators, calls and names of the printed text, then its length):
@@ -39,7 +35,7 @@ are the exact test of :meth:`uio_jax.Report.is_observable`: the rank modulo
 ``p = 2^127 - 1`` at random points of the analysis' own
 :class:`~uio_jax._analysis.decisions.settle.Settler` (a raise is certain; a membership is wrong with
 probability at most ``(D/p)^points``, summed into :attr:`ObservableFunctions.error_bound`).
-Elsewhere the same test runs in mpmath, said in :attr:`ObservableFunctions.arithmetic`. Independent functions in ``Omega``
+Elsewhere the same test runs in mpmath (:attr:`ObservableFunctions.arithmetic`). Independent functions in ``Omega``
 whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found
 the result says how many, and the kept generators remain a spanning set
 (:attr:`ObservableFunctions.generators`).
@@ -93,14 +89,20 @@ class NamedFunction:
             it, with the names as symbols).
         source: a :class:`Source`.
         variables: the names it depends on.
+        node: its node in the analysed System's expression graph (not serialised).
+        globally: with ``scope="global"``, how many values it takes as a function of the
+            unknowns (a :class:`~uio_jax.GlobalVerdict` value: ``"global"`` where one).
     """
 
     text: str
     source: Source
     variables: tuple
+    node: int | None = dataclasses.field(default=None, compare=False, repr=False)
+    globally: str | None = None
 
     def to_dict(self) -> dict:
-        return {"text": self.text, "source": self.source.value, "variables": list(self.variables)}
+        return {"text": self.text, "source": self.source.value, "variables": list(self.variables),
+                **({"globally": self.globally} if self.globally else {})}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,8 +117,7 @@ class ObservableFunctions:
         generators: labels of the kept generators: a spanning set of ``Omega`` in any case.
         arithmetic: how the checks were decided: ``"exact mod p"`` or ``"mpmath"``.
         error_bound: probability bound that one of the memberships is wrong (exact route).
-        seconds: time spent naming them (not in :meth:`to_dict`: the JSON of a report is
-            the same at every run).
+        seconds: time spent naming them (not in :meth:`to_dict`: the JSON is the same at every run).
         combinations: independent observable functions of the parameters alone (the
             identifiable combinations), named apart: ``combinations_dim`` of them when all
             could be named.
@@ -146,11 +147,9 @@ class ObservableFunctions:
         return tuple(f.text for f in self.functions)
 
     def of_only(self, names) -> tuple:
-        """The named functions (states', inputs' and the identifiable combinations) that use
-        nothing but ``names``. For ``names`` the report's parameters this is a basis of every
-        identifiable combination (:attr:`combinations`: any observable function of the
-        parameters alone is locally a function of them), all ``combinations_dim`` of them when
-        all could be named; for other names, the named functions that happen to use only them."""
+        """The named functions (the identifiable combinations first) that use nothing but
+        ``names``: for the report's parameters a basis of every identifiable combination
+        (:attr:`combinations`), all ``combinations_dim`` of them when all could be named."""
         names = set(names)
         out, seen = [], set()
         for f in self.combinations + self.functions + self.input_functions:
@@ -195,7 +194,7 @@ def make_candidate(graph, printer, names, node, source, only=None):
     cols = columns(graph, graph.reachable([node]))[0][node]
     if not cols or (only is not None and not set(cols) <= only):
         return None
-    return NamedFunction(text, source, tuple(names[i] for i in cols)), node
+    return NamedFunction(text, source, tuple(names[i] for i in cols), node), node
 
 
 def name_functions(parts, inputs: int = 0, seed: int = 0) -> ObservableFunctions:

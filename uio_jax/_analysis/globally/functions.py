@@ -20,6 +20,7 @@ from collections.abc import Mapping
 
 from ..._calculus.generators import Node, builder_for
 from ..._engine.graph import Graph
+from ..._engine.graph_trace import GraphFunction
 from ..._errors import OptionError
 from ..at_t0.initial import NO_VOTE, Coordinates, Experiment, Span
 from ..decisions.settle import Settler
@@ -54,10 +55,13 @@ def joint_function(system, fn):
 
 
 def function_nodes(system, functions) -> dict:
-    """``{name: node}`` of each function in the joint System's expression graph."""
+    """``{name: node}`` of each function in the joint System's expression graph (a
+    :class:`~uio_jax._engine.graph_trace.GraphFunction` of that graph, such as a named
+    observable function of the analysis, is its node already)."""
     joint = system.joint()
     builder = builder_for(joint)
-    return {name: builder.function(f"function {name}", joint_function(system, fn)).expr
+    return {name: fn.expr if isinstance(fn, GraphFunction) and fn.graph is builder.graph else
+            builder.function(f"function {name}", joint_function(system, fn)).expr
             for name, fn in functions.items()}
 
 

@@ -93,7 +93,7 @@ def followup_lines(report) -> list:
     named = report.followups.get(FollowUp.OBSERVABLE_FUNCTIONS)
     if named is not None:
         lines.append(f"observable functions: {named.summary()}")
-        lines += [f"  {f.text}" for f in named.functions]
+        lines += [f"  {f.text}" + (f"   (globally: {f.globally})" if f.globally else "") for f in named.functions]
         lines += [f"  {f.text}   (uses an unknown input)" for f in named.input_functions]
     found = report.followups.get(FollowUp.SYMMETRIES)
     if found is not None:
