@@ -30,6 +30,13 @@ from uio_jax._io.loading import load_module
 from uio_jax._model.experiment import Experiment, Measurement
 
 RTOL = 1e-12
+#: The covariance itself: its round-off grows with ``cond P``, and the order of the floating
+#: operations differs between the fused kernel and the reference (XLA's fused multiply-adds
+#: depend on the CPU): the vehicle hovering without wind gave 1.3e-12 on a 2026-12-05 x86_64
+#: VM where the landed tree of 2026-12-04 gave the same (1.2e-13 on the machine
+#: docs/benchmarks/ekf.md records). A filter that differs in its mathematics (a Jacobian, a
+#: missed angle wrap, the Joseph form) differs by 1e-6 or more.
+RTOL_P = 1e-11
 TRIALS = 4
 #: Output epochs per zoo run (unicycle 1000 Euler steps, vehicle 200). Round-off grows with
 #: the covariance's condition number: the vehicle without wind differs by 1.2e-13 after 20
@@ -68,8 +75,8 @@ def _agree(exp, seed=1):
     for key in ("x_true", "y", "u_read"):  # the same simulation
         np.testing.assert_array_equal(tf[key], tr[key])
     assert _rel(tf["x_hat"], tr["x_hat"]) < RTOL
-    assert _rel(tf["P"], tr["P"]) < RTOL
-    assert _rel(tf["sigma"], tr["sigma"]) < RTOL
+    assert _rel(tf["P"], tr["P"]) < RTOL_P
+    assert _rel(tf["sigma"], tr["sigma"]) < RTOL_P
     assert _rel(fast.stats, ref.stats) < RTOL
     for a, b in ((fast.rmse(), ref.rmse()), (fast.sigma_rms(), ref.sigma_rms()),
                  (fast.quantity_rmse(), ref.quantity_rmse()),
