@@ -293,7 +293,7 @@ def observable_inputs(out: GeneralRun, full: bool = False) -> dict:
 
 # ------------------------------------------------------------------ the report
 def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", notes=(),
-                      report_system=None, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
+                      prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
     """Run the general solution on ``system`` (joint; time as a known coordinate) and build
     the Report on the original state.
 
@@ -304,8 +304,6 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         known_inputs: the meaning of the known inputs (must be ``"smooth"`` when there are
             any, :func:`check_applicable`).
         notes: notes to carry.
-        report_system: the System whose states the Report lists (default ``system``
-            without its known coordinates).
 
     Returns:
         :class:`~uio_jax.Report` with ``method="general_ui"``; ``details``: ``m`` (final
@@ -361,7 +359,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     notes = list(notes) + _report_notes(system, truncated, jet, weakest)
     space = SampledSpace(omega, n=n, dim=dim, original=system)
     omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
-    view = report_system or report_view(system, n)
+    view = report_view(system, n)
     return omega.report("general_ui", out.history, out.stop, notes=notes, details=details,
                         projection=Projection(view, dim, observable, space), known_inputs=known_inputs)
 

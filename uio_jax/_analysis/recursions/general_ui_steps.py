@@ -140,7 +140,6 @@ class Closed:
     aborted: bool = False
     root: Node | None = None
     order: int = 0
-    passes: int = 0
 
 
 def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=None) -> Closed:
@@ -173,7 +172,7 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=No
         if guard:
             for theta in frontier:
                 if _any_nonzero(w, ctx, theta, guard, guard_scale):
-                    return Closed(ctx, True, root[theta], r, r)
+                    return Closed(ctx, True, root[theta], r)
         active = frontier
         if filter_fields:
             active = [th for th in frontier if not _any_nonzero(w, ctx, th, filter_fields)]
@@ -185,7 +184,7 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=No
         for nd in added:
             root[nd] = root[active[index[nd] // len(fields)]]
         frontier, r = added, r + 1
-    return Closed(ctx, passes=r)
+    return Closed(ctx)
 
 
 def _any_nonzero(w: Working, ctx: Context, theta, fields, scales=None) -> bool:
