@@ -222,7 +222,6 @@ class PolynomialField:
 
     def __init__(self, monos, vector, N):
         M = len(monos)
-        self.monos = monos
         self.terms = [[(vector[i * M + a], monos[a]) for a in range(M) if vector[i * M + a]] for i in range(N)]
         degree = max((sum(e) for t in self.terms for _, e in t), default=0)
         self.size = (degree, sum(len(t) for t in self.terms))

@@ -73,7 +73,6 @@ class _Series:
         self.a = input_coefficients(self.system, cap + 1, seed)
         self.tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
         self.outs = ctx.output_nodes()
-        self.ctx = ctx
         self.nodes = {}
         self.coefficients = GraphCoefficients.of(ctx, self.a, cap)
 
@@ -148,21 +147,20 @@ class SeriesOrders(Recursion):
     :class:`~uio_jax._analysis.recursions.driver.Recursion`: step k absorbs ``dy_k`` (``p`` rows
     ``(S, p, n)``), ``Omega_k = span{dy_0 .. dy_k}``.
 
-    Orders are evaluated in blocks (:meth:`_Series.gradients`): the first block reaches
-    ``first`` (None: the fewest orders that could reach rank n, ``ceil(n / p) - 1``), a
-    later one the fewest more orders that could reach rank n if every order added what the last one did (2 at least).
+    Orders are evaluated in blocks (:meth:`_Series.gradients`): the first block reaches the
+    fewest orders that could reach rank n, ``ceil(n / p) - 1``, a later one the fewest more
+    orders that could reach rank n if every order added what the last one did (2 at least).
 
     Args:
         ctx: the analysis context.
         series: the nodes of the ``y_k``.
         cap: the highest order.
-        first: the highest order of the first block (None: see above).
     """
 
-    def __init__(self, ctx: Context, series: "_Series", cap: int, first=None):
+    def __init__(self, ctx: Context, series: "_Series", cap: int):
         self.ctx, self.series, self.cap = ctx, series, cap
         n, p = ctx.system.n, len(ctx.system.outputs)
-        self.chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
+        self.chunk = max(1, math.ceil(n / max(p, 1)))
         self.computed, self.by_order, self.added = -1, {}, None
 
     def _order(self, k):
