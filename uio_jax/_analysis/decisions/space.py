@@ -206,7 +206,7 @@ class SampledSpace(Space):
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
         _, sv, vt = np.linalg.svd(g)
         if sv[min(r, N) - 1] < self._ctx.codist.rtol * sv[0]:
-            return self._directions_extended(X, r)
+            return self._directions_extended(X)
         if N == n:
             return vt[r:].T.copy()
         q = vt[:r]
@@ -214,14 +214,14 @@ class SampledSpace(Space):
         _, _, wt = np.linalg.svd(P[:, :n])
         return wt[: n - self._dim].T.copy()
 
-    def _directions_extended(self, X, r, dps=None) -> np.ndarray:
-        """:meth:`unobservable_directions` in ``dps`` decimal digits (mpmath, default
-        :data:`EXTENDED_DIGITS`): where the kept generators' smallest directions are under
-        float64's reach at ``X`` (``s_r/s_1`` under ``rtol``), their gradients are evaluated in
-        the expression graph at ``X`` (its floats taken exactly) and the null space is
-        computed there. A state where they are dependent even at ``dps`` digits (``s_r/s_1``
-        under ``10^-(dps/2)``) is singular: refused."""
-        dps = EXTENDED_DIGITS if dps is None else dps
+    def _directions_extended(self, X) -> np.ndarray:
+        """:meth:`unobservable_directions` in ``dps =`` :data:`EXTENDED_DIGITS` decimal digits
+        (mpmath): where the kept generators' smallest directions are under float64's reach at
+        ``X`` (``s_r/s_1`` under ``rtol``), their gradients are evaluated in the expression graph
+        at ``X`` (its floats taken exactly) and the null space is computed there. A state where
+        they are dependent even at ``dps`` digits (``s_r/s_1`` under ``10^-(dps/2)``) is
+        singular: refused."""
+        dps = EXTENDED_DIGITS
         ev = graph_exact.ExtendedEvaluator(self._ctx.builder.graph, X, dps)
         _, grads = ev.gradients([nd.expr for nd in self._nodes])
         return annihilator_extended(ev.ctx, grads, self._n, self._dim, dps)

@@ -192,7 +192,7 @@ def verify_symmetries(system, seed: int = 0, prob_threshold: float = DEFAULT_PRO
         if B is not None:
             unobservable.update(names[c] for c in range(len(names)) if any(test.nonzero(B[j][c])
                                                                            for j in range(len(names))))
-    rank = _rank(settler, graph, verified_rows, n_rep)
+    rank = _rank(settler, verified_rows, n_rep)
     if charge is not None:
         charge.add_bound(settler.error_bound)
     return SymmetryBound(n_rep - rank, rank, tuple(system.states[i] for i in sorted(moved)),
@@ -234,7 +234,7 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
-def _rank(settler, graph, fields, n_rep) -> int:
+def _rank(settler, fields, n_rep) -> int:
     """Rank of the verified fields (their expressions) at the Settler's first point, on the
     reported coordinates: modulo p where they are made rational (never above the generic
     rank), else by the SVD of their values in mpmath (relative threshold 1e-12, far above the
