@@ -2,10 +2,9 @@
 
 Each recursion (ORC, single unknown input, EORC, general solution) is a Python loop over
 steps m; inside a step the new candidate generators are evaluated in one call (numpy over
-the System's expression graph) at the first
-samples (:data:`DECISION_SAMPLES` of them where the model is defined) and pruned by
-:class:`~uio_jax._analysis.decisions.rank.Codistribution`; the final span is certified on all the
-samples (:meth:`Context.certify`).
+the System's expression graph) at the decision samples and pruned by
+:class:`~uio_jax._analysis.decisions.rank.Codistribution`; the final span is certified on all
+the samples (:meth:`Context.certify`).
 """
 
 import dataclasses
@@ -126,18 +125,12 @@ class Context:
         """Decide the final span again at every sample (after the recursion).
 
         The kept generators are absorbed, in order, into a codistribution over all ``S``
-        samples: their gradients are evaluated there once. Each acceptance is a vote of the
-        ``S`` samples; a weak one, or one that does not confirm the decision samples, is
-        settled beyond float64 (undecided if that fails too). The decisions of the
-        recursion (rejected candidates, memberships on the way) keep their votes of the
-        decision samples. Afterwards :attr:`codist` and :attr:`xs` are those of all the
-        samples; a no-op when they already are and ``upto`` is None.
-
-        Also a no-op (``upto`` None) when every decision so far was made exactly
-        (:meth:`decided_exactly`): the float64 votes are then a screen whose verdicts the
-        exact decisions replaced, and more samples would only refine margins nobody decides
-        on (:attr:`screen_only`; the certificate's margins and the figure come from the
-        decision samples).
+        samples; a weak acceptance, or one that does not confirm the decision samples, is
+        settled beyond float64 (undecided if that fails too). The recursion's other decisions
+        keep their votes of the decision samples. Afterwards :attr:`codist` and :attr:`xs` are
+        those of all the samples. A no-op when they already are and ``upto`` is None, and
+        (``upto`` None) when every decision so far was made exactly (:meth:`decided_exactly`:
+        the float64 votes were only a screen; :attr:`screen_only`).
 
         Args:
             upto: keep only the first ``upto`` generators (the span at an earlier step of
@@ -193,16 +186,11 @@ class Context:
         """Which unit covectors lie in the span, and its dimension on the first ``n``
         coordinates, certified.
 
-        ``e_1..e_count`` are tested once (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`);
-        the dimension of the span intersected with ``span{dz_1..dz_n}`` is ::
-
-            dim = rank(Omega) + n - rank([Omega; e_1..e_n]),
-
-        for which ``e_1..e_n`` are absorbed one by one into a copy of the span (each one
-        that raises the generic rank removes one dimension). Every decision is recorded
-        in :attr:`memberships` for the certificate. ``meanwhile()`` is called once the
-        memberships are known and the dimension must be computed (the EORC starts its next
-        order there, so that it computes during this host-side rank work).
+        ``e_1..e_count`` are tested once
+        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`); the dimension
+        ``dim = rank(Omega) + n - rank([Omega; e_1..e_n])`` absorbs ``e_1..e_n`` one by one into
+        a copy of the span. Every decision is recorded in :attr:`memberships`. ``meanwhile()``
+        is called once the memberships are known and the dimension must be computed.
 
         Returns:
             ``(members, dim)``: ``count`` booleans, and the dimension (``n`` when the first
@@ -299,12 +287,9 @@ class Context:
             self._grads.setdefault(nd, grads[:, i])
 
     def absorb(self, nodes, grads=None) -> list[Node]:
-        """Keep the candidate nodes that raise the generic rank.
-
-        A step of a recursion that keeps nothing ends it (the span is closed under its
-        fields), so its rejections are then settled exactly where the model is rational
-        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.absorb`, ``confirm_empty``): a
-        genuine direction of a deep derivative can sit under float64's round-off.
+        """Keep the candidate nodes that raise the generic rank (the rejections of a step that
+        keeps nothing settled exactly where the model is rational: ``confirm_empty`` of
+        :meth:`~uio_jax._analysis.decisions.rank.Codistribution.absorb`).
 
         Args:
             nodes: scalar Nodes.
@@ -363,10 +348,8 @@ class Context:
         recursion driver announces the steps it records, :func:`~uio_jax._analysis.recursions.driver.iterate`).
 
         ``Step.fraction`` is the smallest agreeing fraction among the rank decisions taken
-        since the previous step (candidates kept and candidates rejected; 1.0 if none): the
-        evidence the step rests on, free, where an SVD of the whole span at every step
-        would cost ``O(S r^2 n)`` each (5 of Arabidopsis' 28 s). The final span gets its
-        SVD once, in :meth:`certificate`.
+        since the previous step (candidates kept and rejected; 1.0 if none): evidence for
+        free, where an SVD of the whole span at every step would cost ``O(S r^2 n)``.
         """
         cd = self.codist
         a, r = self._decided_before

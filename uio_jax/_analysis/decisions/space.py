@@ -116,13 +116,10 @@ EXTENDED_DIGITS = 60
 class SampledSpace(Space):
     """The final codistribution of a Context, queried by a Report about the original state.
 
-    The one implementation of a Report's queries (``unobservable_directions``,
-    ``is_observable``, ``sample_singular_values``). The codistribution lives on the
-    ``N`` coordinates of ``ctx.system``; the Report's state is its first ``n`` (``n = N``
-    for the ORC and the single-input analysis; for the EORC the extended state
-    ``[x; xi]``, whose extra coordinates are set to ``fill`` where a state is given).
-    ``fill`` is one generic point of the extra coordinates' boxes, drawn once (seeded): a
-    point such as the centre of every box can be singular (every input derivative equal).
+    The codistribution lives on the ``N`` coordinates of ``ctx.system``; the Report's state is
+    its first ``n`` (``n = N`` for the ORC and the single-input analysis; for the EORC the
+    extended state ``[x; xi]``, whose extra coordinates are set to ``fill``: one generic point
+    of their boxes, drawn once, seeded; the centre of every box can be singular).
 
     Args:
         ctx: the finished analysis (a :class:`~uio_jax._analysis.decisions.context.Context`).

@@ -30,15 +30,13 @@ exactly at a random point), so that ``of_only(report.params)`` lists them all wh
 can be named, and says how many could not.
 
 **Kept** in that order when (a) the candidate's gradient lies in ``Omega`` and (b) it raises
-the rank of the functions kept so far, until their number is the observable dimension. Both
-are the exact test of :meth:`uio_jax.Report.is_observable`: the rank modulo
-``p = 2^127 - 1`` at random points of the analysis' own
-:class:`~uio_jax._analysis.decisions.settle.Settler` (a raise is certain; a membership is wrong with
-probability at most ``(D/p)^points``, summed into :attr:`ObservableFunctions.error_bound`).
-Elsewhere the same test runs in mpmath (:attr:`ObservableFunctions.arithmetic`). Independent functions in ``Omega``
-whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found
-the result says how many, and the kept generators remain a spanning set
-(:attr:`ObservableFunctions.generators`).
+the rank of the functions kept so far, until their number is the observable dimension: the
+exact test of :meth:`uio_jax.Report.is_observable` (modulo ``p = 2^127 - 1`` at random points of
+the analysis' :class:`~uio_jax._analysis.decisions.settle.Settler`: a raise is certain, a
+membership wrong with probability at most ``(D/p)^points``, summed into
+:attr:`ObservableFunctions.error_bound`; elsewhere in mpmath). Independent functions in ``Omega``
+whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found the
+result says how many, and the kept generators remain a spanning set.
 
 For the EORC (state ``[x; w]``), functions that use ``w`` are named apart, the inputs'
 reconstructions (:attr:`ObservableFunctions.input_functions`).
@@ -122,8 +120,7 @@ class ObservableFunctions:
             identifiable combinations), named apart: ``combinations_dim`` of them when all
             could be named.
         combinations_dim: ``dim (Omega ∩ span{dp})``, the number of independent observable
-            functions of the parameters alone (at a random point modulo p: the rank of the
-            kept rows minus the rank of their columns off the parameters).
+            functions of the parameters alone (at a random point modulo p).
     """
 
     functions: tuple

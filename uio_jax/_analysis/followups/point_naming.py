@@ -20,13 +20,9 @@ from .observable_functions import MAX_SUBEXPRESSIONS, PAIR_POOL, ObservableFunct
 
 
 def name_at_point(space, dim: int, generators) -> ObservableFunctions:
-    """Name observable functions where the analysis keeps no symbolic generators (the Taylor
-    route, :mod:`uio_jax._analysis.recursions.taylor_route`): the candidates of :func:`name_functions`
-    that need no ansatz (the coordinates, the model's subexpressions, then ratios and products
-    of two of the simplest), each kept when its gradient at the analysis' random point modulo
-    p lies in the span there (:meth:`~uio_jax._analysis.taylor_space.TaylorSpace.member`: the
-    route's own exact membership, its bound counted) and raises the rank of the functions kept
-    (an independence at a point is certain).
+    """Name observable functions where the analysis keeps no symbolic generators (the module
+    docstring: the candidates of :func:`name_functions` that need no ansatz, each kept by the
+    route's own exact membership, :meth:`~uio_jax._analysis.taylor_space.TaylorSpace.member`).
 
     Args:
         space: the report's :class:`~uio_jax._analysis.taylor_space.TaylorSpace`.

@@ -117,12 +117,9 @@ class GeneralRun:
 
 
 class GeneralSolution(Recursion):
-    """The main loop of the module docstring as a
-    :class:`~uio_jax._analysis.recursions.driver.Recursion`: step ``it`` is iteration ``it``
-    (``init`` is iteration 0), each iteration records one Step, and one that finishes (the
-    canonic closure, every unreconstructed field vanishing, the guarded closure passing, no
-    progress) sets the Stop that :meth:`terminate` returns. The driver's cap is
-    :data:`ITERATION_CAP` iterations (``GENERAL_CAP``).
+    """The main loop of the module docstring as a driver Recursion: step ``it`` is iteration
+    ``it`` (``init`` is iteration 0) and records one Step; an iteration that finishes sets the
+    Stop that :meth:`terminate` returns. The driver's cap: :data:`ITERATION_CAP` iterations.
 
     Args:
         w: the working system (:func:`~.general_ui_steps.start_working`).

@@ -23,11 +23,8 @@ Stopping: the increments ``r_K - r_(K-1)`` never increase (the observability ind
 the output filtration), so the first order that adds nothing closes the span; otherwise
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
-Cost: the coefficients are expressions of the System's graph (:class:`GraphCoefficients`:
-``y^(k) = L_F^k h`` on ``[x; t]`` by symbolic forward mode with shared subexpressions, then
-``t = 0``), their gradients evaluated by numpy over the samples: only the combinations in
-``y^(K)`` are formed, so models whose ORC grows with every field (tens of states and
-parameters, several fields) take seconds.
+Cost: the coefficients are expressions of the System's graph (:class:`GraphCoefficients`),
+their gradients evaluated by numpy: only the combinations in ``y^(K)`` are formed.
 """
 
 import hashlib

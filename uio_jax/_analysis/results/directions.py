@@ -3,10 +3,8 @@
 The directions are the null space of the final codistribution at a point (the continuous
 symmetries of the system); the point is the centre of the sampling box when the
 codistribution has its generic rank there, else a fixed point off the centre
-(:func:`representative_point`). :class:`~uio_jax.Report` delegates its methods
-(``domain_centre``, ``unobservable_directions``, ``direction_summary``,
-``representative_point``, ``format_directions``, the direction keys of ``to_dict``) here,
-with the sampled space behind it (``space``: what evaluates the final generators).
+(:func:`representative_point`). :class:`~uio_jax.Report` delegates its direction methods
+here, with the sampled space behind it (``space``: what evaluates the final generators).
 """
 
 import math
@@ -162,13 +160,9 @@ POINT_NAMES = 12
 
 
 def format_directions(report, space, summary=None) -> str:
-    """Text of :meth:`direction_summary` (default: at the centre of the sampling box).
-
-    One line naming the point (abridged past :data:`POINT_NAMES` coordinates), one line per
-    direction (components that print as zero at 3 decimals omitted; a long one wrapped),
-    and for a model with parameters one line per identifiable combination of parameters
-    that are not identifiable one by one.
-    """
+    """:meth:`Report.format_directions`: the point (abridged past :data:`POINT_NAMES`
+    coordinates), then one line per direction (a long one wrapped) and per identifiable
+    combination."""
     summary = direction_summary(report, space) if summary is None else summary
     coords = [f"{k}={v:.3g}" for k, v in summary["point"].items()]
     at = abridged(coords) if len(coords) <= POINT_NAMES else f"{len(coords)} coordinates: {abridged(coords)}"

@@ -1,16 +1,12 @@
 """The result of an analysis: dimensions per step, verdicts, evidence, the plan that chose it,
 and the follow-up answers computed on it so far.
 
-:class:`Report` holds the answer (the bottom of the analysis wing: it imports nothing above
-``results/``); its unobservable directions are computed by
-:mod:`uio_jax._analysis.results.directions` with the report's ``space`` (the final
-codistribution, built by the analysis that ran), the functions handed to
-:meth:`Report.is_observable` checked by :mod:`uio_jax._analysis.results.functions_of_z`, its
-text written by :mod:`uio_jax._analysis.results.report_text`. The follow-up questions
-(observable functions named, symmetries found, the reparametrised model) are functions of a
-report (:mod:`uio_jax._analysis.followups.questions`, ``uj.observable_functions(rep)``); what
-they computed is kept in :attr:`Report.followups` and serialised by :meth:`Report.to_dict`,
-which runs no search.
+:class:`Report` holds the answer (it imports nothing above ``results/``); its unobservable
+directions are computed by :mod:`uio_jax._analysis.results.directions` with the report's
+``space`` (the final codistribution), its text written by
+:mod:`uio_jax._analysis.results.report_text`. The follow-up questions
+(:mod:`uio_jax._analysis.followups.questions`) keep what they computed in
+:attr:`Report.followups`, which :meth:`Report.to_dict` serialises (it runs no search).
 """
 
 import json
@@ -384,10 +380,8 @@ class Report:
         return self.space.is_observable(function_of_z(self, fn, "is_observable"))
 
     # ------------------------------------------------------------------ follow-up aliases
-    # Thin aliases of the follow-up functions (``uj.observable_functions(rep)``,
-    # ``uj.find_symmetries(rep)``, ``uj.reparametrise(rep)``), kept for one release (0.2 drops
-    # them): the only imports of this module above ``results/`` (tests/test_layout.py lists
-    # them), made when an alias is called.
+    # Thin aliases of the follow-up functions, kept for one release (0.2 drops them): the only
+    # imports of this module above ``results/`` (tests/test_layout.py lists them).
 
     @property
     def named_functions(self):
