@@ -1,19 +1,14 @@
 """Batch certification: many models, one table (``uio-jax batch``, :func:`batch_analyze`).
 
 **What is reused between models.** Nothing is compiled for an analysis: every model is
-translated into its System's expression graph and evaluated by numpy over it
-(:mod:`uio_jax._calculus.generators`); nodes and gradients are cached per System. The
-compilation cache (:func:`uio_jax.enable_compile_cache`, the command line's default)
-serves JAX's own small programs only.
+evaluated by numpy over its System's expression graph, nodes and gradients cached per System.
 
 **Parallel runs and time limits.** ``jobs > 1`` analyses models in that many worker
 processes (:mod:`uio_jax._batch.workers`), one model at a time each, each worker bound to
-one CPU (worker k to the k-th allowed CPU, cyclically; one worker alone keeps them all):
-JAX's thread pools then do not oversubscribe the cores (measured in
-``docs/benchmarks/batch.md``). With ``timeout``, a model that runs too long has its worker
-killed (its row says so) and a fresh worker goes on with the others. Only models given by
-path can go to a worker; ``System`` objects run in the calling process. The workers take
-the models longest first by their recorded times (:mod:`uio_jax._batch.timing`).
+one CPU (:mod:`uio_jax._batch.pinning`). With ``timeout``, a model that runs too long has its
+worker killed (its row says so) and a fresh worker goes on with the others. Only models given
+by path can go to a worker. The workers take the models longest first by their recorded times
+(:mod:`uio_jax._batch.timing`).
 
 **On a Dask cluster** (``client``, :mod:`uio_jax._batch.cluster`): the same driver
 (:mod:`uio_jax._batch.executor`) hands the models to the cluster's workers instead of the

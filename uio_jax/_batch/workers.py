@@ -30,17 +30,9 @@ from .rows import BatchRow
 
 def run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, tracker):
     """Run ``entries[i]`` for ``i in todo`` (in that order) in ``jobs`` spawned worker
-    processes; ``tracker.finish(i, row)`` receives each model's :class:`BatchRow` (or
-    :class:`Skipped`), ``tracker.start(i)`` is told when it is sent.
-
-    The driver is :func:`uio_jax._batch.executor.drive` (shared with a Dask cluster): each
-    worker takes one model at a time through a pipe (its clock starts when the model is
-    sent, after the worker has imported JAX and said it is ready). A model that runs longer
-    than ``timeout`` seconds (None: no limit) has its worker killed and gets a row saying
-    so; a model whose worker dies (memory, signal) is sent once more to a fresh worker,
-    then gets a row with the exit code. A fresh worker replaces a killed or dead one, so
-    the other models go on; such a row names the last step the model's analysis had
-    decided (``row.reached``). Every worker is stopped on the way out, Ctrl-C included.
+    processes, by the driver :func:`uio_jax._batch.executor.drive` (its docstring: rows,
+    time limits, lost workers, Ctrl-C). Each worker takes one model at a time through a pipe;
+    its clock starts when the model is sent, after the worker has imported JAX and said ready.
     """
     drive(ProcessPool(min(jobs, len(todo))), entries, todo, timeout, analyze_kwargs, tracker)
 

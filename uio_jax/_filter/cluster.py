@@ -21,11 +21,8 @@ mean and median, divergent fraction): nothing is an average of averages. The wor
 runs trial 0 also computes the ``keep`` full trajectories. Progress: each worker reports
 its trial-steps after every chunk (Dask's event log); one bar adds them up.
 
-**Why not ``jax.distributed``**: it runs one SPMD program across hosts, launched in
-lockstep on every host (``mpirun``, SLURM), for collectives between devices. Trials are
-independent and only their records travel, so a worker per host (using all the host's
-devices, GPUs included, through the same ``shard_map`` as one process) needs no
-collectives and no lockstep launch; the Dask cluster that runs the batch runs the trials.
+**Why not ``jax.distributed``**: it runs one SPMD program across hosts launched in lockstep,
+for collectives between devices; trials are independent and only their records travel.
 
 The experiment travels to the workers pickled by value (its functions and the model file
 they come from, ``cloudpickle``): the workers need uio_jax and jax, not the model file.
@@ -233,10 +230,8 @@ def claim_one_cpu():
     each gets its own. A worker finding every CPU taken, a host with one CPU, a platform
     without CPU affinity or ``UIO_JAX_PIN_WORKERS=0`` leaves the process unbound.
 
-    Unbound, each worker's XLA sizes its thread pools to the whole host: ``jobs`` workers
-    oversubscribe the cores (``docs/benchmarks/batch.md``), and at jax 0.10.2 some of the
-    analysis programs of the zoo's multi-input models never return from a two-thread pool
-    on this project's 2-core machine (``docs/benchmarks/cluster.md``).
+    Unbound, each worker's XLA sizes its thread pools to the whole host, and ``jobs`` workers
+    oversubscribe the cores (``docs/benchmarks/batch.md``, ``docs/benchmarks/cluster.md``).
 
     Returns:
         the CPU bound to, or None.

@@ -266,9 +266,8 @@ class MonteCarloResult:
           Carlo and the analysis disagree on ..." (a contradiction to look into);
         * only unobservable states look converging while every named quantity agrees:
           "consistent with the analysis on the named quantities", and the next line says
-          why those state rows mislead (an unobservable direction moves several states
-          together: each one's error drops to the prior spread along it; see
-          :meth:`compare`). Without a named quantity this stays a disagreement.
+          why those state rows mislead (:meth:`compare`'s note). Without a named quantity
+          this stays a disagreement.
 
         The last line lists the rows that converge, do not and are unclear.
         """
