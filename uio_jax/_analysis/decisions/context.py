@@ -34,10 +34,8 @@ from .settle import DEFAULT_PROB_THRESHOLD, model_roots, new_settler
 from .space import Projection, SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
-#: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
-#: past a tenth of the box the model is undefined on a part of the domain large enough
-#: that the user should know the verdict does not cover it (below it, a thin singular set
-#: such as a pole or a branch cut, which every domain box of such a model touches).
+#: (NaN/inf there): the verdict is valid on the states kept, but past a tenth of the box the
+#: model is undefined on a part of the domain the user should know the verdict does not cover.
 DROPPED_NOTE_FRACTION = 0.10
 
 
@@ -58,17 +56,15 @@ class Context:
         self.builder = builder_for(system)
         self.samples = samples
         self.seed = seed
-        #: one Settler per analysis, shared by its forks: each question is settled once, and
-        #: the error bound of the exact decisions is summed over all of them (the plan's,
-        #: where the plan made one: :func:`uio_jax._analysis.plan.plan`)
+        #: one Settler per analysis (the plan's, where it made one), shared by its forks: each
+        #: question is settled once, and the error bound is summed over all of them
         self.settler = new_settler(system, seed, prob_threshold) if settler is None else settler
         self.prob_threshold = prob_threshold
         xs_all = sample_states(system, samples, seed)
         exact = self.settler.arithmetic(model_roots(system, self.builder)) is Arithmetic.EXACT
         wanted = screen_samples(system.n) if exact else DECISION_SAMPLES
         #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
-        #: sample is dropped (counted in the certificate), even where their gradients are
-        #: finite (a NaN chosen by a ``where``)
+        #: sample is dropped, even where their gradients are finite (a NaN chosen by a ``where``)
         self.defined = self._defined(xs_all)
         self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
 
@@ -91,9 +87,8 @@ class Context:
         self.codist.valid &= self.defined[:decisions]
         self.codist.policy = DecisionPolicy(self.settler.settle)  # every vote settled again in the graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
-        #: how the decisions made outside the codistribution were settled (the zero tests of
-        #: the general solution: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote),
-        #: counted in the certificate
+        #: how the decisions outside the codistribution were settled (the general solution's
+        #: zero tests: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote)
         self.extra_decisions = []
         #: the final span was not re-decided on every sample: every decision was exact
         #: (:meth:`certify`)
@@ -406,12 +401,9 @@ class Context:
         """Build the Report: certificate, weak-certificate note, generators, the answer.
 
         ``projection`` (:class:`~uio_jax._analysis.decisions.space.Projection`): the span's
-        answer on the original state where it lives on more coordinates (the EORC, the
-        extended general solution); default this context's own. On a System with known
-        coordinates (the time of :meth:`System.autonomous`) the default leaves them out: the
-        verdicts and the dimension are about the first ``n - known_coordinates`` coordinates.
-        ``known_inputs``: the meaning of the known inputs the analysis took (``"none"`` is
-        recorded when the System has none).
+        answer on the original state where it lives on more coordinates; default this
+        context's own, without the known coordinates (the time of :meth:`System.autonomous`).
+        ``known_inputs``: the meaning of the known inputs (``"none"`` when the System has none).
         """
         self.certify()
         own = self.system

@@ -161,11 +161,8 @@ def sequential_qr(res):
 
 
 def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
-    """Does a candidate raise the generic rank? (host, numpy)
-
-    The candidate raises the rank at a sample when its distance ``rho`` to the span (after
-    scaling it to unit norm) exceeds ``rtol``; the generic answer is the majority of the
-    valid samples.
+    """Does a candidate raise the generic rank? At a sample, when its distance ``rho`` to the
+    span (after scaling it to unit norm) exceeds ``rtol``; generically, by majority.
 
     Args:
         rho: ``(S,)`` distances in [0, 1].

@@ -69,10 +69,10 @@ class SpanParts:
         roots: the graph nodes of the analysed System's outputs and fields.
         box: ``(lo, hi)`` of the analysed coordinates.
         system: the analysed System (whose coordinates the span lives on).
-        original: the System whose states are the report's ``n`` coordinates (the analysed
-            System when ``n = N``; for the EORC and an extended general solution the System
-            before the extension, with its unknown inputs), on which a found symmetry is
-            verified; None where there is none (a time-varying model).
+        original: the System whose states are the report's ``n`` coordinates (the System
+            before the extension, with its unknown inputs, for the EORC and an extended
+            general solution), on which a found symmetry is verified; None for a
+            time-varying model.
     """
 
     builder: object

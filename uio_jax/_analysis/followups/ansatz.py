@@ -19,12 +19,10 @@ in unknown coefficients ``c`` give equations at each point:
 
 Points are added until the solution space stops shrinking (two points in a row leave its
 dimension unchanged, or the equations outnumber the unknowns by the rows of two points). A
-basis of the solutions is put in reduced echelon form with the most complex unknowns first
-(so that each basis element uses as few and as simple monomials as it can), and its entries
-are read back as small fractions (rational reconstruction). These are *candidates*: a point
-set that is too small can leave a spurious solution, so every function found is verified
-again by the exact membership test and every field by the exact symmetry check before it is
-reported.
+basis of the solutions, in reduced echelon form with the most complex unknowns first, is read
+back as small fractions (rational reconstruction). These are *candidates*: every function
+found is verified again by the exact membership test and every field by the exact symmetry
+check before it is reported.
 """
 
 import dataclasses

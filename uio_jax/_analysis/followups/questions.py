@@ -32,14 +32,10 @@ def _report(rep, what: str) -> Report:
 
 def observable_functions(rep: Report) -> ObservableFunctions:
     """Readable observable functions that span the observable codistribution of ``rep``,
-    each checked exactly (:mod:`uio_jax._analysis.followups.observable_functions`:
-    candidates from the model's subexpressions, Laurent monomials, polynomial ansatze;
-    each kept on an exact membership and independence test of the analysis' Settler).
-
-    On the Taylor route the candidates that need no ansatz (the coordinates, the model's
-    subexpressions, their simplest ratios and products) are tested at the route's random point
-    (:mod:`uio_jax._analysis.followups.point_naming`). Computed once per report (about the cost of a small analysis)
-    and kept in ``rep.followups``.
+    each checked exactly (:mod:`uio_jax._analysis.followups.observable_functions`); on the
+    Taylor route, the candidates that need no ansatz, tested at the route's random point
+    (:mod:`uio_jax._analysis.followups.point_naming`). Computed once per report (about the
+    cost of a small analysis) and kept in ``rep.followups``.
 
     Args:
         rep: a :class:`~uio_jax.Report` of :func:`uio_jax.analyze`.

@@ -5,10 +5,9 @@ System ``x' = g0(x, t) + sum_j w_j g_j(x)``, outputs ``h(x)`` (no feedthrough), 
 jets are known coordinates, :mod:`uio_jax._model.smooth_inputs`) and an explicit time
 dependence (the time coordinate, ``t' = 1``). ``D`` below is the Lie derivative along this
 augmented drift: the total time derivative. Every rank, zero test and membership is decided
-at the sampled states (:mod:`uio_jax._analysis.decisions.rank`), the jets and the time being known
-coordinates whose differentials are in every span. Sources: arXiv 2201.07610 (Algorithm
-5.1/6.1) and Martinelli's TUIO6; the algorithm as implemented is stated in
-``docs/general_ui.md``.
+at the sampled states, the jets and the time being known coordinates whose differentials are
+in every span. Sources: arXiv 2201.07610 (Algorithm 5.1/6.1) and Martinelli's TUIO6; the
+algorithm as implemented is stated in ``docs/general_ui.md``.
 
 **Close(Theta_0, [F_0, F_1..F_q]; guard, filter)**: insert Theta_0 (independent members, each
 its own *root*); pass r processes the generators added in pass r - 1 (pass 0: Theta_0): if
@@ -38,12 +37,9 @@ Canonic: ``m = mw``. Rescaled fields ``g^0, g^_k, G~_k``: :mod:`uio_jax._calculu
                     the new UIs are d v_j^(i_j)/dt (unit fields) and G~_k;
                     Theta <- Theta + {kept v} + {theta_v}
 
-**Outputs**: the dimension of ``Omega`` on the original state, ``dim = rank(Omega) + n -
-rank([Omega; e_1..e_n])`` (every extension state and known coordinate is observable), the
-observable components, the degree of reconstructability, canonic or not, the extension, and
-which unknown inputs are reconstructable and observable. The answer is exact for known
-inputs that are generic smooth functions of time (``known_inputs="smooth"``); systems without
-known inputs have one meaning only.
+**Outputs**: ``dim = rank(Omega) + n - rank([Omega; e_1..e_n])`` on the original state (every
+extension state and known coordinate is observable), exact for known inputs that are generic
+smooth functions of time (``known_inputs="smooth"``).
 """
 
 import dataclasses

@@ -120,8 +120,7 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
       convergence part alone, :func:`converged`).
 
     Args:
-        dims: ``d_0 .. d_M`` (ints).
-        m_prime: ``m'`` or None.
+        dims, m_prime: as above.
         n: dimension of the state.
         phi1_vanish: whether every ``phi^i_1`` vanishes identically.
         cap: the step bound (default ``2n + 3``).

@@ -66,15 +66,12 @@ def point(report, space, x, p, what) -> np.ndarray:
 def direction_summary(report, space, x=None, p=None) -> dict:
     """The unobservable directions at a point, labelled by the variables' names.
 
-    Each direction (a column of :meth:`unobservable_directions`, unit norm) is
-    signed so that its largest component is positive; components below ``1e-12``
-    (round-off) are set to 0. For a model with parameters, the identifiable
-    parameter combinations are given by their differentials at the point: the
-    covectors ``c`` on the parameters that are not identifiable one by one with
-    ``[0; c]`` orthogonal to every direction, i.e. in the codistribution (for
-    ``x' = -(a + b) x``: ``da + db``, the differential of ``a + b``; for a product
-    ``a b`` at ``a = b = 1`` it would read the same). Directions with several
-    columns are a basis of the null space, not unique.
+    Each direction (a column of :meth:`unobservable_directions`, unit norm, not unique when
+    there are several) is signed so that its largest component is positive; components below
+    ``1e-12`` are set to 0. For a model with parameters, the identifiable parameter
+    combinations are given by their differentials at the point: the covectors ``c`` on the
+    parameters that are not identifiable one by one with ``[0; c]`` in the codistribution
+    (for ``x' = -(a + b) x``: ``da + db``, the differential of ``a + b``).
 
     Args:
         x, p: the point, as in :meth:`unobservable_directions` (default: the centre

@@ -149,8 +149,7 @@ class Report:
         history: one :class:`Step` per step m (per order k for the EORC).
         certificate: the sampling evidence behind every rank decision.
         generators: labels of the functions whose gradients span the final codistribution.
-        stop: why the recursion stopped: a :class:`~uio_jax._analysis.results.stop.Stop` (its
-            :class:`~uio_jax._analysis.results.stop.StopReason` member and values);
+        stop: why the recursion stopped: a :class:`~uio_jax._analysis.results.stop.Stop`;
             ``stop_reason`` is its text.
         answer: what the verdicts prove (:class:`~uio_jax._analysis.results.kinds.Answer`),
             decided by the analysis that ran; :attr:`exact` reads it.
@@ -158,17 +157,13 @@ class Report:
         details: method-specific results (``m_prime``, ``m_star``, ``k``, ...).
         semantics: what "unknown input" and "known input" mean in this answer.
         known_inputs: the meaning of the known inputs the answer is for: ``"switchable"``
-            (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``
-            (the System has no known input: one meaning).
+            (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``.
         system_name: name of the analyzed System.
         route: how the codistribution was computed (:class:`~uio_jax._analysis.results.kinds.Route`).
         plan: what :func:`uio_jax._analysis.plan.plan` chose before any sample was drawn, and
-            why (:class:`~uio_jax._analysis.results.kinds.Plan`; None for a report built
-            without :func:`uio_jax.analyze`).
+            why (:class:`~uio_jax._analysis.results.kinds.Plan`; None without ``analyze``).
         space: the final codistribution as the report's queries read it (a
-            :class:`~uio_jax._analysis.decisions.space.Space`: the directions,
-            ``is_observable``, the singular values; the follow-up questions read its
-            generators).
+            :class:`~uio_jax._analysis.decisions.space.Space`).
         followups: the follow-up answers computed so far (:class:`FollowUps`).
         global_answer: the :class:`~uio_jax.GlobalResult` of ``scope="global"`` (None when the
             global question was not asked): :attr:`global_identifiability`, :attr:`value_counts`.
