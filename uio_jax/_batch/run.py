@@ -66,14 +66,12 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             spawned fresh and pay JAX's start-up; they share the persistent compilation
             cache of this process if one is enabled.
         timeout: seconds one model may run (a positive finite number; None, the default:
-            no limit). With a limit,
-            models given by path run in worker processes (``jobs`` of them, at least
-            one); a model over the limit has its worker killed, its row says "timed
-            out", and a fresh worker takes the next model. ``System`` objects given
-            directly run in this process, without a limit.
+            no limit). With a limit, models given by path run in worker processes (``jobs``
+            of them, at least one); a model over the limit has its worker killed, its row
+            says "timed out", and a fresh worker takes the next model. ``System`` objects
+            given directly run in this process, without a limit.
         progress: ``False``: nothing on stderr. ``True`` or ``None`` (default): on a
-            terminal a model-count bar with an ETA (once the batch has lasted 2 s,
-            redrawn every second); elsewhere (a log, a pipe) one line per finished model:
+            terminal a model-count bar with an ETA; elsewhere one line per finished model:
             ``batch 3/12  NAME  dim 4/7  2.3 s  ETA 40 s``.
         keep_reports: keep each model's :class:`~uio_jax.Report` in ``row.report``
             (False frees each model's compiled functions as soon as it is done).
@@ -84,14 +82,13 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             one) after each finished model.
         client: None (default: this machine), or a Dask cluster: a ``distributed.Client``
             or a scheduler address (``"tcp://host:8786"``). The models given by path run
-            as tasks on its workers (:mod:`uio_jax._batch.cluster`), one per worker thread,
-            longest first, with the same rows, time limits and progress as ``jobs``
-            worker processes; the workers must see the model files and the cache directory
-            at the same paths. Not with ``jobs > 1``. Needs the extra ``uio_jax[cluster]``.
-        sbml: one rule of outputs and inputs for every SBML file (``.xml``, ``.sbml``) of
-            the batch: the keyword arguments of :func:`uio_jax.load_system` for SBML
-            (``outputs``, ``observables``, ``known``, ``unknown``, ``fixed``, ``estimate``;
-            ``docs/sbml.md``). A file without an id the rule names is an error row.
+            as tasks on its workers (:mod:`uio_jax._batch.cluster`), with the same rows, time
+            limits and progress as ``jobs`` worker processes; the workers must see the model
+            files and the cache directory at the same paths. Not with ``jobs > 1``. Needs the
+            extra ``uio_jax[cluster]``.
+        sbml: one rule of outputs and inputs for every SBML file of the batch: the keyword
+            arguments of :func:`uio_jax.load_system` for SBML (``docs/sbml.md``). A file
+            without an id the rule names is an error row.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
             ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``, ``prob_threshold``).
 

@@ -8,18 +8,14 @@ something listens there, that it is a Dask scheduler; each failure is one
 ``pip install "uio_jax[cluster]"``; without it a cluster run is refused in one line.
 
 **Monte Carlo over the workers** (:func:`run_trials_on_cluster`): the trials ``0..B-1`` are
-cut into one contiguous shard per worker thread of the cluster, all of the same size
-``S = ceil(B / shards)`` (the last one padded past ``B`` and its extra trials dropped, as
-the devices of one process are padded), so every worker compiles one program. A shard
-runs :func:`uio_jax._filter.trials.simulate_trials` on the worker's own JAX devices:
-trial ``i`` uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are
-those of a one-process run with the same seed, bit for bit (a trial's numbers depend on
-``(seed, i)`` only, not on the batch it is computed in; ``tests/test_cluster_montecarlo.py``).
-The shards send back their float32 per-trial records; the caller puts them in trial order
-and computes every statistic once over all trials (RMSE as ``sqrt(sum e^2 / B)``, NEES
-mean and median, divergent fraction): nothing is an average of averages. The worker that
-runs trial 0 also computes the ``keep`` full trajectories. Progress: each worker reports
-its trial-steps after every chunk (Dask's event log); one bar adds them up.
+cut into one contiguous shard per worker thread of the cluster, all of the same size (the
+last one padded), so every worker compiles one program. A shard runs
+:func:`uio_jax._filter.trials.simulate_trials` on the worker's own JAX devices: trial ``i``
+uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are those of a
+one-process run with the same seed, bit for bit. The caller puts the shards' float32 records
+in trial order and computes every statistic once over all trials (nothing is an average of
+averages). The worker that runs trial 0 also computes the ``keep`` full trajectories; each
+worker reports its trial-steps after every chunk (Dask's event log) to one progress bar.
 
 **Why not ``jax.distributed``**: it runs one SPMD program across hosts launched in lockstep,
 for collectives between devices; trials are independent and only their records travel.

@@ -54,8 +54,7 @@ def enable_compile_cache(path: str | os.PathLike | None = None) -> str:
     analyses; calling it again with another directory switches to that directory.
 
     Args:
-        path: cache directory, created if missing. Default: ``$UIO_JAX_CACHE_DIR``, else
-            ``$XDG_CACHE_HOME/uio_jax/xla``, else ``~/.cache/uio_jax/xla``.
+        path: cache directory, created if missing (default :func:`default_cache_dir`).
 
     Returns:
         The absolute directory in use.

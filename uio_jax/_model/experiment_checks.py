@@ -50,12 +50,8 @@ def memory_bytes(exp, trials: int, keep: int = 0) -> int:
 
 
 def check_memory(exp, trials: int, keep: int = 0) -> int:
-    """Refuse, before any work, a run whose :func:`memory_bytes` exceeds
-    ``MEMORY_FRACTION`` (0.8) of the memory available; returns the estimate (bytes).
-
-    Raises:
-        OptionError: one line with the estimate, the memory available and what to lower.
-    """
+    """:meth:`uio_jax.Experiment.check_memory`: refuse a run whose :func:`memory_bytes`
+    exceeds ``MEMORY_FRACTION`` of the memory available (OptionError); returns the estimate."""
     need, have = memory_bytes(exp, trials, keep), memory_available()
     if have is not None and need > MEMORY_FRACTION * have:
         raise OptionError(f"experiment {exp.name!r}: {trials} trials of {exp.n_steps} steps "
