@@ -1,9 +1,6 @@
-"""``analyze``: check the options, plan, dispatch, add the notes.
-
-The options are checked by :mod:`uio_jax._analysis.options`; the method, the route and the
-arithmetic are chosen once, before any sample is drawn, by :func:`uio_jax._analysis.plan.plan`
-(its module docstring states the rules of ``method="auto"``); :func:`dispatch` runs the plan;
-the report keeps the plan (``Report.plan``, ``rep.plan.why``).
+"""``analyze``: check the options (:mod:`uio_jax._analysis.options`), plan
+(:func:`uio_jax._analysis.plan.plan`, before any sample is drawn; its module docstring states
+the rules of ``method="auto"``), dispatch (:func:`dispatch`), add the notes.
 """
 
 import dataclasses

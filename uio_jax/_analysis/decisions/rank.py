@@ -206,12 +206,9 @@ class Codistribution:
         ``only``: the indices (0-based, below ``count``) of the ones to test, in that order.
 
         With ``B (S, r, n)`` the kept orthonormal rows, the residuals of every ``e_j`` at
-        once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
-        :meth:`test` where a column is shorter than :data:`_REPROJECT_BELOW` at some sample,
-        ``R2 = R1 - B^T (B R1)``: at most three small matrix products per sample instead of
-        four per covector. Unlike :meth:`test`, a unit covector is never taken for a
-        round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm is
-        exact, however large the kept gradients are.
+        once are the columns of ``R1 = I - B^T B`` and, where a column is shorter than
+        :data:`_REPROJECT_BELOW` at some sample, ``R2 = R1 - B^T (B R1)``. A unit covector is
+        never taken for a round-off zero row: its norm is exact.
         """
         S, n = len(self.valid), self.n
         at = np.arange(count) if only is None else np.asarray(only, dtype=np.intp)
@@ -313,12 +310,9 @@ class Codistribution:
 
     def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
         """No candidate was kept: each float64 rejection not settled yet is settled again
-        (:meth:`~uio_jax._analysis.decisions.policy.DecisionPolicy.settle_stop`: modulo ``p`` where the
-        graph is made rational, where :meth:`_decide` has settled it already; in extended
-        precision elsewhere: a step that keeps nothing ends a recursion, and a genuine
-        direction of a deep derivative can sit under float64's round-off). A confirmed
-        dependence is recorded as settled; the first candidate found independent is kept
-        (its rejection withdrawn) and the others are absorbed against the grown span.
+        (:meth:`~uio_jax._analysis.decisions.policy.DecisionPolicy.settle_stop`): a genuine
+        direction of a deep derivative can sit under float64's round-off. The first candidate
+        found independent is kept and the others are absorbed against the grown span.
         Returns the kept nodes."""
         if self.policy is None or self.rank >= self.n:
             return []

@@ -1,10 +1,8 @@
 """The observable space of a finished analysis, as a Report reads it.
 
-A Report answers questions about the original state ``x (n,)`` after the analysis: its
-unobservable directions at a state, whether a function of the state is observable, the
-singular values at the samples (:class:`Space`). :class:`SampledSpace` answers them from
-the final codistribution of a :class:`~uio_jax._analysis.decisions.context.Context`;
-:class:`ReportView` is what a Report reads of the System (names only).
+A Report asks about the original state ``x (n,)``: its unobservable directions, whether a
+function of it is observable, the singular values at the samples (:class:`Space`, answered by
+:class:`SampledSpace` from a finished Context); :class:`ReportView` is what it reads of the System.
 """
 
 import dataclasses

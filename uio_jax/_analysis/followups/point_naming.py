@@ -1,14 +1,12 @@
 """Observable functions named at one point: the Taylor route's naming
 (``Report.named_functions`` where the analysis keeps no symbolic generators).
 
-The Taylor route (:mod:`uio_jax._analysis.recursions.taylor_route`) decides the span of the output's
-Taylor coefficients at one random point modulo ``p = 2^127 - 1`` and keeps no graph nodes of
-its generators, so the ansatzes of :mod:`.observable_functions` (which need the unobservable
-directions at many points) do not apply. The candidates that need no ansatz do: the
-coordinates, the model's own subexpressions, ratios and products of two of the simplest,
-ranked by simplicity as there. Each is kept when its gradient at the route's point lies in the
-span there (the route's own exact membership, its Schwartz-Zippel bound counted) and raises
-the rank of those kept (an independence at a point is certain).
+The Taylor route keeps no graph nodes of its generators, so the ansatzes of
+:mod:`.observable_functions` (which need the unobservable directions at many points) do not
+apply; the candidates that need no ansatz do (the coordinates, the model's subexpressions,
+ratios and products of two of the simplest), ranked by simplicity. Each is kept when its
+gradient at the route's point lies in the span there (the route's own exact membership) and
+raises the rank of those kept (an independence at a point is certain).
 """
 
 import time

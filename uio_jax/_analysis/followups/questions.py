@@ -3,12 +3,10 @@
 ``assess_identifiability``): which readable functions are observable, which closed-form
 symmetries move what is not, and a model whose parameters are all identifiable.
 
-Each reads the report's final codistribution (``Report.space``) and its route: the symbolic
-route keeps its generators as nodes of the model's expression graph, which the candidates
-are tested against; the Taylor route keeps only the output's Taylor coefficients at a point,
-so its named functions are the observable coordinates and no symmetry is searched (each
-answer says so). An answer is computed once per report and kept in ``Report.followups``,
-which ``Report.to_dict()`` serialises; asking again returns the kept answer.
+Each reads the report's final codistribution (``Report.space``): the symbolic route keeps its
+generators as nodes of the model's expression graph, which the candidates are tested against;
+the Taylor route keeps only the output's Taylor coefficients at a point (each answer says
+what that leaves out). An answer is computed once per report and kept in ``Report.followups``.
 """
 
 from ..._errors import ModelError

@@ -57,10 +57,9 @@ class Cap:
 class Recursion(abc.ABC):
     """One analysis' recursion ``Omega_0 -> Omega_1 -> ...``, run by :func:`iterate`.
 
-    Implement :meth:`init`, :meth:`step` and :meth:`terminate` (and :meth:`postprocess` if
-    the analysis wants a result built from the finished history). State between calls (the
-    frontier of generators kept at the last step, counters, what is known of ``m'``) lives
-    on ``self``; the driver passes only its step counter ``m`` and the history so far.
+    Implement :meth:`init`, :meth:`step` and :meth:`terminate` (and :meth:`postprocess` for
+    a result built from the finished history). State between calls lives on ``self``; the
+    driver passes only its step counter ``m`` and the history so far.
     """
 
     @abc.abstractmethod

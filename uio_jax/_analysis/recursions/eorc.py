@@ -262,10 +262,8 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     """Refuse an EORC whose arrays on ``Sigma^(K)`` cannot fit, before any is allocated.
 
     The codistribution lives on ``N = n + K m_w`` coordinates, so its rank basis alone is
-    ``(N, S', N)`` float64 (:func:`uio_jax._analysis.decisions.memory.analysis_bytes`): quadratic in
-    ``k_max``; every order tests the unit covectors of all its coordinates (the observable
-    inputs), up to ``N`` of them. The message says to lower ``k_max`` when the default order
-    ``n + 2`` fits with these samples, else ``samples`` (and ``k_max`` when above the default).
+    ``(N, S', N)`` float64: quadratic in ``k_max``. The message says to lower ``k_max`` when
+    the default order ``n + 2`` fits with these samples, else ``samples`` (and ``k_max``).
 
     Returns:
         The estimated bytes.

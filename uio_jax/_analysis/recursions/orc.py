@@ -59,8 +59,7 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None):
         field_labels: labels of the fields along which to differentiate (``f0`` and the
             known inputs, as in ``System.fields()``).
         max_steps: optional cap on m (``max_order``); without it the driver's cap is ``n``,
-            which the ORC never reaches (a step that adds nothing stops it, and each other
-            step raises the rank).
+            which the ORC never reaches (each step that does not stop it raises the rank).
 
     Returns:
         ``(history, stop)``: one Step per m = 0..M (``Step.dim = dim Omega_m``) and the

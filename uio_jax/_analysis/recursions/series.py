@@ -204,8 +204,7 @@ SERIES_NOTE = ("series: rank of the output Taylor coefficients y_0..y_K along a 
 
 def run_series(ctx: Context, *, seed: int, max_order=None):
     """Absorb ``dy_k`` order by order (:class:`SeriesOrders`), on the decision samples of
-    ``ctx`` (``ctx.xs``, :func:`uio_jax._analysis.decisions.memory.decision_count`; the final span is certified
-    on all of them when the report is built).
+    ``ctx`` (the final span is certified on all of them when the report is built).
 
     Returns:
         ``(history, stop, k_reached)``: one Step per order ``k = 0..K`` (``Step.dim =

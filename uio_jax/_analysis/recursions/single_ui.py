@@ -230,12 +230,10 @@ class SingleUi(Recursion):
 
 
 def single_ui_report(ctx: Context, *, notes=(), max_order=None):
-    """Run the single-unknown-input analysis on ``ctx`` and build the Report.
-
-    Omega_0 .. Omega_offset: the outputs and their Lie derivatives along the known fields up
-    to the first function ``h~`` with ``L_g h~ != 0`` (:func:`_choose_output`); then the
-    recursion :class:`SingleUi` until :func:`stopping_rule` stops it. Steps ``m`` of the
-    history are the paper's (``Step.dim = dim Omega_m``, ``extra["tau_in_omega"]``).
+    """Run the single-unknown-input analysis on ``ctx`` and build the Report: the chosen
+    output's levels (:func:`_choose_output`), then :class:`SingleUi` until
+    :func:`stopping_rule` stops it. Steps ``m`` of the history are the paper's
+    (``Step.dim = dim Omega_m``, ``extra["tau_in_omega"]``).
     """
     system = ctx.system
     check_applicable(system)

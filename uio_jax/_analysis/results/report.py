@@ -48,12 +48,8 @@ class Question(TextEnum):
     """Which question a report answers (a ``str``: written as its value in JSON).
 
     ``GENERIC_STATES``: the observable codistribution at generic states (every
-    :class:`Report`). The others are answered by :func:`uio_jax.analyze` with ``initial=``
-    or several experiments (:mod:`uio_jax._analysis.at_t0.initial`): local identifiability of
-    the parameters and of the unknown initial states at the given initial state, from the
-    output's Taylor coefficients at ``t = 0``; ``*_FREE_INPUT_JETS``: with unknown inputs,
-    whose derivatives at ``t = 0`` are free unknowns (sufficient only: "determined" is
-    proven, the rest is not shown).
+    :class:`Report`); the others: :func:`uio_jax.analyze` with ``initial=`` or several
+    experiments (:attr:`description` says each).
     """
 
     GENERIC_STATES = "generic_states"
