@@ -1,11 +1,8 @@
-"""The worker processes of a parallel batch on one machine: a pool of spawned processes,
-one model at a time each, a fresh worker in place of one killed on timeout or dead. The
-pool is an :class:`~uio_jax._batch.executor.Executor`: the driver that hands it the models,
-times them and writes the rows of stopped ones is the one a Dask cluster uses.
-
-Each worker is spawned (its own JAX), uses the persistent cache directory of the caller,
-and is bound to one CPU when there are several (:func:`~uio_jax._batch.pinning.pin_to_one_cpu`).
-It ignores SIGINT (Ctrl-C reaches the whole process group): the parent stops it.
+"""The worker processes of a parallel batch on one machine: a pool of spawned processes, one
+model at a time each, a fresh worker in place of one killed on timeout or dead; an
+:class:`~uio_jax._batch.executor.Executor`. Each worker is spawned (its own JAX), uses the
+caller's persistent cache directory, is bound to one CPU when there are several, and ignores
+SIGINT (the parent stops it).
 
 Messages from a worker to the parent: ``"ready"``; ``("step", text)`` for every step its
 analysis decides (``"k=5, dim 4/7"``, from :func:`uio_jax._progress.step_listener`), so a

@@ -8,9 +8,8 @@ compile. uio_jax lowers JAX's thresholds (compile time, entry size) so every pro
 
 Directory: :func:`default_cache_dir` unless given. The command line enables the cache by
 default; the library does not touch JAX's configuration unless :func:`enable_compile_cache`
-is called.
-
-As JAX warns, the cache is trusted input: do not point it at a directory others can write.
+is called. As JAX warns, the cache is trusted input: do not point it at a directory others
+can write.
 """
 
 import contextlib

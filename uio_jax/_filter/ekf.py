@@ -235,10 +235,9 @@ def mahalanobis_squared(e, P):
 
     Symmetric Gaussian elimination written out element by element (``P = L D L^T``, then
     ``sum_i y_i^2 / D_i`` with ``L y = e``): about ``d^3 / 6`` multiply-adds that XLA fuses
-    over a batch, where ``jnp.linalg.solve`` is a batched LU call (faster to run and to
-    compile: ``docs/benchmarks/ekf.md``, run 5). No pivoting: exact for SPD ``P`` (all pivots positive, as
-    stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as
-    long as no leading minor is singular.
+    over a batch (``docs/benchmarks/ekf.md``, run 5). No pivoting: exact for SPD ``P`` (as
+    stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as long
+    as no leading minor is singular.
     """
     d = e.shape[0]
     A = [[P[i, j] for j in range(d)] for i in range(d)]

@@ -190,13 +190,10 @@ def _equation_key(eqn, ins):
 def with_vectorized_trig(fn):
     """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sincos`.
 
-    ``fn`` takes and returns arrays (or pytrees of them); the result takes and returns the
-    same shapes, equal to ``fn``'s values within the kernels' accuracy (1 ulp for
-    ``|x| <= 1e3``, 2 ulp below :data:`ACCURATE_BELOW`). It is traced once per call (at
-    the caller's trace time under ``jit``, so at no run-time cost). Sub-functions (``jit``,
-    custom derivative rules) are evaluated inline, their ``sin`` / ``cos`` replaced too;
-    float32 ones are left as they are, so is every other operation (evaluated once per
-    repeated equation).
+    ``fn`` takes and returns arrays (or pytrees of them); the result has the same shapes and
+    ``fn``'s values within the kernels' accuracy (1 ulp for ``|x| <= 1e3``, 2 ulp below
+    :data:`ACCURATE_BELOW`). It is traced once per call (at the caller's trace time under
+    ``jit``). Sub-functions are evaluated inline, their float64 ``sin`` / ``cos`` replaced too.
     """
 
     @functools.wraps(fn)
