@@ -386,33 +386,27 @@ class _Run:
         observable (:func:`~uio_jax._analysis.ansatz.atom_monomials`): rational functions."""
         atoms = [t for t in range(len(self.atoms)) if (t < self.m or self.atom_cols[t] == "sub")
                  and self._allowed(self.atoms[t])]
-        vectors = ansatz.atom_monomials(self.span, atoms)
+        return self._products(ansatz.atom_monomials(self.span, atoms), [self.atoms[t] for t in atoms],
+                              Source.COMBINATION)
+
+    def _laurent(self):
+        return self._products(ansatz.laurent_monomials(self.span, self.m, among=self.only), self.graph.coords,
+                              Source.MONOMIAL)
+
+    def _products(self, vectors, bases, source):
+        """The candidates ``prod_t bases[t]**a_t`` of the exponent vectors ``a`` with two factors
+        or more (a single base's power: the base itself is tried)."""
         g, out = self.graph, []
         for vec in vectors or ():
             if sum(1 for a in vec if a) < 2:
                 continue
             num, den = g.one, g.one
-            for t, a in zip(atoms, vec):
+            for base, a in zip(bases, vec):
                 if a > 0:
-                    num = g.mul(num, g.ipow(self.atoms[t], a))
+                    num = g.mul(num, g.ipow(base, a))
                 elif a < 0:
-                    den = g.mul(den, g.ipow(self.atoms[t], -a))
-            out.append(self._candidate(g.div(num, den), Source.COMBINATION))
-        return out
-
-    def _laurent(self):
-        vectors = ansatz.laurent_monomials(self.span, self.m, among=self.only)
-        g, out = self.graph, []
-        for vec in vectors or ():
-            if sum(1 for a in vec if a) < 2:
-                continue  # a single coordinate's power: the coordinate itself is tried
-            num, den = g.one, g.one
-            for i, a in enumerate(vec):
-                if a > 0:
-                    num = g.mul(num, g.ipow(g.coords[i], a))
-                elif a < 0:
-                    den = g.mul(den, g.ipow(g.coords[i], -a))
-            out.append(self._candidate(g.div(num, den), Source.MONOMIAL))
+                    den = g.mul(den, g.ipow(base, -a))
+            out.append(self._candidate(g.div(num, den), source))
         return out
 
     # ---------------------------------------------------------------- the checks

@@ -105,6 +105,25 @@ def global_answer(report, what: str):
     return report.global_answer
 
 
+class ReportQueries:
+    """What both reports (:class:`Report`, the identifiability report at t = 0) answer alike."""
+
+    @property
+    def global_identifiability(self) -> Mapping:
+        """Parameter or unknown initial state -> :class:`~uio_jax.GlobalVerdict` (``global``,
+        ``local``, ``not``, ``undecided``), with ``scope="global"``; refused otherwise."""
+        return global_answer(self, "global_identifiability").global_identifiability
+
+    @property
+    def value_counts(self) -> Mapping:
+        """How many values each unknown takes where known (``scope="global"``)."""
+        return global_answer(self, "value_counts").value_counts
+
+    def to_json(self, **kw) -> str:
+        """``json.dumps(self.to_dict())``."""
+        return json.dumps(self.to_dict(), **kw)
+
+
 @dataclass(eq=False)
 class FollowUps:
     """The follow-up answers computed on one report so far, each once (a cache the
@@ -129,7 +148,7 @@ class FollowUps:
 
 
 @dataclass(frozen=True, eq=False)
-class Report:
+class Report(ReportQueries):
     """Result of :func:`uio_jax.analyze`.
 
     Attributes:
@@ -260,17 +279,6 @@ class Report:
             v: Verdict.UNDECIDED if v in open_ else Verdict.DETERMINED if ok else
             Verdict.NOT_DETERMINED if proved_not else Verdict.UNDECIDED
             for v, ok in {**self.observable, **self.identifiable}.items()})
-
-    @property
-    def global_identifiability(self) -> Mapping:
-        """Parameter or unknown initial state -> :class:`~uio_jax.GlobalVerdict` (``global``,
-        ``local``, ``not``, ``undecided``), with ``scope="global"``; refused otherwise."""
-        return global_answer(self, "global_identifiability").global_identifiability
-
-    @property
-    def value_counts(self) -> Mapping:
-        """How many values each unknown takes where known (``scope="global"``)."""
-        return global_answer(self, "value_counts").value_counts
 
     @property
     def fully_determined(self) -> bool:
@@ -453,10 +461,6 @@ class Report:
         (not a sufficient condition) and every decision was made in exact arithmetic, with
         the probability bound of the certificate (:attr:`answer` is ``Answer.EXACT``)."""
         return self.answer is Answer.EXACT
-
-    def to_json(self, **kw) -> str:
-        """``json.dumps(self.to_dict())``."""
-        return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
         return report_text(self)
