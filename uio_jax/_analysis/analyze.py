@@ -1,9 +1,6 @@
-"""``analyze``: check the options, plan, dispatch, add the notes.
-
-The options are checked by :mod:`uio_jax._analysis.options`; the method, the route and the
-arithmetic are chosen once, before any sample is drawn, by :func:`uio_jax._analysis.plan.plan`
-(its module docstring states the rules of ``method="auto"``); :func:`dispatch` runs the plan;
-the report keeps the plan (``Report.plan``, ``rep.plan.why``).
+"""``analyze``: check the options (:mod:`uio_jax._analysis.options`), plan
+(:func:`uio_jax._analysis.plan.plan`, before any sample is drawn; its module docstring states
+the rules of ``method="auto"``), dispatch (:func:`dispatch`), add the notes.
 """
 
 import dataclasses
@@ -51,15 +48,13 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
             :mod:`uio_jax._analysis.plan`; ``Report.method`` records the choice and
             ``Report.plan`` the whole plan (method, route, arithmetic, why).
         samples: number S of random states drawn for the float64 screen (votes at the first
-            decision samples, :func:`~uio_jax._analysis.decisions.memory.decision_count`; margins and the
-            figure at as many as fit in memory, ``Certificate.capped``). The verdicts do not rest
-            on these votes: every decision is settled again modulo p (or in extended precision).
+            decision samples; margins and the figure at as many as fit in memory,
+            ``Certificate.capped``). The verdicts do not rest on these votes: every decision
+            is settled again modulo p (or in extended precision).
         prob_threshold: the probability of correctness the exact decisions must reach
-            (StructuralIdentifiability.jl's ``prob_threshold``; default 0.999999): each
-            decision modulo ``p = 2^127 - 1`` is wrong with probability at most
-            ``D / p`` per point (Schwartz-Zippel, ``D`` a degree bound), points are added
-            until the sum over the analysis, ``Certificate.error_bound``, is under
-            ``1 - prob_threshold``.
+            (default 0.999999): each decision modulo ``p = 2^127 - 1`` is wrong with
+            probability at most ``D / p`` per point (Schwartz-Zippel), points are added until
+            the sum, ``Certificate.error_bound``, is under ``1 - prob_threshold``.
         seed: seed of the sampled states, an integer in ``[0, 2**64)`` (same seed, same
             report).
         rtol: relative tolerance on ``s_i / s_1`` after scaling (default
@@ -156,12 +151,9 @@ def _local(system, *, method, samples, seed, rtol, max_order, k_max, known_input
 
 
 def _identifiability(system, initial, shared, method, seed, max_order, prob_threshold):
-    """The known-initial-state or several-experiment analysis (:mod:`.identifiability`,
-    ``docs/initial_conditions.md``): local identifiability of the parameters and observability
-    of the unknown initial states at ``t = 0`` from the output's Taylor coefficients, decided
-    exactly. ``max_order`` caps the order of the coefficients (default ``2 u + 2``, ``u`` the
-    number of unknowns); ``method`` must be ``"auto"``; ``samples``, ``rtol``, ``k_max`` and
-    ``known_inputs`` do not apply (known inputs are generic, there is no float64 screen)."""
+    """The known-initial-state or several-experiment analysis (:mod:`.identifiability`):
+    ``max_order`` caps the order of the coefficients (default ``2 u + 2``, ``u`` the number of
+    unknowns); ``method`` must be ``"auto"``; the other options do not apply."""
     opts = check_options(method=method, seed=seed, max_order=max_order, prob_threshold=prob_threshold)
     if opts["method"] != "auto":
         raise OptionError(f"method {method!r} does not apply with initial= or several experiments (use 'auto')")

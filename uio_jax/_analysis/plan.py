@@ -20,15 +20,12 @@ known inputs).
 The route: the Taylor route (the output's Taylor series at a random point modulo p,
 Sedoglavic's test; :mod:`uio_jax._analysis.recursions.taylor_route`) for the ORC and the series
 test on models of :data:`~uio_jax._analysis.recursions.taylor_route.TAYLOR_MIN_VARIABLES`
-coordinates or more without inputs that it cannot take (unknown inputs, smooth known inputs)
-and with a Taylor rule for every node; below that size the symbolic route (Lie derivatives as
-graph nodes) costs as little, and its generators are what the naming of observable functions
-and the search for symmetries test candidates against. With switchable known inputs the ORC's
-steps are not the Taylor orders, so ``"auto"`` takes the series test on the Taylor route there
-(the ORC's final span; the report says so). Where the Taylor route cannot decide at its random
-points (every point singular, a degree bound too large), the plan's ``fallback`` runs: the
-symbolic route of the method the caller's options chose.
-
+coordinates or more, without unknown or smooth known inputs and with a Taylor rule for every
+node; below that size the symbolic route costs as little, and its generators are what the
+follow-up questions test candidates against. With switchable known inputs ``"auto"`` takes
+the series test on the Taylor route (the ORC's final span; the report says so). Where the
+Taylor route cannot decide at its random points, the plan's ``fallback`` runs: the symbolic
+route of the method the caller's options chose.
 The arithmetic: exact modulo p where the model's outputs and fields are made rational (every
 derivative of them is: :meth:`uio_jax._analysis.decisions.settle.Settler.arithmetic`, the one
 place it is decided), extended precision otherwise.

@@ -5,31 +5,24 @@ driver (order, time limits, rows of stopped models, progress) is the one of the 
 pool. What the cluster adds:
 
 * **one model per worker thread**: the executor never submits more models than the
-  cluster has worker threads free, so the longest-first order is the caller's and no
-  model waits in a worker's queue behind another (start workers with ``--nthreads 1``:
-  a model over its time limit takes its worker process down);
-* **time limits**: a model's clock starts when its task starts on a worker (the task says
-  so through Dask's event log, with its worker's address). Over the limit, its future is
-  cancelled and its worker process killed; the worker's nanny (``dask worker`` starts one
-  by default) starts a fresh worker, which takes the next model;
-* **a worker that dies** (killed, out of memory): Dask sends its model to another worker,
-  up to the scheduler's ``allowed-failures`` (Dask's default 3), then the model is an
-  error row ("worker process died"); nothing waits on a dead worker. A cluster left
-  without any worker for :data:`~uio_jax._filter.cluster.NO_WORKER_S` seconds fails the
+  cluster has worker threads free, so the longest-first order is the caller's (start workers
+  with ``--nthreads 1``: a model over its time limit takes its worker process down);
+* **time limits**: a model's clock starts when its task starts on a worker (Dask's event
+  log). Over the limit, its future is cancelled and its worker process killed; the worker's
+  nanny starts a fresh worker, which takes the next model;
+* **a worker that dies**: Dask sends its model to another worker, up to the scheduler's
+  ``allowed-failures``, then the model is an error row ("worker process died"). A cluster
+  left without any worker for :data:`~uio_jax._filter.cluster.NO_WORKER_S` seconds fails the
   models not done;
-* **Ctrl-C**: the models still running are cancelled and their workers killed (fresh ones
-  start), the rows done are kept;
-* **one CPU per worker process**: a worker with one thread binds itself to a CPU no
-  other worker of its host holds (:func:`~uio_jax._filter.cluster.claim_one_cpu`), as the
-  local pool's workers are bound; ``UIO_JAX_PIN_WORKERS=0`` on a host turns it off;
+* **Ctrl-C**: the models still running are cancelled and their workers killed, the rows
+  done are kept;
+* **one CPU per worker process** (:func:`~uio_jax._filter.cluster.claim_one_cpu`;
+  ``UIO_JAX_PIN_WORKERS=0`` on a host turns it off);
 * **caches**: each task enables the caller's compilation cache directory on its worker
-  (JAX's own programs; the analyses compile nothing): on a path shared by every host, a
-  program compiled once is loaded everywhere after. Where that path cannot be
-  created, the worker's own default directory is used (``$UIO_JAX_CACHE_DIR`` on the
-  worker), else no cache.
+  (else the worker's own default, ``$UIO_JAX_CACHE_DIR``, else none).
 
-Model files travel as absolute paths: the workers must see them at the same path (a shared
-file system), as they must see the cache.
+Model files travel as absolute paths: the workers must see them, and the cache, at the same
+path (a shared file system).
 """
 
 import os

@@ -7,22 +7,15 @@ A path may be
 * ``FILE.py``: a zoo file. Every public module-level function *defined in that file* (its
   ``__module__`` is the file's; respects ``__all__`` when the file sets it) that takes no
   required argument is **called** and kept when it returns a :class:`~uio_jax.System`
-  (public module-level ``System`` objects count too). Calling is the only way to know
-  what a zoo function builds, so a zoo file must keep its public no-argument functions
-  free of side effects. Functions are skipped without being called when their name ends
-  in ``_experiment`` (the zoo's convention for Monte Carlo experiments, see
-  :func:`uio_jax.load_experiment`) or their return annotation names another type.
-  A function that returns something else is skipped (listed in ``skipped``); one that
-  raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are called
-  in the worker process that analyses their model, not in the caller first; with a
-  ``timeout`` the file is not even imported in the caller: it is read
-  (:func:`listed_entries`: its top-level ``def`` statements and ``NAME = ...System(...)``
-  assignments) and imported in the workers, under the limit, so that top-level code that
-  hangs or ends the process (``os._exit``) costs the rows of that file's models only.
-  Without a ``timeout``, a file is imported in the calling process: ``sys.exit`` at its
-  top level is an error row, but ``os._exit`` ends the batch and an endless loop hangs it. A StrikePy
-  model module (recognised by :func:`uio_jax._io.strikepy_import.is_strikepy_module`) is
-  one model;
+  (public module-level ``System`` objects count too), so a zoo file must keep its public
+  no-argument functions free of side effects. Functions are skipped without being called
+  when their name ends in ``_experiment`` (the zoo's Monte Carlo experiments) or their return
+  annotation names another type; one that returns something else is listed in ``skipped``,
+  one that raises is a failed model. With ``jobs > 1`` or a ``timeout`` the functions are
+  called in the worker process that analyses their model; with a ``timeout`` the file is not
+  even imported in the caller (:func:`listed_entries` reads it), so that top-level code that
+  hangs or ends the process costs the rows of that file's models only. A StrikePy model
+  module (:func:`uio_jax._io.strikepy_import.is_strikepy_module`) is one model;
 * ``FILE.toml`` / ``FILE.json``: one model file, loaded by ``load_system(FILE)``;
 * ``FILE.xml`` / ``FILE.sbml``: one SBML model, loaded by ``load_system(FILE, **sbml)`` with
   the batch's one rule of outputs and inputs (``sbml``, see :func:`discover`);
@@ -113,20 +106,16 @@ def discover(models, *, build: bool = True, import_python: bool = False, import_
         models: a path, a System, or a sequence of them (see :func:`uio_jax.batch_analyze`).
         import_python: import every ``.py`` file found in a directory or a glob that is not
             a StrikePy module, marked or not (see the module doc for the rule otherwise).
-        build: call the zoo files' functions now (their Systems are then reused). False:
-            a function that must be called to know what it builds is an entry marked
-            ``deferred``, called where the model runs (a worker process); one that gives
-            no System then turns into a skipped function. A parallel batch would otherwise
-            build every System twice, here and in its worker (timings in
-            ``docs/benchmarks/batch.md``).
-        import_here: import the zoo files here to find their models (default). False
-            (with ``build`` False; a batch with a time limit): a zoo file is *read* here
+        build: call the zoo files' functions now (their Systems are then reused). False: a
+            function that must be called to know what it builds is an entry marked
+            ``deferred``, called where the model runs (a worker process), so that a parallel
+            batch does not build every System twice.
+        import_here: import the zoo files here to find their models (default). False (with
+            ``build`` False; a batch with a time limit): a zoo file is *read* here
             (:func:`listed_entries`) and imported only in the worker that runs one of its
-            models, under the limit: top-level code that hangs, or ends the process
-            (``os._exit``), costs that model's row, not the batch.
-        sbml: the keyword arguments of :func:`uio_jax.load_system` for every SBML file
-            (``outputs``, ``known``, ...: one rule for all; None: none, each SBML model's row
-            then says it declares no outputs).
+            models, under the limit.
+        sbml: the keyword arguments of :func:`uio_jax.load_system` for every SBML file (one
+            rule for all; None: each SBML model's row then says it declares no outputs).
 
     Returns:
         ``(entries, skipped)``: the :class:`Entry` of every model in order, and

@@ -9,9 +9,8 @@ def pin_to_one_cpu(slot):
     before JAX starts its thread pool, so that it sizes the pool to that one CPU.
 
     Unpinned, every worker's XLA runs its large operations on a pool as wide as the machine
-    and ``jobs`` workers oversubscribe the cores (the measured cost is in
-    ``docs/benchmarks/batch.md``). A single worker (``slot`` None) keeps every CPU. Where
-    the platform cannot pin (no ``os.sched_setaffinity``), nothing happens.
+    and ``jobs`` workers oversubscribe the cores. A single worker (``slot`` None) keeps every
+    CPU; where the platform cannot pin (no ``os.sched_setaffinity``), nothing happens.
     """
     if slot is None or not hasattr(os, "sched_setaffinity"):
         return

@@ -29,17 +29,13 @@ class BatchRow:
         seconds: wall time of building/loading plus analysing the model, in seconds.
         error: the one-line error of a failed model, None when it passed.
         reached: for a model stopped in a worker (timed out, or its worker died), the last
-            step its analysis had decided, e.g. ``"k=5, dim 4/7"`` (``k`` an EORC order,
-            ``m`` a step of the other analyses; dim of the codistribution / n); None when
-            no step was decided or the model was not stopped.
+            step its analysis had decided, e.g. ``"k=5, dim 4/7"``; None otherwise.
         exact: whether the verdicts are exact (``Report.exact``); False for a sufficient
             condition only (the EORC, a capped recursion); None for a failed model.
         inputs: the unknown inputs shown observable (the general solution's
             ``unknown_inputs_observable``, or the EORC's observable input coordinates).
-        status: the certificate's status (:attr:`uio_jax.Certificate.status`): ``"ok"``
-            (every rank decision clear in float64), ``"escalated"`` (weak ones settled beyond
-            float64) or ``"undecided"`` (some could not be settled: the verdicts in
-            ``undecided`` are not certified); None for a failed model.
+        status: the certificate's status (:attr:`uio_jax.Certificate.status`: ``"ok"``,
+            ``"escalated"`` or ``"undecided"``); None for a failed model.
         undecided: the states and parameters whose verdict is not certified.
         functions: the named observable functions (:func:`uio_jax.observable_functions`).
         global_verdicts: with ``scope="global"``, ``"name: verdict"`` per unknown that is not
@@ -49,7 +45,7 @@ class BatchRow:
         report: the :class:`~uio_jax.Report` (None for a failed model, with
             ``keep_reports=False``, or when the model ran in a worker process).
         notes: what the row does not say by itself (a model file's ``[initial]`` table that
-            the batch, which answers the generic question, does not use).
+            the batch does not use).
     """
 
     model: str

@@ -1,19 +1,14 @@
 """Batch certification: many models, one table (``uio-jax batch``, :func:`batch_analyze`).
 
 **What is reused between models.** Nothing is compiled for an analysis: every model is
-translated into its System's expression graph and evaluated by numpy over it
-(:mod:`uio_jax._calculus.generators`); nodes and gradients are cached per System. The
-compilation cache (:func:`uio_jax.enable_compile_cache`, the command line's default)
-serves JAX's own small programs only.
+evaluated by numpy over its System's expression graph, nodes and gradients cached per System.
 
 **Parallel runs and time limits.** ``jobs > 1`` analyses models in that many worker
 processes (:mod:`uio_jax._batch.workers`), one model at a time each, each worker bound to
-one CPU (worker k to the k-th allowed CPU, cyclically; one worker alone keeps them all):
-JAX's thread pools then do not oversubscribe the cores (measured in
-``docs/benchmarks/batch.md``). With ``timeout``, a model that runs too long has its worker
-killed (its row says so) and a fresh worker goes on with the others. Only models given by
-path can go to a worker; ``System`` objects run in the calling process. The workers take
-the models longest first by their recorded times (:mod:`uio_jax._batch.timing`).
+one CPU (:mod:`uio_jax._batch.pinning`). With ``timeout``, a model that runs too long has its
+worker killed (its row says so) and a fresh worker goes on with the others. Only models given
+by path can go to a worker. The workers take the models longest first by their recorded times
+(:mod:`uio_jax._batch.timing`).
 
 **On a Dask cluster** (``client``, :mod:`uio_jax._batch.cluster`): the same driver
 (:mod:`uio_jax._batch.executor`) hands the models to the cluster's workers instead of the
@@ -71,14 +66,12 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             spawned fresh and pay JAX's start-up; they share the persistent compilation
             cache of this process if one is enabled.
         timeout: seconds one model may run (a positive finite number; None, the default:
-            no limit). With a limit,
-            models given by path run in worker processes (``jobs`` of them, at least
-            one); a model over the limit has its worker killed, its row says "timed
-            out", and a fresh worker takes the next model. ``System`` objects given
-            directly run in this process, without a limit.
+            no limit). With a limit, models given by path run in worker processes (``jobs``
+            of them, at least one); a model over the limit has its worker killed, its row
+            says "timed out", and a fresh worker takes the next model. ``System`` objects
+            given directly run in this process, without a limit.
         progress: ``False``: nothing on stderr. ``True`` or ``None`` (default): on a
-            terminal a model-count bar with an ETA (once the batch has lasted 2 s,
-            redrawn every second); elsewhere (a log, a pipe) one line per finished model:
+            terminal a model-count bar with an ETA; elsewhere one line per finished model:
             ``batch 3/12  NAME  dim 4/7  2.3 s  ETA 40 s``.
         keep_reports: keep each model's :class:`~uio_jax.Report` in ``row.report``
             (False frees each model's compiled functions as soon as it is done).
@@ -89,14 +82,13 @@ def batch_analyze(models, *, jobs: int = 1, timeout=None, progress=None, keep_re
             one) after each finished model.
         client: None (default: this machine), or a Dask cluster: a ``distributed.Client``
             or a scheduler address (``"tcp://host:8786"``). The models given by path run
-            as tasks on its workers (:mod:`uio_jax._batch.cluster`), one per worker thread,
-            longest first, with the same rows, time limits and progress as ``jobs``
-            worker processes; the workers must see the model files and the cache directory
-            at the same paths. Not with ``jobs > 1``. Needs the extra ``uio_jax[cluster]``.
-        sbml: one rule of outputs and inputs for every SBML file (``.xml``, ``.sbml``) of
-            the batch: the keyword arguments of :func:`uio_jax.load_system` for SBML
-            (``outputs``, ``observables``, ``known``, ``unknown``, ``fixed``, ``estimate``;
-            ``docs/sbml.md``). A file without an id the rule names is an error row.
+            as tasks on its workers (:mod:`uio_jax._batch.cluster`), with the same rows, time
+            limits and progress as ``jobs`` worker processes; the workers must see the model
+            files and the cache directory at the same paths. Not with ``jobs > 1``. Needs the
+            extra ``uio_jax[cluster]``.
+        sbml: one rule of outputs and inputs for every SBML file of the batch: the keyword
+            arguments of :func:`uio_jax.load_system` for SBML (``docs/sbml.md``). A file
+            without an id the rule names is an error row.
         **analyze_kwargs: passed to :func:`uio_jax.analyze` (``method``, ``samples``,
             ``seed``, ``rtol``, ``max_order``, ``k_max``, ``known_inputs``, ``prob_threshold``).
 

@@ -2,10 +2,8 @@
 
 With a cache directory (:func:`uio_jax.enable_compile_cache`), every batch records each
 model's time in ``batch_seconds.json`` there (keyed by the model's spec and the analysis
-options); the workers of a later batch take the models in decreasing order of their
-recorded time (models without one first, in the order given): one long model started last
-would leave the other workers idle at the end. The rows keep the order the models were
-given.
+options); the workers of a later batch take the models longest first (models without a time
+first), so that no long model started last leaves the other workers idle at the end.
 """
 
 import json

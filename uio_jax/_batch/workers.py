@@ -1,11 +1,8 @@
-"""The worker processes of a parallel batch on one machine: a pool of spawned processes,
-one model at a time each, a fresh worker in place of one killed on timeout or dead. The
-pool is an :class:`~uio_jax._batch.executor.Executor`: the driver that hands it the models,
-times them and writes the rows of stopped ones is the one a Dask cluster uses.
-
-Each worker is spawned (its own JAX), uses the persistent cache directory of the caller,
-and is bound to one CPU when there are several (:func:`~uio_jax._batch.pinning.pin_to_one_cpu`).
-It ignores SIGINT (Ctrl-C reaches the whole process group): the parent stops it.
+"""The worker processes of a parallel batch on one machine: a pool of spawned processes, one
+model at a time each, a fresh worker in place of one killed on timeout or dead; an
+:class:`~uio_jax._batch.executor.Executor`. Each worker is spawned (its own JAX), uses the
+caller's persistent cache directory, is bound to one CPU when there are several, and ignores
+SIGINT (the parent stops it).
 
 Messages from a worker to the parent: ``"ready"``; ``("step", text)`` for every step its
 analysis decides (``"k=5, dim 4/7"``, from :func:`uio_jax._progress.step_listener`), so a
@@ -30,17 +27,9 @@ from .rows import BatchRow
 
 def run_in_workers(entries, todo, jobs, timeout, analyze_kwargs, tracker):
     """Run ``entries[i]`` for ``i in todo`` (in that order) in ``jobs`` spawned worker
-    processes; ``tracker.finish(i, row)`` receives each model's :class:`BatchRow` (or
-    :class:`Skipped`), ``tracker.start(i)`` is told when it is sent.
-
-    The driver is :func:`uio_jax._batch.executor.drive` (shared with a Dask cluster): each
-    worker takes one model at a time through a pipe (its clock starts when the model is
-    sent, after the worker has imported JAX and said it is ready). A model that runs longer
-    than ``timeout`` seconds (None: no limit) has its worker killed and gets a row saying
-    so; a model whose worker dies (memory, signal) is sent once more to a fresh worker,
-    then gets a row with the exit code. A fresh worker replaces a killed or dead one, so
-    the other models go on; such a row names the last step the model's analysis had
-    decided (``row.reached``). Every worker is stopped on the way out, Ctrl-C included.
+    processes, by the driver :func:`uio_jax._batch.executor.drive` (its docstring: rows,
+    time limits, lost workers, Ctrl-C). Each worker takes one model at a time through a pipe;
+    its clock starts when the model is sent, after the worker has imported JAX and said ready.
     """
     drive(ProcessPool(min(jobs, len(todo))), entries, todo, timeout, analyze_kwargs, tracker)
 

@@ -8,24 +8,17 @@ something listens there, that it is a Dask scheduler; each failure is one
 ``pip install "uio_jax[cluster]"``; without it a cluster run is refused in one line.
 
 **Monte Carlo over the workers** (:func:`run_trials_on_cluster`): the trials ``0..B-1`` are
-cut into one contiguous shard per worker thread of the cluster, all of the same size
-``S = ceil(B / shards)`` (the last one padded past ``B`` and its extra trials dropped, as
-the devices of one process are padded), so every worker compiles one program. A shard
-runs :func:`uio_jax._filter.trials.simulate_trials` on the worker's own JAX devices:
-trial ``i`` uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are
-those of a one-process run with the same seed, bit for bit (a trial's numbers depend on
-``(seed, i)`` only, not on the batch it is computed in; ``tests/test_cluster_montecarlo.py``).
-The shards send back their float32 per-trial records; the caller puts them in trial order
-and computes every statistic once over all trials (RMSE as ``sqrt(sum e^2 / B)``, NEES
-mean and median, divergent fraction): nothing is an average of averages. The worker that
-runs trial 0 also computes the ``keep`` full trajectories. Progress: each worker reports
-its trial-steps after every chunk (Dask's event log); one bar adds them up.
+cut into one contiguous shard per worker thread of the cluster, all of the same size (the
+last one padded), so every worker compiles one program. A shard runs
+:func:`uio_jax._filter.trials.simulate_trials` on the worker's own JAX devices: trial ``i``
+uses the key ``fold_in(key(seed), i)`` wherever it runs, so the records are those of a
+one-process run with the same seed, bit for bit. The caller puts the shards' float32 records
+in trial order and computes every statistic once over all trials (nothing is an average of
+averages). The worker that runs trial 0 also computes the ``keep`` full trajectories; each
+worker reports its trial-steps after every chunk (Dask's event log) to one progress bar.
 
-**Why not ``jax.distributed``**: it runs one SPMD program across hosts, launched in
-lockstep on every host (``mpirun``, SLURM), for collectives between devices. Trials are
-independent and only their records travel, so a worker per host (using all the host's
-devices, GPUs included, through the same ``shard_map`` as one process) needs no
-collectives and no lockstep launch; the Dask cluster that runs the batch runs the trials.
+**Why not ``jax.distributed``**: it runs one SPMD program across hosts launched in lockstep,
+for collectives between devices; trials are independent and only their records travel.
 
 The experiment travels to the workers pickled by value (its functions and the model file
 they come from, ``cloudpickle``): the workers need uio_jax and jax, not the model file.
@@ -233,10 +226,8 @@ def claim_one_cpu():
     each gets its own. A worker finding every CPU taken, a host with one CPU, a platform
     without CPU affinity or ``UIO_JAX_PIN_WORKERS=0`` leaves the process unbound.
 
-    Unbound, each worker's XLA sizes its thread pools to the whole host: ``jobs`` workers
-    oversubscribe the cores (``docs/benchmarks/batch.md``), and at jax 0.10.2 some of the
-    analysis programs of the zoo's multi-input models never return from a two-thread pool
-    on this project's 2-core machine (``docs/benchmarks/cluster.md``).
+    Unbound, each worker's XLA sizes its thread pools to the whole host, and ``jobs`` workers
+    oversubscribe the cores (``docs/benchmarks/batch.md``, ``docs/benchmarks/cluster.md``).
 
     Returns:
         the CPU bound to, or None.

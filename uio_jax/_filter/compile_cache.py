@@ -3,19 +3,13 @@
 The analyses compile nothing (numpy over the expression graph); the Monte Carlo
 (:mod:`uio_jax._filter.montecarlo`: the EKF of every trial, one XLA program per experiment)
 does. JAX can keep compiled programs on disk and reuse them in a later process when the
-program is the same (the key is a hash of the program without its source locations, the
-compile options, the jax/jaxlib version and the device), so a second ``uio-jax montecarlo``
-of the same experiment skips the compile.
+program is the same, so a second ``uio-jax montecarlo`` of the same experiment skips the
+compile. uio_jax lowers JAX's thresholds (compile time, entry size) so every program is written.
 
-By default JAX only writes programs that took at least 1 s to compile; uio_jax lowers that
-threshold to 0 and lifts the minimum entry size, so every program is written.
-
-Directory: ``path`` if given, else ``$UIO_JAX_CACHE_DIR``, else ``$XDG_CACHE_HOME/uio_jax/xla``
-(``~/.cache/uio_jax/xla`` when ``XDG_CACHE_HOME`` is unset). The command line enables the
-cache by default (``--no-cache`` disables it, ``--cache-dir`` moves it); the library does
-not touch JAX's configuration unless :func:`enable_compile_cache` is called.
-
-As JAX warns, the cache is trusted input: do not point it at a directory others can write.
+Directory: :func:`default_cache_dir` unless given. The command line enables the cache by
+default; the library does not touch JAX's configuration unless :func:`enable_compile_cache`
+is called. As JAX warns, the cache is trusted input: do not point it at a directory others
+can write.
 """
 
 import contextlib
@@ -59,8 +53,7 @@ def enable_compile_cache(path: str | os.PathLike | None = None) -> str:
     analyses; calling it again with another directory switches to that directory.
 
     Args:
-        path: cache directory, created if missing. Default: ``$UIO_JAX_CACHE_DIR``, else
-            ``$XDG_CACHE_HOME/uio_jax/xla``, else ``~/.cache/uio_jax/xla``.
+        path: cache directory, created if missing (default :func:`default_cache_dir`).
 
     Returns:
         The absolute directory in use.

@@ -16,9 +16,8 @@ trial (shapes without a batch axis); the Monte Carlo driver vmaps it.
   dense part) has the structural zeros that :func:`~uio_jax._filter.sparsity.jacobian_pattern`
   reads from the model's jaxpr. Only the columns of ``D`` that can be non-zero are
   computed (one JVP tangent each, the step's value from the same pass), and the products
-  are element-wise sums over the non-zeros, never ``@``: XLA's CPU dot on a batch of 5x5
-  matrices runs one matrix at a time, the sums fuse into element-wise loops over the
-  batch (the gain of each step is measured in ``docs/benchmarks/ekf.md``, runs 4 and 5).
+  are element-wise sums over the non-zeros, never ``@`` (XLA's CPU dot on a batch of small
+  matrices runs one matrix at a time: ``docs/benchmarks/ekf.md``, runs 4 and 5).
 * **Process noise**, state- and input-dependent::
 
       Q = dt^2 sum_i std_i(u)^2 f_i(x) f_i(x)^T      (known-input reading noise)
@@ -170,14 +169,9 @@ def predict(model: Model, xa, P, u_read):
     Returns:
         ``(xa+, P+)`` with ``P+ = J P J^T + Q(xa, u_read)`` (see the module doc).
 
-    ``J`` is sparse by construction of the augmented state, and only its dense part is
-    formed: with ``q = n + p`` and ``D = d f(x, u, w) / d(x, w)`` of shape ``(n, q)``,
-
-        J = [[[I_n 0] + dt D, 0], [0, I + dt S]]
-
-    where ``S`` shifts each derivative of ``w`` up by one block. ``J P J^T`` is then
-    ``J (J P)^T`` (``P`` symmetric), each product by :func:`_apply_transition`, which also
-    skips the structural zeros of ``D`` (``model.pattern``).
+    ``J = [[[I_n 0] + dt D, 0], [0, I + dt S]]`` (``q = n + p``, ``D = d f / d(x, w)`` of shape
+    ``(n, q)``, ``S`` the shift of the derivatives of ``w``); ``J P J^T`` is ``J (J P)^T``, each
+    product by :func:`_apply_transition`, which skips the structural zeros of ``D``.
     """
     n, p = model.n, model.p
 
@@ -241,10 +235,9 @@ def mahalanobis_squared(e, P):
 
     Symmetric Gaussian elimination written out element by element (``P = L D L^T``, then
     ``sum_i y_i^2 / D_i`` with ``L y = e``): about ``d^3 / 6`` multiply-adds that XLA fuses
-    over a batch, where ``jnp.linalg.solve`` is a batched LU call (faster to run and to
-    compile: ``docs/benchmarks/ekf.md``, run 5). No pivoting: exact for SPD ``P`` (all pivots positive, as
-    stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as
-    long as no leading minor is singular.
+    over a batch (``docs/benchmarks/ekf.md``, run 5). No pivoting: exact for SPD ``P`` (as
+    stable as Cholesky); an indefinite ``P`` of a broken filter gives a finite value as long
+    as no leading minor is singular.
     """
     d = e.shape[0]
     A = [[P[i, j] for j in range(d)] for i in range(d)]

@@ -24,9 +24,7 @@ million radians has diverged long before). The derivatives are the functions' ow
 :func:`with_vectorized_trig` applies them to a model function: it traces the function to a
 jaxpr and evaluates it by :func:`uio_jax._engine.interpreter.interpret` with this module's
 rule table (float64 ``sin`` / ``cos`` replaced, calls inline, every other primitive as it
-is, each repeated equation once). It is there for the Monte Carlo filter's speed; the
-measurements (element-wise cost of XLA's trig, trial-steps/s with and without) are in
-``docs/benchmarks/engine.md``.
+is, each repeated equation once); measurements in ``docs/benchmarks/engine.md``.
 """
 
 import functools
@@ -149,11 +147,9 @@ def _shared(rule):
     """``rule`` evaluated once per repeated equation (same primitive, parameters and
     operand objects): common-subexpression elimination on the equations.
 
-    It matters because a model writes ``cos(x[2])`` and ``sin(x[2])``: two slices, so two
-    operands, so two reductions and four kernels, unless the second slice is recognised as
-    the first. XLA would merge the copies too, but only after tracing, lowering and part
-    of its compile have paid for them (the traced equations of one filter epoch and the
-    chunk program's trace time, before and after: ``docs/benchmarks/engine.md``).
+    A model writes ``cos(x[2])`` and ``sin(x[2])``: two slices, so two operands, so two
+    reductions and four kernels, unless the second slice is recognised as the first (XLA would
+    merge them only after tracing and lowering have paid for them).
     """
     def apply(state, i, eqn, ins):
         key = _equation_key(eqn, ins)
@@ -194,13 +190,10 @@ def _equation_key(eqn, ins):
 def with_vectorized_trig(fn):
     """``fn`` with its float64 ``sin`` and ``cos`` evaluated by :func:`sincos`.
 
-    ``fn`` takes and returns arrays (or pytrees of them); the result takes and returns the
-    same shapes, equal to ``fn``'s values within the kernels' accuracy (1 ulp for
-    ``|x| <= 1e3``, 2 ulp below :data:`ACCURATE_BELOW`). It is traced once per call (at
-    the caller's trace time under ``jit``, so at no run-time cost). Sub-functions (``jit``,
-    custom derivative rules) are evaluated inline, their ``sin`` / ``cos`` replaced too;
-    float32 ones are left as they are, so is every other operation (evaluated once per
-    repeated equation).
+    ``fn`` takes and returns arrays (or pytrees of them); the result has the same shapes and
+    ``fn``'s values within the kernels' accuracy (1 ulp for ``|x| <= 1e3``, 2 ulp below
+    :data:`ACCURATE_BELOW`). It is traced once per call (at the caller's trace time under
+    ``jit``). Sub-functions are evaluated inline, their float64 ``sin`` / ``cos`` replaced too.
     """
 
     @functools.wraps(fn)

@@ -95,10 +95,8 @@ def run_montecarlo(experiment: Experiment, trials: int = 256, *, seed: int = 0, 
             to round-off, several times slower), to check a result against.
         client: None (default: this process), or a Dask cluster: a ``distributed.Client``
             or a scheduler address (``"tcp://host:8786"``). The trials are split over its
-            workers (:mod:`uio_jax._filter.cluster`); every trial keeps its key, so the
-            records equal those of a one-process run with the same seed bit for bit, and
-            the statistics are computed once over all of them. Needs the extra
-            ``uio_jax[cluster]``.
+            workers (:mod:`uio_jax._filter.cluster`), with the records of a one-process run
+            bit for bit. Needs the extra ``uio_jax[cluster]``.
 
     Returns:
         :class:`MonteCarloResult` (host numpy arrays; ``errors`` has shape

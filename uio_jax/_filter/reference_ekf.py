@@ -1,16 +1,11 @@
 """The reference EKF: the filter of :mod:`uio_jax._filter.ekf` as plain matrix equations.
 
-The same filter on the same augmented state ``xa (N,)`` (see :mod:`uio_jax._filter.ekf`),
-written as the textbook equations, in the manner of dynamax's ``inference_ekf.py``
-(``_predict``, ``_condition_on``): dense ``jax.jacfwd`` Jacobians, ``@`` and
-``jnp.linalg.solve``, ``jnp.sin`` / ``jnp.cos``; no sparsity pattern, no element-wise
-products, no hand-written elimination. It is slow (XLA's CPU dot runs a batch of small
-matrices one at a time) and serves as the oracle of the fast kernels:
-``run_montecarlo(..., filter="reference")`` runs a whole experiment with it, and
-``tests/test_ekf_reference.py`` holds the two equal to round-off.
-
-The functions take the same arguments as the fast ones, with a :class:`~uio_jax._filter.ekf.Model`
-from :func:`make_model` (its process noise written as matrix products too).
+The same filter on the same augmented state ``xa (N,)``, written as the textbook equations in
+the manner of dynamax's ``inference_ekf.py``: dense ``jax.jacfwd`` Jacobians, ``@`` and
+``jnp.linalg.solve``, ``jnp.sin`` / ``jnp.cos``. It is slow and serves as the oracle of the
+fast kernels: ``run_montecarlo(..., filter="reference")`` runs a whole experiment with it, and
+``tests/test_ekf_reference.py`` holds the two equal to round-off. The functions take the same
+arguments as the fast ones, with a :class:`~uio_jax._filter.ekf.Model` from :func:`make_model`.
 """
 
 import jax

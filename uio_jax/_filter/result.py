@@ -130,10 +130,9 @@ class MonteCarloResult:
           sigma is no evidence);
         * ``None`` (undecided) otherwise.
 
-        These are heuristics on finite runs: the verdict depends on the prior and the
-        horizon (the 003 range case needs the full 10 s to halve its error).
-        Also: mean and median NEES at the end, their expected value (dof) and the
-        fraction of divergent trials (see :meth:`divergent`).
+        These are heuristics on finite runs (the verdict depends on the prior and the
+        horizon). Also: mean and median NEES at the end, their expected value (dof) and the
+        fraction of divergent trials (:meth:`divergent`).
 
         Returns:
             ``{"states": {name: {...}}, "quantities": {name: {...}}, "nees": {...},
@@ -178,11 +177,9 @@ class MonteCarloResult:
         ``converges``.
 
         Note: per-state ratios can mislead when an unobservable direction moves several
-        states (003, range, gamma unknown: the rotation about the origin moves xv, yv,
-        theta and gamma): each such state's error drops to the prior spread along that
-        direction, which is smaller than the state's own prior, so it may look
-        "converging". The named quantity along the symmetry (the bearing phi) is the
-        decisive check; read the per-state rows with that in mind.
+        states (003, range, gamma unknown: the rotation about the origin): each such state's
+        error drops to the prior spread along that direction, smaller than its own prior, so
+        it may look "converging"; the named quantity along the symmetry is the decisive check.
 
         Args:
             report: a :class:`~uio_jax.Report` of the system with the outputs the
@@ -266,9 +263,8 @@ class MonteCarloResult:
           Carlo and the analysis disagree on ..." (a contradiction to look into);
         * only unobservable states look converging while every named quantity agrees:
           "consistent with the analysis on the named quantities", and the next line says
-          why those state rows mislead (an unobservable direction moves several states
-          together: each one's error drops to the prior spread along it; see
-          :meth:`compare`). Without a named quantity this stays a disagreement.
+          why those state rows mislead (:meth:`compare`'s note). Without a named quantity
+          this stays a disagreement.
 
         The last line lists the rows that converge, do not and are unclear.
         """

@@ -15,14 +15,9 @@ on input ``j`` when ``dep[e, j]``), propagated equation by equation:
   ``while``, ...): every output element depends on everything any operand depends on.
 
 Each element also carries a flag "exactly zero whatever the input" (literals and constants
-equal to 0, ``jnp.zeros``, products with such an element, sums of two, ``sin`` of one, ...):
-model code writes structural zeros as ``0.0 * x[2]`` or pads fields with ``jnp.zeros``,
-and such an element depends on nothing.
-
-The result is a superset of the true pattern (never misses a dependence: the last rule is
-always safe), exact for functions written element by element, as vector fields of models
-are. A structural zero of ``dfn/dx`` is then exactly zero at every point where the
-derivative is finite.
+equal to 0, ``jnp.zeros``, products with such an element, ...): such an element depends on
+nothing. The result is a superset of the true pattern (the last rule is always safe), exact
+for functions written element by element, as vector fields of models are.
 """
 
 import jax

@@ -148,10 +148,8 @@ def _epoch_fn(t: _Trial):
 
     def epoch(carry, j):
         key, x, istate, w_last, xa, Pm = carry[:6]
-        # float32 normals, used in float64: half the threefry bits of float64 ones and a
-        # cheap inverse error function (the simulation's gain: docs/benchmarks/ekf.md, run
-        # 5). The cost: they resolve 2^-24 and reach about 5.3 sigma (1e-7 beyond) where
-        # float64 ones reach about 8; noise levels of a few percent do not see the difference.
+        # float32 normals, used in float64: half the threefry bits and a cheap inverse error
+        # function (docs/benchmarks/ekf.md, run 5); they reach about 5.3 sigma, enough here.
         z = threefry.normal(threefry.fold_in(key, j), K * (ni + m) + n_out).astype(jnp.float64)
         zs = z[:K * (ni + m)].reshape(K, ni + m)
         zy = z[K * (ni + m):]

@@ -111,10 +111,9 @@ def simulate_trials(exp: Experiment, first: int, count: int, *, seed: int, filte
     """Records of trials ``first .. first + count - 1`` of ``exp`` in this process.
 
     The trials are split over ``devices`` (default: all of this process's JAX devices),
-    padded to a multiple of their number (the padding trials are computed and dropped).
-    Trial ``i`` uses the key ``fold_in(key(seed), i)``: its records do not depend on
-    ``first``, ``count`` or the devices, which is what lets a cluster split a run
-    (:mod:`uio_jax._filter.cluster`) and merge it back bit for bit.
+    padded to a multiple of their number. Trial ``i`` uses the key ``fold_in(key(seed), i)``:
+    its records do not depend on ``first``, ``count`` or the devices (a cluster splits a run
+    and merges it back bit for bit).
 
     Args:
         exp: the experiment (checked by the caller: options, memory, model at x0).

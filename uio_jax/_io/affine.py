@@ -62,9 +62,9 @@ class Parts:
         (``fn(z)`` -> the System's callable: ``x`` as is, ``(x, p)`` with params, ``(x, t)``
         or ``(x, p, t)`` with time; see :func:`system_callables`).
 
-        ``name``, ``params`` (name -> box), ``source`` and ``time`` (the time name, or None)
-        go to the System as given; ``time_box`` (None: the System's default) is added to its
-        domain under the time name; its notes are ``notes`` followed by those of the parts.
+        ``name``, ``params`` (name -> box), ``source`` and ``time`` go to the System as given;
+        ``time_box`` (None: the default) is added to its domain; its notes are ``notes``
+        followed by those of the parts.
         """
         from .._model.system import System
 
@@ -85,11 +85,10 @@ class Parts:
 def system_callables(with_params: bool, with_time: bool):
     """The ``wrap`` of :meth:`Parts.to_system`: ``fn(z)`` -> the System's callable.
 
-    ``z`` is ``[x; p; t]`` (shape ``(n + P + 1,)``; ``p`` only ``with_params``, ``t`` only
-    ``with_time``); the callable takes ``x`` (shape ``(n,)``), ``(x, p)``, ``(x, t)`` or
-    ``(x, p, t)`` (``t`` a scalar) and returns ``fn`` of their concatenation
-    (:class:`~uio_jax._io.model_functions.Joined`). On numpy arguments the concatenation is
-    numpy (one-off evaluations without JAX dispatch).
+    ``z`` is ``[x; p; t]`` (``p`` only ``with_params``, ``t`` only ``with_time``); the callable
+    takes ``x`` (shape ``(n,)``), ``(x, p)``, ``(x, t)`` or ``(x, p, t)`` (``t`` a scalar) and
+    returns ``fn`` of their concatenation (:class:`~uio_jax._io.model_functions.Joined`; numpy
+    on numpy arguments).
     """
     arity = 1 + bool(with_params) + bool(with_time)
     return (lambda fn: fn) if arity == 1 else (lambda fn: Joined(fn, arity))

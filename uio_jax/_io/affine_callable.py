@@ -26,12 +26,10 @@ def split_callable(states, dynamics, outputs, known_inputs, unknown_inputs, para
     ``outputs[name](x, p, u, w) -> ()`` (``x (n,)``, ``p (P,)``, ``u (len(known),)``,
     ``w (len(unknown),)``).
 
-    The same split and the same rules (:mod:`uio_jax._io.affine`): drift ``f(x, p, 0, 0)``,
-    fields ``d f / d v`` at ``v = 0`` (``jax.jvp``); the Hessian in ``v`` is ``jax.hessian``
-    at the same ``AFFINE_SAMPLES`` points (``affine_points``) and goes through the same
-    threshold (``pattern_from_derivatives``); promotions, their order and their notes are
-    those of ``promotion_reasons`` and ``promotions``. Where the expression route reads the
-    model's text, this one measures at the samples:
+    The same split and the same rules (:mod:`uio_jax._io.affine`): fields ``d f / d v`` at
+    ``v = 0`` by ``jax.jvp``, the Hessian in ``v`` by ``jax.hessian`` at the same points and
+    threshold, the same promotions and notes. Where the expression route reads the model's
+    text, this one measures at the samples:
 
     * an input is used by the dynamics (or an output) when a derivative in it is non-zero
       at some finite sample; unused inputs are dropped with the same note;

@@ -15,18 +15,13 @@ everything is finite, for some state ``k``
     |H_kab| |v_a| |v_b| > AFFINE_RTOL * (|f_k| + sum_c |J_kc v_c| + TINY),
 
 i.e. the second-order term is not negligible against the terms of ``f_k`` there.
-Evidence for the threshold: automatic differentiation of an expression graph that is
-affine in ``v`` produces exact zeros for the second derivatives (the Hessian of a product
-with a ``v``-free factor is that factor times the other Hessian), so affine models give
-``H == 0`` exactly; only
+The threshold: automatic differentiation of an expression graph that is affine in ``v``
+gives exact zeros for the second derivatives, so affine models give ``H == 0`` exactly; only
 identities such as ``exp(log(u))`` leave round-off (about ``1e-16`` relative), far below
-``1e-8``; a genuinely non-affine term (``u/(p + u)``, ``u**2``, ``u*w``) gives ``O(1)``
-relative values at generic samples. An input that enters through ``abs``, ``sign``,
-``min`` or ``max`` (not differentiable at 0) is treated as non-affine without a test.
-
-**Cover of the cross terms.** Diagonal terms promote their input; the remaining cross terms
-(``u*w``) are covered greedily: the input with the most non-affine partners first, an
-unknown input before a known one, then the later declared.
+``1e-8``, where a genuinely non-affine term (``u/(p + u)``, ``u**2``, ``u*w``) gives ``O(1)``.
+An input that enters through ``abs``, ``sign``, ``min`` or ``max`` (not differentiable at 0)
+is treated as non-affine without a test. The cross terms are covered as
+:mod:`uio_jax._io.affine` says.
 """
 
 from collections.abc import Mapping, Sequence

@@ -2,13 +2,9 @@
 ``uj.system_from_dynamics``; ``uj.System.from_dynamics`` is the same function, attached by the
 API layer, ``uio_jax/__init__.py``).
 
-A :class:`uio_jax.System` takes the control-affine form ``x' = f0(x) + sum_i f_i(x) u_i +
-sum_j g_j(x) w_j``. Here the model is one right-hand side ``x' = f(x, u, w)`` (or
-``f(x, p, u, w)`` with parameters, with a trailing time argument ``f(x, u, w, t)`` /
-``f(x, p, u, w, t)`` for a time-varying model), split by the same code as model files
-(:func:`uio_jax._io.affine_callable.split_callable`: the Hessian in the inputs at the same samples
-and threshold, the same promotions of inputs that enter non-affinely or appear in an
-output, the same notes).
+The model is one right-hand side ``x' = f(x, u, w)`` (``f(x, p, u, w)`` with parameters, a
+trailing ``t`` for a time-varying model), split into the control-affine form by the same code
+as model files (:func:`uio_jax._io.affine_callable.split_callable`).
 """
 
 import keyword

@@ -1,13 +1,10 @@
 """Whitelisted expression trees (:mod:`uio_jax._io.expressions`) compiled to functions.
 
-The tree is compiled to a JAX function by walking it once into nested closures of ``jnp``
-operations (:func:`to_function`); integer powers use ``lax.integer_pow`` (exact, and
-clean derivatives for negative bases). The closures take their operations as an argument
-(:class:`Ops`), so the same compiled tree also runs on numpy arrays (no JAX dispatch for
-one-off evaluations), on the second-order jets of :mod:`uio_jax._io.affinity`, and on the
-nodes of the expression graph (:data:`GRAPH_OPS`: the function builds its own expression,
-the very nodes the translation of its JAX version makes, without importing JAX; JAX is
-imported the first time a compiled function is called on something that is not numpy).
+The tree is walked once into nested closures (:func:`to_function`; integer powers by
+``lax.integer_pow``, exact, clean derivatives for negative bases) that take their operations
+as an argument (:class:`Ops`): the same compiled tree runs on JAX arrays, on numpy arrays (no
+JAX dispatch), on the jets of :mod:`uio_jax._io.affinity`, and on nodes of the expression
+graph (:data:`GRAPH_OPS`: the nodes the translation of its JAX version makes, without JAX).
 """
 
 import functools
@@ -24,9 +21,7 @@ class Ops:
 
     ``funcs`` maps every (unaliased) name of :data:`FUNCTIONS` but ``min``/``max``/``pow``
     to a unary or binary function; ``ipow(a, k)`` is an integer power, ``power(a, b)`` a
-    general one, ``minimum``/``maximum`` binary. Backends: :data:`JAX_OPS`,
-    :data:`NUMPY_OPS` (used when a compiled function is called on a numpy array: no JAX
-    dispatch), and the second-order jets of the affinity test (:mod:`uio_jax._io.affinity`).
+    general one, ``minimum``/``maximum`` binary.
     """
 
     def __init__(self, funcs, ipow, power, minimum, maximum, asarray):

@@ -1,16 +1,5 @@
-"""``load_system(...)``: models loaded by path, not installed.
-
-Three kinds of model files:
-
-* ``path/to/file.py:NAME``: a Python file (executed) whose ``NAME`` is a System or a
-  function returning one (the model zoo);
-* ``path/to/model.toml`` / ``path/to/model.json``: a declarative model (data only, see
-  :mod:`uio_jax._io.model_file`);
-* ``path/to/model.py`` without ``:NAME``: a StrikePy / STRIKE-GOLDD model module, read
-  without executing it (see :mod:`uio_jax._io.strikepy_import`);
-* ``path/to/model.xml`` / ``.sbml``: an SBML model with the outputs and inputs given as
-  keyword arguments (see :mod:`uio_jax._io.sbml_import`; the extra ``uio_jax[sbml]``).
-"""
+"""``load_system(...)``: models loaded by path, not installed (a zoo file's ``NAME``, a
+declarative model file, a StrikePy module, an SBML model: :func:`load_system` says how)."""
 
 import importlib.util
 import os

@@ -1,19 +1,12 @@
 """The functions of a declarative model's System: compiled expression trees as functions of
 ``z = [x; p; t]`` (and of the System's arguments ``x``, ``(x, p)``, ``(x, t)``, ``(x, p, t)``).
 
-Each is a small object, not a closure, with three ways to run (the same compiled closures,
-:mod:`uio_jax._io.expression_functions`, with another :class:`~uio_jax._io.expression_functions.Ops`):
-
-* on numpy arrays: numpy, no JAX (one-off evaluations, the affinity and drift checks);
-* on anything else: JAX (``jnp``; the Monte Carlo filter jits them), imported then;
-* ``emit``: its own expression in the expression graph, from graph nodes
-  (:mod:`uio_jax._engine.graph_trace`): the nodes the translation of the JAX version makes,
-  so a model file, a sympy model, an SBML or StrikePy model reaches the analyses without
-  importing JAX.
-
-The general form's input fields ``d f / d u_i`` at ``u = w = 0`` are derivatives: JAX's
-forward mode (``jax.jvp``) on JAX arrays, numpy first-order jets on numpy arrays, and dual
-numbers over graph nodes (:class:`Dual`, the chain rule node by node) for ``emit``.
+Each is a small object, not a closure, that runs the same compiled closures
+(:mod:`uio_jax._io.expression_functions`) on numpy arrays (numpy, no JAX), on anything else
+(``jnp``), and on graph nodes (``emit``: its own expression, without importing JAX). The
+general form's input fields ``d f / d u_i`` at ``u = w = 0`` are derivatives: ``jax.jvp`` on
+JAX arrays, numpy first-order jets on numpy arrays, dual numbers over graph nodes
+(:class:`Dual`) for ``emit``.
 """
 
 import numpy as np

@@ -26,10 +26,9 @@ class ModelSpec:
     ``dynamics is None`` for the control-affine form (``drift``, ``known``, ``unknown``:
     state -> text, input -> {state -> text}); otherwise the general form with
     ``dynamics`` (state -> text) and the input names ``inputs_known``/``inputs_unknown``.
-    ``time`` names the time variable of a time-varying model (expressions may use it;
-    ``domain`` may give its box), ``None`` for a time-invariant one. Mappings are read-only
-    and keep their order. Build it with :func:`spec_from_dict`, which validates everything
-    (names, boxes, expressions).
+    ``time`` names the time variable of a time-varying model, ``None`` for a time-invariant
+    one. Mappings are read-only and keep their order. Build it with :func:`spec_from_dict`,
+    which validates everything.
     """
 
     states: tuple

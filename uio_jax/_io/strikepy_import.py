@@ -32,10 +32,8 @@ Meaning (StrikePy's): ``x`` states, ``p`` unknown constant parameters (sampled i
 dynamics (general form, split by :mod:`uio_jax._io.affine`; non-affine inputs are promoted
 to states), ``h`` the outputs (named after the state when an output is a single state,
 ``y1, y2, ...`` otherwise). Symbols used in ``f``/``h`` that are in none of ``x, p, u, w``
-are **known constants** for StrikePy; each gets the fixed generic value
-:func:`generic_value` (a number in [0.5, 1.5) derived from its name by SHA-256, so it is
-reproducible, distinct between names and free of special values such as 0 or 1); the
-System's notes list them.
+are **known constants** for StrikePy; each gets the fixed generic value :func:`generic_value`,
+listed in the System's notes.
 """
 
 import ast

@@ -3,10 +3,7 @@
 
 Each expression is printed with sympy's ``str`` and read back by the whitelisted parser of
 :mod:`uio_jax._io.expressions`, so the functions accepted here are exactly those of model
-files (a sympy function outside the whitelist, such as ``Piecewise`` or ``gamma(x)``, is
-refused with a one-line error). The resulting declarative spec is kept in
-``System.source``: the System can be written with :func:`uio_jax.save_model`.
-
+files. The declarative spec is kept in ``System.source`` (:func:`uio_jax.save_model` writes it).
 sympy is not a dependency of uio_jax; it is imported only when this function is called.
 """
 

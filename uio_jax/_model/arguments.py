@@ -14,9 +14,8 @@ from .._errors import ModelError
 #: for analytic models the generic rank is the same on every open set of a connected domain.
 DEFAULT_BOX = (0.5, 1.5)
 #: Sampling box of the time variable (``System.time``) when ``domain`` does not list it, in
-#: seconds: the first second of an experiment that starts at t = 0. Any open interval gives the
-#: same generic ranks for an analytic model; list the time name in ``domain`` to move it (e.g.
-#: away from a singular instant such as the 0 of ``1/t``).
+#: seconds (any open interval gives the same generic ranks for an analytic model; list the time
+#: name in ``domain`` to move it away from a singular instant such as the 0 of ``1/t``).
 DEFAULT_TIME_BOX = (0.0, 1.0)
 #: Sampling box of a state listed in ``System.angles``.
 ANGLE_BOX = (-math.pi, math.pi)

@@ -1,14 +1,11 @@
 """What a System the package derives from another one is: the constructor field
 :attr:`uio_jax.System.derivation`.
 
-The package builds Systems from Systems: the joint System on ``[x; p]``
-(:mod:`uio_jax._model.joint`), the autonomous one on ``[x; p; t]`` (:mod:`uio_jax._model.time`),
-the jets of smooth known inputs (:mod:`uio_jax._model.smooth_inputs`), Systems made of graph
-nodes (:mod:`uio_jax._model.graph_system`), the analyses' working Systems, and a renamed copy
-(:meth:`uio_jax.System.with_name`). What such a System is (which trailing coordinates are
-known, which coordinates were parameters, the graph its functions are nodes of) is given to
-its constructor as one :class:`Derivation`, never written onto it afterwards: a System never
-changes once built. A user's System has the default, :data:`USER_SYSTEM`.
+The package builds Systems from Systems (the joint, autonomous and jet Systems, Systems made
+of graph nodes, the analyses' working Systems, a renamed copy). What such a System is (which
+trailing coordinates are known, which were parameters, the graph its functions are nodes of)
+is given to its constructor as one :class:`Derivation`, never written onto it afterwards. A
+user's System has the default, :data:`USER_SYSTEM`.
 """
 
 from collections.abc import Mapping

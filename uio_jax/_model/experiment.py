@@ -42,11 +42,6 @@ import numpy as np
 
 from .._errors import ModelError, OptionError
 from . import experiment_checks as checks
-from .experiment_checks import BYTES_PER_RECORD_NUMBER as BYTES_PER_RECORD_NUMBER  # the thresholds,
-from .experiment_checks import MAX_RATE_DT as MAX_RATE_DT  # imported from here too
-from .experiment_checks import MEMORY_FRACTION as MEMORY_FRACTION
-from .experiment_checks import MIN_RATE_HORIZON as MIN_RATE_HORIZON
-from .experiment_checks import MIN_STEPS as MIN_STEPS
 from .system import System
 
 
@@ -229,7 +224,7 @@ class Experiment:
                              "would not be recorded)")
         object.__setattr__(self, "units", self._check_units(self.units))
         need, have = self.memory_bytes(1), checks.memory_available()
-        if have is not None and need > MEMORY_FRACTION * have:
+        if have is not None and need > checks.MEMORY_FRACTION * have:
             raise ModelError(f"experiment {self.name!r}: one trial of {self.n_steps} steps records "
                              f"{self.n_records + 1} times and needs about {checks.gib(need)} of memory, "
                              f"more than the {checks.gib(have)} available: raise record_every or "

@@ -1,10 +1,8 @@
 """An experiment's checks before a Monte Carlo run: memory and the time scale of its dynamics.
 
-:func:`memory_bytes` estimates the peak memory of a run and :func:`check_memory` refuses
-one that does not fit; :func:`time_scale` computes the shortest time scale of the filter's
-dynamics at the true start (from :func:`start_jacobian`, one small jitted program, or the
-values the Monte Carlo driver computed) and :func:`time_scale_messages` says when ``dt`` or
-the horizon is far from it. :class:`~uio_jax.Experiment` delegates to them (and warns).
+:func:`memory_bytes` and :func:`check_memory` for the memory of a run; :func:`time_scale` and
+:func:`time_scale_messages` for the shortest time scale of the filter's dynamics at the true
+start. :class:`~uio_jax.Experiment` delegates to them (and warns).
 """
 
 import math
@@ -50,12 +48,8 @@ def memory_bytes(exp, trials: int, keep: int = 0) -> int:
 
 
 def check_memory(exp, trials: int, keep: int = 0) -> int:
-    """Refuse, before any work, a run whose :func:`memory_bytes` exceeds
-    ``MEMORY_FRACTION`` (0.8) of the memory available; returns the estimate (bytes).
-
-    Raises:
-        OptionError: one line with the estimate, the memory available and what to lower.
-    """
+    """:meth:`uio_jax.Experiment.check_memory`: refuse a run whose :func:`memory_bytes`
+    exceeds ``MEMORY_FRACTION`` of the memory available (OptionError); returns the estimate."""
     need, have = memory_bytes(exp, trials, keep), memory_available()
     if have is not None and need > MEMORY_FRACTION * have:
         raise OptionError(f"experiment {exp.name!r}: {trials} trials of {exp.n_steps} steps "

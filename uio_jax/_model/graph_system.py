@@ -1,11 +1,9 @@
 """Systems built on an expression graph: the Systems the analyses derive.
 
 The extended system of the EORC and the systems of a UI extension are built of the
-expressions of the analysed System (imported into a new graph with a map of the
-coordinates, :meth:`uio_jax._engine.graph.Graph.import_nodes`), never written as JAX
-closures and traced again. Their functions are
-:class:`~uio_jax._engine.graph_trace.GraphFunction` objects of that graph, which is the
-System's own: its expressions are these nodes.
+expressions of the analysed System (imported into a new graph), never written as JAX closures
+and traced again: their functions are :class:`~uio_jax._engine.graph_trace.GraphFunction`
+objects of that graph, which is the System's own.
 """
 
 from .._engine.graph_trace import GraphFunction

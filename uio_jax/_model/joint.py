@@ -2,10 +2,9 @@
 (:meth:`uio_jax.System.joint`): every field padded with ``p' = 0``, every callable reading
 ``x = z[:n]``, ``p = z[n:]``.
 
-The callables are small objects rather than closures: called on numpy arrays they compute
-with numpy, on JAX arrays with ``jax.numpy``, and when the user's function builds its own
-expression (a declarative model's, :mod:`uio_jax._engine.graph_trace`) so do they (``emit``),
-so that the joint System of a model file reaches the graph without JAX.
+The callables are small objects rather than closures: numpy on numpy arrays, ``jax.numpy`` on
+JAX arrays, and their own expression (``emit``) when the user's function builds one, so that
+the joint System of a model file reaches the graph without JAX.
 """
 
 import numpy as np

@@ -11,14 +11,11 @@ Two meanings of a known input ``u`` in ``x' = f0 + sum_i u_i f_i + sum_j w_j g_j
 
       D theta = L_g0 theta + sum_{i, r} u_i^(r+1) d theta / d u_i^(r).
 
-This module builds the autonomous System on ``[z; u_1^(0..R); ..]`` (``z`` the System's own
-coordinates) whose drift is ``[g0; u^(1..R); 0]``: a Lie derivative along it IS the total
-derivative ``D``, exact up to order ``R + 1`` (only ``D`` of a function of ``u^(R)`` needs
-the truncated ``u^(R+1)``). Every jet coordinate is measured (an output), because a known
-input is known at every time with its derivatives; gradients then need no special
-treatment: the span of ``dz`` part of a codistribution that holds ``du^(r)`` for every
-``r`` is the codistribution taken "with respect to the state only" (the jets are known
-quantities), which is what the papers define.
+This module builds the autonomous System on ``[z; u_1^(0..R); ..]`` whose drift is
+``[g0; u^(1..R); 0]``: a Lie derivative along it IS the total derivative ``D``, exact up to
+order ``R + 1``. Every jet coordinate is measured (an output): the ``dz`` part of a
+codistribution that holds every ``du^(r)`` is then the codistribution "with respect to the
+state only" that the papers define.
 """
 
 import weakref
@@ -58,11 +55,8 @@ def with_input_jets(system: System, order: int) -> System:
         A System on ``N + mu (R + 1)`` states (``states + jet_names``): drift
         ``[f0 + sum_i u_i f_i; u^(1); ..; u^(R); 0]`` per input, the unknown fields padded
         with zeros, NO known field, and outputs = the System's outputs plus one output per
-        jet coordinate (its value). Attribute ``known_coordinates``: the trailing
-        coordinates that are known quantities, ``mu (R + 1)`` plus those of ``system``
-        (its time, :func:`known_coordinates`). A System without known inputs is returned
-        unchanged. Cached per System and order (the same System reuses its compiled
-        programs).
+        jet coordinate; its ``known_coordinates`` are ``mu (R + 1)`` plus those of ``system``.
+        A System without known inputs is returned unchanged. Cached per System and order.
     """
     mu = len(system.known)
     if mu == 0:

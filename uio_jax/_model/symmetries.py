@@ -1,16 +1,10 @@
 """Declared symmetries of a System: the user's claim, carried to the analysed coordinates.
 
-A symmetry is a vector field ``xi`` on the states and parameters, ``z = [x; p]``, along which
-the user believes the model invariant: rotating a frame about an axis nobody measures,
-scaling a state against a parameter. The analyses verify the claim before they use it
-(:mod:`uio_jax._analysis.decisions.symmetry`: the conditions, exactly modulo a prime); a verified one
-proves that the coordinates it moves are not observable, and bounds the dimension of the
-observable space from above, so that the EORC can stop once it is reached.
-
-A symmetry callable takes the arguments of every other callable of the System (``x``;
-``(x, p)`` with parameters; a trailing time ``t`` for a time-varying System) and returns
-shape ``(n + len(params),)``: its components along the states, then along the parameters.
-It never moves time.
+A symmetry is a vector field ``xi`` on ``z = [x; p]`` along which the user believes the model
+invariant; the analyses verify the claim before they use it
+(:mod:`uio_jax._analysis.decisions.symmetry`). A symmetry callable takes the arguments of every
+other callable of the System and returns shape ``(n + len(params),)``: its components along the
+states, then along the parameters. It never moves time.
 """
 
 from types import MappingProxyType

@@ -30,8 +30,7 @@ import numpy as np
 from .._engine.graph import Graph
 from .._engine.graph_trace import translate_or_refuse
 from .._errors import ModelError
-from .arguments import ANGLE_BOX as ANGLE_BOX  # the sampling boxes, imported from here too
-from .arguments import DEFAULT_BOX as DEFAULT_BOX
+from .arguments import DEFAULT_BOX as DEFAULT_BOX  # the sampling boxes, imported from here too
 from .arguments import DEFAULT_TIME_BOX as DEFAULT_TIME_BOX
 from .arguments import (
     as_callables,

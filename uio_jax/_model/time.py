@@ -9,11 +9,9 @@ A time-varying :class:`~uio_jax.System` (``time="t"``) has callables of ``(x, t)
                            + sum_j [g_j(x, p, t); 0; 0] w_j,
     y = (h(x, p, t), t).
 
-Time is measured (the extra output named like the time variable reads ``z[-1]``), so an
-analysis of this System has ``dt`` in its codistribution from the start; the System is
-marked with ``known_coordinates = 1`` and ``time_name`` so that the analyses leave ``t``
-out of their verdicts. This is exact: along any trajectory of the time-varying system,
-``t(s) = t0 + s`` is the solution of ``t' = 1`` and ``t0`` is known.
+Time is measured (the extra output named like the time variable reads ``z[-1]``), so ``dt``
+is in every codistribution from the start; ``known_coordinates = 1`` and ``time_name`` make
+the analyses leave ``t`` out of their verdicts. This is exact: ``t(s) = t0 + s``, ``t0`` known.
 """
 
 import numpy as np
@@ -75,10 +73,8 @@ def build_autonomous(system, joint_params=(), symmetry_fields=None):
         A System with ``n + 1`` states (``system.states`` then the time name), no params, no
         time argument: drift ``[f0(x, t); 1]`` (``[0; 1]`` without drift), fields
         ``[f_i(x, t); 0]``, outputs ``h(x, t)`` and ``t`` (named like the time variable),
-        domain the state boxes then the time box, the same angles, name and notes. Its
-        ``known_coordinates`` is 1 and ``time_name`` the time name. It validates itself (its
-        finiteness check draws ``t`` in the time box); its notes are ``system.notes`` and
-        those of that check.
+        domain the state boxes then the time box; ``known_coordinates`` 1, ``time_name`` the
+        time name. It validates itself (drawing ``t`` in the time box).
     """
     if system.time is None or system.params:
         raise ValueError("build_autonomous takes a time-varying System without params")

@@ -1,12 +1,10 @@
 """The checks a System passes when it is built: shapes, expressions, finiteness.
 
 :func:`check_shapes` traces every function once (shape, dtype) and translates it into the
-expression graph (a primitive with no rule, an index past the state); :func:`finite_notes`
-evaluates every function at sampled states of the box (numpy over the graph: nothing is
-compiled). :class:`~uio_jax.System` applies what they return (floats for integer results,
-notes); they write nothing on the System. A function that builds its own expression (a
-declarative model's, :mod:`uio_jax._engine.graph_trace`) is only translated: its shape is
-that of its expression and its values are float64, so JAX is not imported for it.
+expression graph; :func:`finite_notes` evaluates every function at sampled states of the box
+(numpy over the graph). :class:`~uio_jax.System` applies what they return; they write nothing
+on the System. A function that builds its own expression is only translated (JAX is not
+imported for it).
 """
 
 from types import MappingProxyType
@@ -21,10 +19,9 @@ from .._errors import ModelError
 
 #: Number of states drawn when a System is built, to catch fields that are NaN everywhere.
 CHECK_SAMPLES = 64
-#: A function finite at fewer than this fraction of the ``CHECK_SAMPLES`` states is
-#: evaluated at ``MORE_SAMPLES`` more states to estimate where it is defined: 64 states
-#: miss a set covering 5 % of the box with probability 0.95**64 = 4 %, 4096 states with
-#: probability below 1e-90 (and a set of 0.1 % with probability 2 %).
+#: A function finite at fewer than this fraction of the ``CHECK_SAMPLES`` states is evaluated
+#: at ``MORE_SAMPLES`` more to estimate where it is defined (64 states miss a set covering 5 %
+#: of the box with probability 4 %, 4096 states with probability below 1e-90).
 SPARSE_FRACTION = 0.125
 #: States drawn (one vmapped evaluation) before a function is declared NaN/inf everywhere.
 MORE_SAMPLES = 4096
@@ -143,10 +140,9 @@ def _check_index_range(system, what, fn, expected, scratch):
 def finite_notes(system) -> tuple:
     """Every function must be finite somewhere in the sampling box: the System's notes then.
 
-    It is evaluated at ``CHECK_SAMPLES`` states; one finite at fewer than
-    ``SPARSE_FRACTION`` of them is evaluated at ``MORE_SAMPLES`` more to estimate the
-    fraction of the box where it is finite: none of them gives a ModelError saying so,
-    a small fraction a note (the analyses drop the states where it is not).
+    It is evaluated at ``CHECK_SAMPLES`` states, then at ``MORE_SAMPLES`` more when finite at
+    fewer than ``SPARSE_FRACTION`` of them: finite nowhere is a ModelError, on a small fraction
+    of the box a note (the analyses drop the states where it is not).
 
     Returns:
         ``system.notes`` and one note per function finite on a small fraction of the box.

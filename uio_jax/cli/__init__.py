@@ -4,11 +4,9 @@
 stderr, never a traceback from inside JAX), 1 when a batch has failures.
 
 ``batch`` and ``montecarlo`` use JAX's persistent compilation cache
-(:func:`uio_jax.enable_compile_cache`; ``--cache-dir`` moves it, ``--no-cache`` turns it off)
-for the duration of the command: a second Monte Carlo of the same experiment with as many
-trials skips XLA compilation. ``analyze`` and ``save-model`` compile nothing (the analyses
-evaluate the expression graph): they check the directory and leave JAX alone, so that a model
-file is analysed without importing JAX. ``--no-cache`` with ``--cache-dir`` is a usage error.
+(:func:`uio_jax.enable_compile_cache`; ``--cache-dir`` moves it, ``--no-cache`` turns it off,
+the two together are a usage error). ``analyze`` and ``save-model`` compile nothing: they
+check the directory and leave JAX alone, so that a model file is analysed without JAX.
 
 Every option is checked before any work (:func:`uio_jax._analysis.options.check_options`;
 the memory a run needs, :mod:`uio_jax._analysis.decisions.memory`, as soon as its size is known).

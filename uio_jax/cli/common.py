@@ -53,11 +53,9 @@ def compile_cache(args, compiles=True):
     """JAX's persistent compilation cache for the command, unless ``--no-cache``.
 
     An unusable default directory only costs the cache (one warning line); an unusable
-    ``--cache-dir`` is an error, and so is ``--cache-dir`` with ``--no-cache``
-    (:func:`check_cache_options`). A command that compiles nothing (``compiles`` False:
-    ``analyze``, ``save-model``; the analyses evaluate the expression graph with numpy) only
-    checks the directory and leaves JAX alone: it does not import JAX for a model that is not
-    a Python program.
+    ``--cache-dir`` is an error, and so is ``--cache-dir`` with ``--no-cache``. A command that
+    compiles nothing (``compiles`` False: ``analyze``, ``save-model``) only checks the
+    directory and leaves JAX alone.
     """
     from .._filter.compile_cache import compile_cache as use_cache
     from .._filter.compile_cache import prepare_cache_dir
@@ -82,10 +80,9 @@ def check_writable(*paths, names=None, inputs=()):
     """Refuse output files that cannot be written, before hours of work, not after.
 
     Each given path must be a non-empty name in an existing, writable directory, must not
-    be a directory itself nor one of the input files (a model overwritten by its report),
-    and no two may name the same file. A path that exists and is no regular file (a
-    device, a FIFO) is written in place by :func:`write_output`; a failure there is the
-    same one-line error when it happens.
+    be a directory itself nor one of the input files, and no two may name the same file. A
+    path that exists and is no regular file (a device, a FIFO) is written in place by
+    :func:`write_output`.
 
     Args:
         *paths: output paths (None for an option not given; "" is refused).
@@ -128,11 +125,9 @@ def check_writable(*paths, names=None, inputs=()):
 @contextlib.contextmanager
 def hold_outputs(paths):
     """Hold an exclusive lock per output file for the block: a second command writing one
-    of the same files meanwhile (two batches with one ``--json``: the last writer would win,
-    silently) is refused up front with a UsageError. The locks are files of
-    ``$TMPDIR/uio_jax-outputs-UID/`` (none beside the outputs), released when the block
-    ends or the process dies; devices and FIFOs are not locked; a platform without
-    ``fcntl`` locks nothing."""
+    of the same files meanwhile is refused up front with a UsageError. The locks are files of
+    ``$TMPDIR/uio_jax-outputs-UID/``, released when the block ends or the process dies;
+    devices and FIFOs are not locked; a platform without ``fcntl`` locks nothing."""
     try:
         import fcntl
         import hashlib

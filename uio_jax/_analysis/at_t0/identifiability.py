@@ -1,16 +1,13 @@
 """Identifiability at t = 0: known initial states and several experiments.
 
-The mathematics (the question, the rows, the exact decisions, when the orders stop) is in
-:mod:`uio_jax._analysis.at_t0.initial`; this module runs it.
+The mathematics is in :mod:`uio_jax._analysis.at_t0.initial`; this module runs it.
 
 **Several experiments.** Experiment ``e`` is a System with its own states, inputs and initial
 state; the parameters named in ``shared`` are one unknown for every experiment, the others one
-per experiment (named ``k[e]``). The Jacobian of all experiments' coefficients with respect to
-all unknowns is block structured: ``[A_e | B_e]`` per experiment, ``A_e`` on the shared
-parameters, ``B_e`` on experiment ``e``'s own unknowns. The experiments are absorbed one
-after another; the report lists what each one adds. Each experiment's own span is closed once
-one of its orders adds nothing to it (no known initial value, no unknown input): its later
-orders then lie in the span already, so the joint span is complete.
+per experiment (named ``k[e]``): the Jacobian is ``[A_e | B_e]`` per experiment, ``A_e`` on
+the shared parameters. The experiments are absorbed one after another (the report lists what
+each adds); an experiment's own span is closed once one of its orders adds nothing to it (no
+known initial value, no unknown input), so the joint span is complete.
 
 **Generic experiments.** Copies of one System with independent generic states and inputs.
 Let ``W(x)`` be the space of shared-parameter covectors that one copy's rows give once its own

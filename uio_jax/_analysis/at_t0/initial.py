@@ -130,8 +130,7 @@ def initial_value(system, name, value) -> InitialValue:
     """The known initial value of state ``name``, checked: a real number or a function of the
     parameters that is real somewhere in their box.
 
-    A known value is not bounded by the state's sampling box (the box is where *generic*
-    states are drawn; a known value such as ``x2(0) = 0`` may lie anywhere the model is
+    A known value is not bounded by the state's sampling box (it may lie anywhere the model is
     defined: :func:`check_defined`). Every value becomes one of
 
     * an exact :class:`~fractions.Fraction`: a number (a float means its shortest decimal, as

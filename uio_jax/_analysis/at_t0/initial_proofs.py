@@ -123,7 +123,7 @@ class _Ansatz:
     """The linear equations of (S1)-(S3) and (T) in the coefficients of a field of degree <= 1."""
 
     def __init__(self, ex, undecided, seed):
-        self.ex, self.refusal = ex, ""
+        self.refusal = ""
         joint = ex.joint
         self.builder = builder_for(joint)
         self.graph = self.builder.graph

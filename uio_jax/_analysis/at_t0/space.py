@@ -1,15 +1,9 @@
 """What an identifiability report at t = 0 answers about a function of the unknowns
-(``IdentifiabilityReport.is_observable``): the span of the output coefficients' gradients
-``d(y_0..y_K)`` at the known initial state, queried as the generic report queries its
-codistribution.
-
-A function ``phi(z)`` of the System's ``z = [x; p]`` is *determined at the known initial
-state* when ``d phi`` (its known components substituted, as the coefficients' are) lies in
-that span: the same exact membership modulo p as the verdicts on single unknowns, by the
-same Settler (its bound added to the report's). It is *proved not determined* where the span
-is closed (no later order can add to it: no known component, no unknown input); otherwise a
-function outside the span is undecided up to order K, and the question is refused in one
-line that says so (no answer is given as certain that is not).
+(``IdentifiabilityReport.is_observable``): the span of ``d(y_0..y_K)`` at the known initial
+state. ``phi(z)`` of ``z = [x; p]`` is *determined* when ``d phi`` (its known components
+substituted) lies in that span, by the same exact membership and Settler as the verdicts on
+single unknowns; *proved not determined* where the span is closed (no known component, no
+unknown input); otherwise undecided up to order K, and the question is refused in one line.
 """
 
 import dataclasses

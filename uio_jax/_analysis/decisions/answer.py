@@ -1,6 +1,5 @@
 """What a finished analysis proves (:class:`~uio_jax._analysis.results.kinds.Answer`), decided
-once by the analysis that ran, from its method, its stop, its details and the arithmetic of
-its decisions; ``Report.answer`` keeps the member and ``Report.exact`` reads it.
+once by the analysis that ran; ``Report.answer`` keeps the member and ``Report.exact`` reads it.
 
 The rules (the papers' theorems):
 
@@ -10,11 +9,9 @@ The rules (the papers' theorems):
 * A recursion stopped by a cap (``max_order``, the step bound, the general solution's
   iterations) shows observability sufficiently only: "observable" is proven, "not
   observable" means not shown.
-* The EORC is sufficient only, except where it stopped at the known-input bound (a state it
-  does not show is not observable even with every input known,
-  :mod:`uio_jax._analysis.recursions.known_bound`) or at the bound of its verified
-  symmetries (a state it does not show is moved by one,
-  :mod:`uio_jax._analysis.decisions.symmetry`).
+* The EORC is sufficient only, except where it stopped at the known-input bound
+  (:mod:`uio_jax._analysis.recursions.known_bound`) or at the bound of its verified symmetries
+  (:mod:`uio_jax._analysis.decisions.symmetry`).
 * The general solution with smooth known inputs whose jets may have been truncated
   (``details["exact"] is False``) proves "observable" only.
 * A necessary and sufficient answer is :attr:`~Answer.EXACT` when every decision was made in

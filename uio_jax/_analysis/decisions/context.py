@@ -2,10 +2,9 @@
 
 Each recursion (ORC, single unknown input, EORC, general solution) is a Python loop over
 steps m; inside a step the new candidate generators are evaluated in one call (numpy over
-the System's expression graph) at the first
-samples (:data:`DECISION_SAMPLES` of them where the model is defined) and pruned by
-:class:`~uio_jax._analysis.decisions.rank.Codistribution`; the final span is certified on all the
-samples (:meth:`Context.certify`).
+the System's expression graph) at the decision samples and pruned by
+:class:`~uio_jax._analysis.decisions.rank.Codistribution`; the final span is certified on all
+the samples (:meth:`Context.certify`).
 """
 
 import dataclasses
@@ -35,10 +34,8 @@ from .settle import DEFAULT_PROB_THRESHOLD, model_roots, new_settler
 from .space import Projection, SampledSpace, report_view, system_known
 
 #: A report gets a note when more than this fraction of the sampled states was dropped
-#: (NaN/inf there). The rank decisions rest on the states kept, and stay valid there; but
-#: past a tenth of the box the model is undefined on a part of the domain large enough
-#: that the user should know the verdict does not cover it (below it, a thin singular set
-#: such as a pole or a branch cut, which every domain box of such a model touches).
+#: (NaN/inf there): the verdict is valid on the states kept, but past a tenth of the box the
+#: model is undefined on a part of the domain the user should know the verdict does not cover.
 DROPPED_NOTE_FRACTION = 0.10
 
 
@@ -59,17 +56,15 @@ class Context:
         self.builder = builder_for(system)
         self.samples = samples
         self.seed = seed
-        #: one Settler per analysis, shared by its forks: each question is settled once, and
-        #: the error bound of the exact decisions is summed over all of them (the plan's,
-        #: where the plan made one: :func:`uio_jax._analysis.plan.plan`)
+        #: one Settler per analysis (the plan's, where it made one), shared by its forks: each
+        #: question is settled once, and the error bound is summed over all of them
         self.settler = new_settler(system, seed, prob_threshold) if settler is None else settler
         self.prob_threshold = prob_threshold
         xs_all = sample_states(system, samples, seed)
         exact = self.settler.arithmetic(model_roots(system, self.builder)) is Arithmetic.EXACT
         wanted = screen_samples(system.n) if exact else DECISION_SAMPLES
         #: ``(S,)``: the outputs and fields finite at each sample; where they are not, the
-        #: sample is dropped (counted in the certificate), even where their gradients are
-        #: finite (a NaN chosen by a ``where``)
+        #: sample is dropped, even where their gradients are finite (a NaN chosen by a ``where``)
         self.defined = self._defined(xs_all)
         self._start(xs_all, rtol, decision_count(self.defined, samples, system.n, wanted))
 
@@ -92,9 +87,8 @@ class Context:
         self.codist.valid &= self.defined[:decisions]
         self.codist.policy = DecisionPolicy(self.settler.settle)  # every vote settled again in the graph
         self.memberships = []  # RankDecisions of membership tests (for the certificate)
-        #: how the decisions made outside the codistribution were settled (the zero tests of
-        #: the general solution: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote),
-        #: counted in the certificate
+        #: how the decisions outside the codistribution were settled (the general solution's
+        #: zero tests: ``"exact mod p"``, ``"mpmath"``, ``""`` for a float64 vote)
         self.extra_decisions = []
         #: the final span was not re-decided on every sample: every decision was exact
         #: (:meth:`certify`)
@@ -126,18 +120,12 @@ class Context:
         """Decide the final span again at every sample (after the recursion).
 
         The kept generators are absorbed, in order, into a codistribution over all ``S``
-        samples: their gradients are evaluated there once. Each acceptance is a vote of the
-        ``S`` samples; a weak one, or one that does not confirm the decision samples, is
-        settled beyond float64 (undecided if that fails too). The decisions of the
-        recursion (rejected candidates, memberships on the way) keep their votes of the
-        decision samples. Afterwards :attr:`codist` and :attr:`xs` are those of all the
-        samples; a no-op when they already are and ``upto`` is None.
-
-        Also a no-op (``upto`` None) when every decision so far was made exactly
-        (:meth:`decided_exactly`): the float64 votes are then a screen whose verdicts the
-        exact decisions replaced, and more samples would only refine margins nobody decides
-        on (:attr:`screen_only`; the certificate's margins and the figure come from the
-        decision samples).
+        samples; a weak acceptance, or one that does not confirm the decision samples, is
+        settled beyond float64 (undecided if that fails too). The recursion's other decisions
+        keep their votes of the decision samples. Afterwards :attr:`codist` and :attr:`xs` are
+        those of all the samples. A no-op when they already are and ``upto`` is None, and
+        (``upto`` None) when every decision so far was made exactly (:meth:`decided_exactly`:
+        the float64 votes were only a screen; :attr:`screen_only`).
 
         Args:
             upto: keep only the first ``upto`` generators (the span at an earlier step of
@@ -193,16 +181,11 @@ class Context:
         """Which unit covectors lie in the span, and its dimension on the first ``n``
         coordinates, certified.
 
-        ``e_1..e_count`` are tested once (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`);
-        the dimension of the span intersected with ``span{dz_1..dz_n}`` is ::
-
-            dim = rank(Omega) + n - rank([Omega; e_1..e_n]),
-
-        for which ``e_1..e_n`` are absorbed one by one into a copy of the span (each one
-        that raises the generic rank removes one dimension). Every decision is recorded
-        in :attr:`memberships` for the certificate. ``meanwhile()`` is called once the
-        memberships are known and the dimension must be computed (the EORC starts its next
-        order there, so that it computes during this host-side rank work).
+        ``e_1..e_count`` are tested once
+        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`); the dimension
+        ``dim = rank(Omega) + n - rank([Omega; e_1..e_n])`` absorbs ``e_1..e_n`` one by one into
+        a copy of the span. Every decision is recorded in :attr:`memberships`. ``meanwhile()``
+        is called once the memberships are known and the dimension must be computed.
 
         Returns:
             ``(members, dim)``: ``count`` booleans, and the dimension (``n`` when the first
@@ -299,12 +282,9 @@ class Context:
             self._grads.setdefault(nd, grads[:, i])
 
     def absorb(self, nodes, grads=None) -> list[Node]:
-        """Keep the candidate nodes that raise the generic rank.
-
-        A step of a recursion that keeps nothing ends it (the span is closed under its
-        fields), so its rejections are then settled exactly where the model is rational
-        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.absorb`, ``confirm_empty``): a
-        genuine direction of a deep derivative can sit under float64's round-off.
+        """Keep the candidate nodes that raise the generic rank (the rejections of a step that
+        keeps nothing settled exactly where the model is rational: ``confirm_empty`` of
+        :meth:`~uio_jax._analysis.decisions.rank.Codistribution.absorb`).
 
         Args:
             nodes: scalar Nodes.
@@ -363,10 +343,8 @@ class Context:
         recursion driver announces the steps it records, :func:`~uio_jax._analysis.recursions.driver.iterate`).
 
         ``Step.fraction`` is the smallest agreeing fraction among the rank decisions taken
-        since the previous step (candidates kept and candidates rejected; 1.0 if none): the
-        evidence the step rests on, free, where an SVD of the whole span at every step
-        would cost ``O(S r^2 n)`` each (5 of Arabidopsis' 28 s). The final span gets its
-        SVD once, in :meth:`certificate`.
+        since the previous step (candidates kept and rejected; 1.0 if none): evidence for
+        free, where an SVD of the whole span at every step would cost ``O(S r^2 n)``.
         """
         cd = self.codist
         a, r = self._decided_before
@@ -423,12 +401,9 @@ class Context:
         """Build the Report: certificate, weak-certificate note, generators, the answer.
 
         ``projection`` (:class:`~uio_jax._analysis.decisions.space.Projection`): the span's
-        answer on the original state where it lives on more coordinates (the EORC, the
-        extended general solution); default this context's own. On a System with known
-        coordinates (the time of :meth:`System.autonomous`) the default leaves them out: the
-        verdicts and the dimension are about the first ``n - known_coordinates`` coordinates.
-        ``known_inputs``: the meaning of the known inputs the analysis took (``"none"`` is
-        recorded when the System has none).
+        answer on the original state where it lives on more coordinates; default this
+        context's own, without the known coordinates (the time of :meth:`System.autonomous`).
+        ``known_inputs``: the meaning of the known inputs (``"none"`` when the System has none).
         """
         self.certify()
         own = self.system

@@ -56,14 +56,10 @@ FALLBACK_LIMIT = 8 * 2**30
 _FLOAT = 8  # bytes per float64 entry
 
 #: The recursion decides on the first samples that hold this many states where the model
-#: (its outputs and fields) is defined: the first this-many on a model defined on its whole
-#: box, more on one undefined on a part of it (never more than :func:`certify_samples`),
-#: so that every vote has that many states (:func:`decision_count`). The final span is then
-#: certified on more (:meth:`~uio_jax._analysis.decisions.context.Context.certify`). A decision is the
-#: vote of these samples, settled beyond float64 when weak (:mod:`uio_jax._analysis.decisions.settle`),
-#: so the rest of the samples add coverage of the domain, not correctness: they are spent
-#: once, on the final generators, instead of on every candidate of every step
-#: (``docs/benchmarks/engine.md``).
+#: (its outputs and fields) is defined (:func:`decision_count`, never more than
+#: :func:`certify_samples`); the final span is then certified on more
+#: (:meth:`~uio_jax._analysis.decisions.context.Context.certify`). A weak vote is settled
+#: beyond float64, so the rest of the samples add coverage of the domain, not correctness.
 DECISION_SAMPLES = 128
 
 #: The float64 screen of a model decided exactly keeps ``S N^2`` near this (a vote costs
@@ -73,18 +69,12 @@ SCREEN_BUDGET = 2**21
 #: The fewest defined samples of a float64 screen.
 SCREEN_MIN = 16
 
-#: The final span is certified on all the samples while its per-sample arrays fit in this
-#: many bytes: on ``N`` coordinates they are at most ``N x N`` float64 per sample (the kept
-#: rows and their basis, ``r <= N`` rows of ``N``; the unit-covector test of up to ``N``
-#: coordinates), so all ``S`` samples are used while ``8 S N^2 <= CERTIFY_BYTES``. A larger
-#: span (a deep EORC: ``N`` in the hundreds) is certified on the first samples that fit,
-#: never fewer than :data:`DECISION_SAMPLES`. Its cost grows like ``S r^2 N``: on the
-#: visual-inertial EORCs (``N`` of 80-150) all 4096 samples took 5-15 s and 0.3-0.7 GB, for
-#: votes that the exact verification of every kept generator of a rational model
-#: (:mod:`uio_jax._analysis.decisions.settle`) already certifies. The report says how many samples
-#: certified the span (:attr:`uio_jax.Certificate.capped`). The value keeps the default 4096
-#: samples for every analysis on up to 35 coordinates (every ORC of the zoo and of StrikePy's
-#: models, the largest being Arabidopsis with 35): 38 MiB.
+#: The final span is certified on all the samples while its per-sample arrays (at most
+#: ``N x N`` float64 on ``N`` coordinates) fit: ``8 S N^2 <= CERTIFY_BYTES``. A larger span (a
+#: deep EORC) is certified on the first samples that fit, never fewer than
+#: :data:`DECISION_SAMPLES` (:attr:`uio_jax.Certificate.capped` says how many did not); the
+#: exact verification of its kept generators certifies it already. The value keeps the default
+#: 4096 samples for every analysis on up to 35 coordinates (every ORC of the zoo): 38 MiB.
 CERTIFY_BYTES = 8 * 4096 * 35**2
 
 

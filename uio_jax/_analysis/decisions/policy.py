@@ -15,8 +15,7 @@ sampled states) is settled again in the System's expression graph by the analysi
   settled beyond float64 (:meth:`DecisionPolicy.settle_stop`).
 
 The outcome replaces the vote (an undecided one keeps it, marked); what was settled goes to a
-:class:`Record`, the explicit state of one span's decisions, which the caller owns, copies
-and merges (a fork's trial span, the span re-decided on more samples).
+:class:`Record`, which the caller owns, copies and merges.
 """
 
 import dataclasses

@@ -73,14 +73,12 @@ class Tested:
 class Codistribution:
     """A growing set of kept generators, evaluated at fixed sample states.
 
-    Holds, per sample, the column-scaled gradients of the kept generators and an
-    orthonormal basis of their span (Gram-Schmidt, rows zeroed at the samples where a kept
-    row was dependent), both stored row-major ``(capacity, S, n)`` and grown on demand (one
-    contiguous block per kept row; :attr:`grads` and :meth:`kept_basis` are ``(S, r, n)``
-    views). A candidate is kept when its distance to the span raises
-    the generic rank (:func:`decide_increase`); testing costs O(S r n) per candidate, so
-    kept generators are never re-evaluated nor re-factorized. The final set is checked by
-    a full SVD (:meth:`decision`).
+    Holds, per sample, the column-scaled gradients of the kept generators and an orthonormal
+    basis of their span (Gram-Schmidt, rows zeroed at the samples where a kept row was
+    dependent), stored row-major ``(capacity, S, n)`` and grown on demand (:attr:`grads` and
+    :meth:`kept_basis` are ``(S, r, n)`` views). A candidate is kept when its distance to the
+    span raises the generic rank (:func:`decide_increase`), O(S r n) per candidate; the final
+    set is checked by a full SVD (:meth:`decision`).
     """
 
     def __init__(self, n, samples, col_scale, rtol):
@@ -123,14 +121,11 @@ class Codistribution:
     def copy(self, trial: bool = False) -> "Codistribution":
         """A copy of the span, with no decisions yet.
 
-        The arrays (``valid (S,)``, the kept rows and their basis, ``ref (S,)``) and the
-        list of kept nodes are copied, so absorbing into the copy leaves this one
-        unchanged; ``acceptances`` and ``rejections`` start empty, so they hold the copy's
-        own decisions.
+        The arrays and the list of kept nodes are copied, so absorbing into the copy leaves
+        this one unchanged; ``acceptances`` and ``rejections`` start empty.
 
-        ``trial``: the copy shares the storage of the kept rows and their basis instead
-        (no copying of the ``(r, S, n)`` arrays): it writes only the rows past this span's
-        rank, which this span does not read, so this span is still unchanged; the copy is
+        ``trial``: the copy shares the storage of the kept rows and their basis instead: it
+        writes only the rows past this span's rank, which this span does not read; the copy is
         valid until this span keeps another generator (a trial absorb, then discarded).
         """
         c = Codistribution.__new__(Codistribution)
@@ -211,12 +206,9 @@ class Codistribution:
         ``only``: the indices (0-based, below ``count``) of the ones to test, in that order.
 
         With ``B (S, r, n)`` the kept orthonormal rows, the residuals of every ``e_j`` at
-        once are the columns of ``R1 = I - B^T B`` and, projected a second time as in
-        :meth:`test` where a column is shorter than :data:`_REPROJECT_BELOW` at some sample,
-        ``R2 = R1 - B^T (B R1)``: at most three small matrix products per sample instead of
-        four per covector. Unlike :meth:`test`, a unit covector is never taken for a
-        round-off zero row (``ZERO_ROW_RTOL`` against the kept rows' norms): its norm is
-        exact, however large the kept gradients are.
+        once are the columns of ``R1 = I - B^T B`` and, where a column is shorter than
+        :data:`_REPROJECT_BELOW` at some sample, ``R2 = R1 - B^T (B R1)``. A unit covector is
+        never taken for a round-off zero row: its norm is exact.
         """
         S, n = len(self.valid), self.n
         at = np.arange(count) if only is None else np.asarray(only, dtype=np.intp)
@@ -248,9 +240,7 @@ class Codistribution:
             expect_rise: every candidate is expected to raise the rank (the kept generators
                 re-decided on more samples): a vote that it does not is settled again.
             confirm_empty: when no candidate is kept, settle every rejection exactly where
-                the graph is rational (:meth:`_confirm_empty`): a step that adds nothing
-                ends a recursion, and a genuine direction of a deep derivative can sit
-                under the float64 round-off.
+                the graph is rational (:meth:`_confirm_empty`).
 
         Returns:
             The list of kept nodes.
@@ -320,12 +310,9 @@ class Codistribution:
 
     def _confirm_empty(self, nodes, grads, first, cands, rho, dirs):
         """No candidate was kept: each float64 rejection not settled yet is settled again
-        (:meth:`~uio_jax._analysis.decisions.policy.DecisionPolicy.settle_stop`: modulo ``p`` where the
-        graph is made rational, where :meth:`_decide` has settled it already; in extended
-        precision elsewhere: a step that keeps nothing ends a recursion, and a genuine
-        direction of a deep derivative can sit under float64's round-off). A confirmed
-        dependence is recorded as settled; the first candidate found independent is kept
-        (its rejection withdrawn) and the others are absorbed against the grown span.
+        (:meth:`~uio_jax._analysis.decisions.policy.DecisionPolicy.settle_stop`): a genuine
+        direction of a deep derivative can sit under float64's round-off. The first candidate
+        found independent is kept and the others are absorbed against the grown span.
         Returns the kept nodes."""
         if self.policy is None or self.rank >= self.n:
             return []

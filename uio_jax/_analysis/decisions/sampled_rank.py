@@ -20,9 +20,6 @@ The kernels of :mod:`uio_jax._analysis.decisions.rank` (the growing span,
   derivatives can *fake* a little rank at a badly conditioned sample; both are minorities
   and the majority resists both. Every decision carries its evidence
   (:class:`RankDecision`): the agreeing fraction and the margins on both sides of ``rtol``.
-
-Everything here is numpy: a few batched products per call, which compiling would cost more
-than they run on a first call.
 """
 
 from dataclasses import dataclass
@@ -47,10 +44,9 @@ def default_rtol() -> float:
 
 
 #: A row whose norm is below this fraction of the largest row norm of its matrix (same
-#: sample) is treated as exactly zero before rows are scaled to unit norm. Without it, the
-#: gradient of a function that vanishes identically (e.g. ``L_{V_y} h_u`` of the vehicle,
-#: computed as ~5e-16 of round-off) would be blown up to a unit row and fake a rank. Genuine
-#: gradients of our models differ in norm by far fewer than ten decades within one sample.
+#: sample) is treated as exactly zero before rows are scaled to unit norm: the round-off
+#: gradient of a function that vanishes identically must not fake a rank. Genuine gradients
+#: of our models differ in norm by far fewer than ten decades within one sample.
 ZERO_ROW_RTOL = 1e-10
 
 
@@ -159,19 +155,14 @@ QR_FROM = 8
 def sequential_qr(res):
     """``(Q (k, S, n), d (S, k))``: per sample, the QR of the residual columns ``res``
     ``(C, S, n)`` (``k = min(n, C)``): ``Q[j]`` is the direction of candidate ``j`` after the
-    ones before it, ``d[:, j] = R_jj`` its signed distance. ``Q`` is returned candidate-major
-    (one transposing copy, cache-friendly per sample): taking ``Q[..., j]`` out of LAPACK's
-    ``(S, n, k)`` one candidate at a time reads every cache line ``k`` times."""
+    ones before it, ``d[:, j] = R_jj`` its signed distance (``Q`` candidate-major)."""
     q, r = np.linalg.qr(np.transpose(res, (1, 2, 0)))
     return np.ascontiguousarray(np.moveaxis(q, 2, 0)), np.diagonal(r, axis1=1, axis2=2)
 
 
 def decide_increase(rho, valid, rtol, base_rank) -> RankDecision:
-    """Does a candidate raise the generic rank? (host, numpy)
-
-    The candidate raises the rank at a sample when its distance ``rho`` to the span (after
-    scaling it to unit norm) exceeds ``rtol``; the generic answer is the majority of the
-    valid samples.
+    """Does a candidate raise the generic rank? At a sample, when its distance ``rho`` to the
+    span (after scaling it to unit norm) exceeds ``rtol``; generically, by majority.
 
     Args:
         rho: ``(S,)`` distances in [0, 1].

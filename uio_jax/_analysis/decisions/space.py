@@ -1,10 +1,8 @@
 """The observable space of a finished analysis, as a Report reads it.
 
-A Report answers questions about the original state ``x (n,)`` after the analysis: its
-unobservable directions at a state, whether a function of the state is observable, the
-singular values at the samples (:class:`Space`). :class:`SampledSpace` answers them from
-the final codistribution of a :class:`~uio_jax._analysis.decisions.context.Context`;
-:class:`ReportView` is what a Report reads of the System (names only).
+A Report asks about the original state ``x (n,)``: its unobservable directions, whether a
+function of it is observable, the singular values at the samples (:class:`Space`, answered by
+:class:`SampledSpace` from a finished Context); :class:`ReportView` is what it reads of the System.
 """
 
 import dataclasses
@@ -69,10 +67,10 @@ class SpanParts:
         roots: the graph nodes of the analysed System's outputs and fields.
         box: ``(lo, hi)`` of the analysed coordinates.
         system: the analysed System (whose coordinates the span lives on).
-        original: the System whose states are the report's ``n`` coordinates (the analysed
-            System when ``n = N``; for the EORC and an extended general solution the System
-            before the extension, with its unknown inputs), on which a found symmetry is
-            verified; None where there is none (a time-varying model).
+        original: the System whose states are the report's ``n`` coordinates (the System
+            before the extension, with its unknown inputs, for the EORC and an extended
+            general solution), on which a found symmetry is verified; None for a
+            time-varying model.
     """
 
     builder: object
@@ -116,13 +114,10 @@ EXTENDED_DIGITS = 60
 class SampledSpace(Space):
     """The final codistribution of a Context, queried by a Report about the original state.
 
-    The one implementation of a Report's queries (``unobservable_directions``,
-    ``is_observable``, ``sample_singular_values``). The codistribution lives on the
-    ``N`` coordinates of ``ctx.system``; the Report's state is its first ``n`` (``n = N``
-    for the ORC and the single-input analysis; for the EORC the extended state
-    ``[x; xi]``, whose extra coordinates are set to ``fill`` where a state is given).
-    ``fill`` is one generic point of the extra coordinates' boxes, drawn once (seeded): a
-    point such as the centre of every box can be singular (every input derivative equal).
+    The codistribution lives on the ``N`` coordinates of ``ctx.system``; the Report's state is
+    its first ``n`` (``n = N`` for the ORC and the single-input analysis; for the EORC the
+    extended state ``[x; xi]``, whose extra coordinates are set to ``fill``: one generic point
+    of their boxes, drawn once, seeded; the centre of every box can be singular).
 
     Args:
         ctx: the finished analysis (a :class:`~uio_jax._analysis.decisions.context.Context`).
@@ -206,7 +201,7 @@ class SampledSpace(Space):
         g = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
         _, sv, vt = np.linalg.svd(g)
         if sv[min(r, N) - 1] < self._ctx.codist.rtol * sv[0]:
-            return self._directions_extended(X, r)
+            return self._directions_extended(X)
         if N == n:
             return vt[r:].T.copy()
         q = vt[:r]
@@ -214,14 +209,14 @@ class SampledSpace(Space):
         _, _, wt = np.linalg.svd(P[:, :n])
         return wt[: n - self._dim].T.copy()
 
-    def _directions_extended(self, X, r, dps=None) -> np.ndarray:
-        """:meth:`unobservable_directions` in ``dps`` decimal digits (mpmath, default
-        :data:`EXTENDED_DIGITS`): where the kept generators' smallest directions are under
-        float64's reach at ``X`` (``s_r/s_1`` under ``rtol``), their gradients are evaluated in
-        the expression graph at ``X`` (its floats taken exactly) and the null space is
-        computed there. A state where they are dependent even at ``dps`` digits (``s_r/s_1``
-        under ``10^-(dps/2)``) is singular: refused."""
-        dps = EXTENDED_DIGITS if dps is None else dps
+    def _directions_extended(self, X) -> np.ndarray:
+        """:meth:`unobservable_directions` in ``dps =`` :data:`EXTENDED_DIGITS` decimal digits
+        (mpmath): where the kept generators' smallest directions are under float64's reach at
+        ``X`` (``s_r/s_1`` under ``rtol``), their gradients are evaluated in the expression graph
+        at ``X`` (its floats taken exactly) and the null space is computed there. A state where
+        they are dependent even at ``dps`` digits (``s_r/s_1`` under ``10^-(dps/2)``) is
+        singular: refused."""
+        dps = EXTENDED_DIGITS
         ev = graph_exact.ExtendedEvaluator(self._ctx.builder.graph, X, dps)
         _, grads = ev.gradients([nd.expr for nd in self._nodes])
         return annihilator_extended(ev.ctx, grads, self._n, self._dim, dps)

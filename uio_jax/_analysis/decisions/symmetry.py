@@ -36,22 +36,18 @@ and holds for smooth known inputs too (their jets enter a drift whose bracket wi
 still vanishes).
 
 **Verification.** The conditions are identities of the model's functions, tested in its
-expression graph (:mod:`uio_jax._engine.graph`) by the zero test of the analyses'
-:class:`~uio_jax._analysis.settle.Settler` (:meth:`~uio_jax._analysis.settle.Settler.vanishes`):
-one settlement mechanism for every exact decision. Modulo ``p = 2^127 - 1`` where the graph
-is made rational (square roots and the elementary functions included: a point where a root's
-argument is no square modulo p is drawn again): a nonzero value proves "not zero"; zeros are
-"zero" with the Schwartz-Zippel bound ``D / p`` per point, points added while the bound
-exceeds the share of the caller's ``1 - prob_threshold`` per decision, the bounds summed into
-:attr:`SymmetryBound.probability` and charged to the caller's certificate. Elsewhere (a
-function not made rational) in mpmath at two precisions, labelled not exact. For (S3) the
+expression graph by the zero test of the analyses' :class:`~uio_jax._analysis.settle.Settler`
+(:meth:`~uio_jax._analysis.settle.Settler.vanishes`): modulo ``p = 2^127 - 1`` where the graph
+is made rational (a nonzero value proves "not zero"; zeros are "zero" with the Schwartz-Zippel
+bound ``D / p`` per point, summed into :attr:`SymmetryBound.probability` and charged to the
+caller's certificate), elsewhere in mpmath at two precisions, labelled not exact. For (S3) the
 unknown-input fields are solved on ``m`` coordinates where they are independent
 (``B = G_I^-1 [xi, g]_I``, by the adjugate in the graph): ``B`` is constant when its gradient
 vanishes, and (S3) holds when ``[xi, g] - G B`` vanishes on every coordinate. The rank of the
 fields is taken at the Settler's first point (modulo p never above the generic rank, so the
 bound is never too low). A claim that fails any test, a function without an expression in the
-graph, a test that cannot be decided (every point singular, the precisions disagree), or
-unknown-input fields dependent at the point: the symmetry is reported unverified and not used.
+graph, a test that cannot be decided, or unknown-input fields dependent at the point: the
+symmetry is reported unverified and not used.
 """
 
 import dataclasses
@@ -192,7 +188,7 @@ def verify_symmetries(system, seed: int = 0, prob_threshold: float = DEFAULT_PRO
         if B is not None:
             unobservable.update(names[c] for c in range(len(names)) if any(test.nonzero(B[j][c])
                                                                            for j in range(len(names))))
-    rank = _rank(settler, graph, verified_rows, n_rep)
+    rank = _rank(settler, verified_rows, n_rep)
     if charge is not None:
         charge.add_bound(settler.error_bound)
     return SymmetryBound(n_rep - rank, rank, tuple(system.states[i] for i in sorted(moved)),
@@ -234,7 +230,7 @@ def symmetry_notes(bound: SymmetryBound, observable: dict, where: str, dim: int)
     return notes, at
 
 
-def _rank(settler, graph, fields, n_rep) -> int:
+def _rank(settler, fields, n_rep) -> int:
     """Rank of the verified fields (their expressions) at the Settler's first point, on the
     reported coordinates: modulo p where they are made rational (never above the generic
     rank), else by the SVD of their values in mpmath (relative threshold 1e-12, far above the

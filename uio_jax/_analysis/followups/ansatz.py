@@ -19,12 +19,10 @@ in unknown coefficients ``c`` give equations at each point:
 
 Points are added until the solution space stops shrinking (two points in a row leave its
 dimension unchanged, or the equations outnumber the unknowns by the rows of two points). A
-basis of the solutions is put in reduced echelon form with the most complex unknowns first
-(so that each basis element uses as few and as simple monomials as it can), and its entries
-are read back as small fractions (rational reconstruction). These are *candidates*: a point
-set that is too small can leave a spurious solution, so every function found is verified
-again by the exact membership test and every field by the exact symmetry check before it is
-reported.
+basis of the solutions, in reduced echelon form with the most complex unknowns first, is read
+back as small fractions (rational reconstruction). These are *candidates*: every function
+found is verified again by the exact membership test and every field by the exact symmetry
+check before it is reported.
 """
 
 import dataclasses
@@ -47,12 +45,9 @@ class Point:
     values: list
     grads: list
 
-#: The prime of the candidate ansatzes of the named functions: the Mersenne prime ``2^31 - 1``,
-#: whose residues and their products are one or two machine words in Python (the ansatz
-#: costs the cube of its unknowns in such products). A candidate is only a candidate: it is
-#: verified modulo ``2^127 - 1`` before it is named, so the ``D / p`` chance (about
-#: ``1e-8``) of a degenerate point only costs a candidate. Its coefficients are read back
-#: up to ``sqrt(p / 2)``, about 32000.
+#: The prime of the candidate ansatzes of the named functions: the Mersenne prime ``2^31 - 1``
+#: (residues and their products are machine words). A candidate is verified modulo
+#: ``2^127 - 1`` before it is named; its coefficients are read back up to ``sqrt(p / 2)``.
 CANDIDATE_PRIME = 2**31 - 1
 
 #: Most unknowns an ansatz may have (monomials times coordinates): past it the ansatz is skipped.
@@ -281,11 +276,9 @@ def laurent_monomials(span: ModularSpan, m: int, among=None):
 
     Only the coordinates that the unobservable directions move at the first point are
     unknowns: an exponent of a coordinate that no direction moves appears in no equation
-    (``v_i = 0``), so it is free, and a monomial with such a factor is that observable
-    coordinate times a monomial of the others. The rows a point adds are the rank of the
-    directions on the moved coordinates (3 of the 83 directions of an EORC on 148
-    coordinates, say), which sets how many points are drawn. ``among``: the coordinates the
-    monomials may use (default: the first ``m``)."""
+    (``v_i = 0``), so it is free (a monomial with such a factor is that observable coordinate
+    times a monomial of the others). ``among``: the coordinates the monomials may use (default:
+    the first ``m``)."""
     p = span.p
     first = span.point(0)
     if first is None:
@@ -351,10 +344,8 @@ def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
     projection on ``x`` of the span's kernel (:func:`restricted_rows`).
 
     The unknowns are structured by the directions at the first point: a component ``X_i``
-    where every direction has ``v_i = 0`` vanishes (generically, so ``X_i = 0``), and the
-    monomials are written in the moved coordinates only (a field times an observable
-    coordinate is no new direction). A rotation of 9 moved coordinates among 16 is 90
-    unknowns instead of 272."""
+    where every direction has ``v_i = 0`` vanishes, and the monomials are written in the moved
+    coordinates only (a field times an observable coordinate is no new direction)."""
     N = span.graph.n
     n = N if n is None else int(n)
     p = span.p

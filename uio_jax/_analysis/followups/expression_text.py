@@ -1,13 +1,10 @@
 """Graph nodes printed as expressions in the model's own names.
 
-A node of the expression graph (:mod:`uio_jax._engine.graph`) is printed as Python/sympy
-syntax: ``sympy.sympify(text, locals={name: Symbol(name)})`` reads it back to the same
-function (the names are the model's states and parameters, the functions sympy's: ``sin``,
-``exp``, ``sqrt``, ``atan2``, ...; ``log1p u`` is printed ``log(1 + u)``, ``logistic u``
-``1/(1 + exp(-u))``). Exact constants print as fractions (``1/7``), constants known in
-float64 only as their ``repr``. Comparisons, ``select`` and rounding have no such text:
-:func:`node_text` returns None for a node that uses one, and so does a node whose text
-would be longer than a cap (a deep Lie derivative is not a readable function).
+A node of the expression graph is printed as Python/sympy syntax that
+``sympy.sympify(text, locals={name: Symbol(name)})`` reads back to the same function (``log1p
+u`` printed ``log(1 + u)``, ``logistic u`` ``1/(1 + exp(-u))``; exact constants as fractions,
+float64 ones as their ``repr``). A node that uses a comparison, ``select`` or rounding, or
+whose text would be longer than a cap, has no text (None).
 """
 
 from fractions import Fraction

@@ -6,13 +6,11 @@ The unobservable directions of a report are the kernel of its codistribution at 
 (translations, rotations, scalings and every other linear field), by the ansatz of
 :func:`uio_jax._analysis.followups.ansatz.polynomial_fields` (every kept gradient annihilates the field:
 a linear system in its coefficients, solved modulo ``p = 2^127 - 1`` at random points, its
-solutions read back as small integers). A solution is only a candidate: each is then checked
-by the **existing symmetry check** (:func:`uio_jax._analysis.decisions.symmetry.verify_symmetries`:
-the field annihilates every output, commutes with every known field and maps the
-unknown-input fields into their span with constant coefficients, exactly modulo p), the same
-check a declared symmetry passes, and kept only when verified and independent of the fields
-kept before (rank modulo p at a random point). A verified field moves the coordinates it has
-a component on at every order of every analysis (the proof is in :mod:`.symmetry`).
+solutions read back as small integers). A solution is only a candidate: each is checked by
+the symmetry check of declared symmetries (:func:`uio_jax._analysis.decisions.symmetry.verify_symmetries`,
+exactly modulo p) and kept only when verified and independent of the fields kept before (rank
+modulo p at a random point). A verified field moves the coordinates it has a component on at
+every order of every analysis (the proof is in :mod:`.symmetry`).
 
 The fields found need not span the whole unobservable distribution (a direction may be a
 symmetry of no polynomial form, or a field that annihilates the codistribution without
@@ -136,9 +134,7 @@ def _symmetric(monos, vectors, system, n, seed) -> list:
     conditions (S1)-(S3) of :mod:`.symmetry` at random points modulo the candidate prime.
 
     The fields that annihilate the span include every function multiple of a symmetry
-    (``ry d/drx`` beside the translation ``d/drx``), so a basis of them splits a rotation
-    from the translations' multiples it needs. (S1) ``L_X h = 0``, (S2) ``[X, f] = 0`` and
-    (S3) ``[X, g_j] = sum_l b_jl g_l`` with constant ``b`` are linear in ``X`` and ``b``:
+    (``ry d/drx`` beside the translation ``d/drx``). (S1)-(S3) are linear in ``X`` and ``b``:
     with ``X = sum_k a_k X_k`` they are linear equations in ``(a, b)`` at each point, whose
     solutions are the candidate symmetries (checked exactly afterwards). Returns integer
     vectors (the simplest basis of the combinations), or ``vectors`` unchanged where the
@@ -222,7 +218,6 @@ class PolynomialField:
 
     def __init__(self, monos, vector, N):
         M = len(monos)
-        self.monos = monos
         self.terms = [[(vector[i * M + a], monos[a]) for a in range(M) if vector[i * M + a]] for i in range(N)]
         degree = max((sum(e) for t in self.terms for _, e in t), default=0)
         self.size = (degree, sum(len(t) for t in self.terms))

@@ -30,15 +30,13 @@ exactly at a random point), so that ``of_only(report.params)`` lists them all wh
 can be named, and says how many could not.
 
 **Kept** in that order when (a) the candidate's gradient lies in ``Omega`` and (b) it raises
-the rank of the functions kept so far, until their number is the observable dimension. Both
-are the exact test of :meth:`uio_jax.Report.is_observable`: the rank modulo
-``p = 2^127 - 1`` at random points of the analysis' own
-:class:`~uio_jax._analysis.decisions.settle.Settler` (a raise is certain; a membership is wrong with
-probability at most ``(D/p)^points``, summed into :attr:`ObservableFunctions.error_bound`).
-Elsewhere the same test runs in mpmath (:attr:`ObservableFunctions.arithmetic`). Independent functions in ``Omega``
-whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found
-the result says how many, and the kept generators remain a spanning set
-(:attr:`ObservableFunctions.generators`).
+the rank of the functions kept so far, until their number is the observable dimension: the
+exact test of :meth:`uio_jax.Report.is_observable` (modulo ``p = 2^127 - 1`` at random points of
+the analysis' :class:`~uio_jax._analysis.decisions.settle.Settler`: a raise is certain, a
+membership wrong with probability at most ``(D/p)^points``, summed into
+:attr:`ObservableFunctions.error_bound`; elsewhere in mpmath). Independent functions in ``Omega``
+whose number is ``dim Omega`` span it: **named** means exactly that. When fewer are found the
+result says how many, and the kept generators remain a spanning set.
 
 For the EORC (state ``[x; w]``), functions that use ``w`` are named apart, the inputs'
 reconstructions (:attr:`ObservableFunctions.input_functions`).
@@ -122,8 +120,7 @@ class ObservableFunctions:
             identifiable combinations), named apart: ``combinations_dim`` of them when all
             could be named.
         combinations_dim: ``dim (Omega ∩ span{dp})``, the number of independent observable
-            functions of the parameters alone (at a random point modulo p: the rank of the
-            kept rows minus the rank of their columns off the parameters).
+            functions of the parameters alone (at a random point modulo p).
     """
 
     functions: tuple
@@ -389,33 +386,27 @@ class _Run:
         observable (:func:`~uio_jax._analysis.ansatz.atom_monomials`): rational functions."""
         atoms = [t for t in range(len(self.atoms)) if (t < self.m or self.atom_cols[t] == "sub")
                  and self._allowed(self.atoms[t])]
-        vectors = ansatz.atom_monomials(self.span, atoms)
+        return self._products(ansatz.atom_monomials(self.span, atoms), [self.atoms[t] for t in atoms],
+                              Source.COMBINATION)
+
+    def _laurent(self):
+        return self._products(ansatz.laurent_monomials(self.span, self.m, among=self.only), self.graph.coords,
+                              Source.MONOMIAL)
+
+    def _products(self, vectors, bases, source):
+        """The candidates ``prod_t bases[t]**a_t`` of the exponent vectors ``a`` with two factors
+        or more (a single base's power: the base itself is tried)."""
         g, out = self.graph, []
         for vec in vectors or ():
             if sum(1 for a in vec if a) < 2:
                 continue
             num, den = g.one, g.one
-            for t, a in zip(atoms, vec):
+            for base, a in zip(bases, vec):
                 if a > 0:
-                    num = g.mul(num, g.ipow(self.atoms[t], a))
+                    num = g.mul(num, g.ipow(base, a))
                 elif a < 0:
-                    den = g.mul(den, g.ipow(self.atoms[t], -a))
-            out.append(self._candidate(g.div(num, den), Source.COMBINATION))
-        return out
-
-    def _laurent(self):
-        vectors = ansatz.laurent_monomials(self.span, self.m, among=self.only)
-        g, out = self.graph, []
-        for vec in vectors or ():
-            if sum(1 for a in vec if a) < 2:
-                continue  # a single coordinate's power: the coordinate itself is tried
-            num, den = g.one, g.one
-            for i, a in enumerate(vec):
-                if a > 0:
-                    num = g.mul(num, g.ipow(g.coords[i], a))
-                elif a < 0:
-                    den = g.mul(den, g.ipow(g.coords[i], -a))
-            out.append(self._candidate(g.div(num, den), Source.MONOMIAL))
+                    den = g.mul(den, g.ipow(base, -a))
+            out.append(self._candidate(g.div(num, den), source))
         return out
 
     # ---------------------------------------------------------------- the checks

@@ -1,14 +1,12 @@
 """Observable functions named at one point: the Taylor route's naming
 (``Report.named_functions`` where the analysis keeps no symbolic generators).
 
-The Taylor route (:mod:`uio_jax._analysis.recursions.taylor_route`) decides the span of the output's
-Taylor coefficients at one random point modulo ``p = 2^127 - 1`` and keeps no graph nodes of
-its generators, so the ansatzes of :mod:`.observable_functions` (which need the unobservable
-directions at many points) do not apply. The candidates that need no ansatz do: the
-coordinates, the model's own subexpressions, ratios and products of two of the simplest,
-ranked by simplicity as there. Each is kept when its gradient at the route's point lies in the
-span there (the route's own exact membership, its Schwartz-Zippel bound counted) and raises
-the rank of those kept (an independence at a point is certain).
+The Taylor route keeps no graph nodes of its generators, so the ansatzes of
+:mod:`.observable_functions` (which need the unobservable directions at many points) do not
+apply; the candidates that need no ansatz do (the coordinates, the model's subexpressions,
+ratios and products of two of the simplest), ranked by simplicity. Each is kept when its
+gradient at the route's point lies in the span there (the route's own exact membership) and
+raises the rank of those kept (an independence at a point is certain).
 """
 
 import time
@@ -20,13 +18,9 @@ from .observable_functions import MAX_SUBEXPRESSIONS, PAIR_POOL, ObservableFunct
 
 
 def name_at_point(space, dim: int, generators) -> ObservableFunctions:
-    """Name observable functions where the analysis keeps no symbolic generators (the Taylor
-    route, :mod:`uio_jax._analysis.recursions.taylor_route`): the candidates of :func:`name_functions`
-    that need no ansatz (the coordinates, the model's subexpressions, then ratios and products
-    of two of the simplest), each kept when its gradient at the analysis' random point modulo
-    p lies in the span there (:meth:`~uio_jax._analysis.taylor_space.TaylorSpace.member`: the
-    route's own exact membership, its bound counted) and raises the rank of the functions kept
-    (an independence at a point is certain).
+    """Name observable functions where the analysis keeps no symbolic generators (the module
+    docstring: the candidates of :func:`name_functions` that need no ansatz, each kept by the
+    route's own exact membership, :meth:`~uio_jax._analysis.taylor_space.TaylorSpace.member`).
 
     Args:
         space: the report's :class:`~uio_jax._analysis.taylor_space.TaylorSpace`.

@@ -3,12 +3,10 @@
 ``assess_identifiability``): which readable functions are observable, which closed-form
 symmetries move what is not, and a model whose parameters are all identifiable.
 
-Each reads the report's final codistribution (``Report.space``) and its route: the symbolic
-route keeps its generators as nodes of the model's expression graph, which the candidates
-are tested against; the Taylor route keeps only the output's Taylor coefficients at a point,
-so its named functions are the observable coordinates and no symmetry is searched (each
-answer says so). An answer is computed once per report and kept in ``Report.followups``,
-which ``Report.to_dict()`` serialises; asking again returns the kept answer.
+Each reads the report's final codistribution (``Report.space``): the symbolic route keeps its
+generators as nodes of the model's expression graph, which the candidates are tested against;
+the Taylor route keeps only the output's Taylor coefficients at a point (each answer says
+what that leaves out). An answer is computed once per report and kept in ``Report.followups``.
 """
 
 from ..._errors import ModelError
@@ -32,14 +30,10 @@ def _report(rep, what: str) -> Report:
 
 def observable_functions(rep: Report) -> ObservableFunctions:
     """Readable observable functions that span the observable codistribution of ``rep``,
-    each checked exactly (:mod:`uio_jax._analysis.followups.observable_functions`:
-    candidates from the model's subexpressions, Laurent monomials, polynomial ansatze;
-    each kept on an exact membership and independence test of the analysis' Settler).
-
-    On the Taylor route the candidates that need no ansatz (the coordinates, the model's
-    subexpressions, their simplest ratios and products) are tested at the route's random point
-    (:mod:`uio_jax._analysis.followups.point_naming`). Computed once per report (about the cost of a small analysis)
-    and kept in ``rep.followups``.
+    each checked exactly (:mod:`uio_jax._analysis.followups.observable_functions`); on the
+    Taylor route, the candidates that need no ansatz, tested at the route's random point
+    (:mod:`uio_jax._analysis.followups.point_naming`). Computed once per report (about the
+    cost of a small analysis) and kept in ``rep.followups``.
 
     Args:
         rep: a :class:`~uio_jax.Report` of :func:`uio_jax.analyze`.

@@ -1,48 +1,23 @@
 """The recursion driver shared by the analyses (ORC, single_ui, series, EORC, the general
 solution, the Taylor route).
 
-Every analysis of the package grows a codistribution step by step::
+Every analysis grows a codistribution ``Omega_0 -> Omega_1 -> ... -> Omega_M`` (M: the step
+at which it stops) and differs only in how a step is formed and in when it has converged. As
+optimistix's ``_iterate`` (one loop for all root finders, with ``init``, ``step``,
+``terminate``, ``postprocess``; the loop owns ``max_steps``), this module holds the loop once:
 
-    Omega_0  ->  Omega_1  ->  ...  ->  Omega_M          (M: the step at which it stops)
-
-and differs only in how a step is formed (Lie derivatives along fields, brackets of the
-unknown-input field, Taylor coefficients of the output, orders of the extended system,
-iterations of the general solution) and in when it has converged. As optimistix's
-``_iterate`` (one loop for all root finders, with ``init``, ``step``, ``terminate``,
-``postprocess``; the loop owns ``max_steps`` and turns it into a ``RESULTS`` member), this
-module holds the loop once:
-
-* :class:`Recursion`, the interface an analysis implements (one file of mathematics): its
-  ``terminate`` says only whether it has *converged*;
+* :class:`Recursion`, the interface an analysis implements: its ``terminate`` says only
+  whether it has *converged*;
 * :class:`Cap`, the bound on the steps and the :class:`~uio_jax._analysis.results.stop.Stop`
   reported when it is reached (``max_order``, ``2n + 3``, ``k_max``, the general solution's
   30 iterations): the caller gives it, the loop enforces it;
-* :func:`iterate`, the one loop that runs it: it records every step, announces it for
-  progress (:func:`uio_jax._progress.announce_step`), stops at the cap, and returns the
-  history, the step reached and the stop (a :class:`RecursionResult`).
-
-The loop, with ``m`` the driver's step counter (``m = 0`` is Omega_0)::
-
-    step = rec.init()                 # Omega_0 (None: it is already the last of `history`)
-    history = [*history, step]        # announced
-    m = 0
-    while (stop := rec.terminate(m, history)) is None:
-        if m >= cap.steps:
-            stop = cap.stop           # the driver's, not the recursion's
-            break
-        m += 1
-        history.append(rec.step(m))   # Omega_m from Omega_{m-1}; announced
-    return RecursionResult(history, stop, m, rec.postprocess(history, stop))
+* :func:`iterate`, the one loop: it records every step and announces it exactly once
+  (:func:`uio_jax._progress.announce_step`), stops at the cap, and returns a
+  :class:`RecursionResult`.
 
 ``terminate`` is asked after ``init`` and after every step, so a stop at ``m = 0`` (full rank
-from the outputs alone) needs no step; its order of tests is the analysis' own (e.g. the ORC
-first asks whether the last step added nothing, then whether the rank is full); the cap is
-tested after it, so that a step that converges exactly at the cap reports its convergence. A
-recursion that keeps its own state (the frontier, ``m'``) keeps it on ``self``: the driver
-only counts, records and caps.
-
-Announcing: :meth:`~uio_jax._analysis.decisions.context.Context.step` only builds a Step; the driver
-announces each step it records, exactly once.
+from the outputs alone) needs no step; the cap is tested after it, so that a step that
+converges exactly at the cap reports its convergence.
 """
 
 import abc
@@ -82,10 +57,9 @@ class Cap:
 class Recursion(abc.ABC):
     """One analysis' recursion ``Omega_0 -> Omega_1 -> ...``, run by :func:`iterate`.
 
-    Implement :meth:`init`, :meth:`step` and :meth:`terminate` (and :meth:`postprocess` if
-    the analysis wants a result built from the finished history). State between calls (the
-    frontier of generators kept at the last step, counters, what is known of ``m'``) lives
-    on ``self``; the driver passes only its step counter ``m`` and the history so far.
+    Implement :meth:`init`, :meth:`step` and :meth:`terminate` (and :meth:`postprocess` for
+    a result built from the finished history). State between calls lives on ``self``; the
+    driver passes only its step counter ``m`` and the history so far.
     """
 
     @abc.abstractmethod

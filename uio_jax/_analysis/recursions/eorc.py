@@ -47,16 +47,13 @@ the state components with ``e_j`` in ``Omega-bar_k``, and the extended coordinat
 For a single unknown input and no drift, Theorem 1 of 004 gives
 ``Omega-bar_k = [Omega_k, 0] + span{d L_G^1 h .. d L_G^k h}``, so ``dim_k = dim Omega_k``.
 
-**Evaluation.** The order-k generators are mostly ``L_F0^j`` of a short word (each order
-brings ``w^(k-1)`` in through the drift), so a generator is a node of the System's
-expression graph: ``L_F0^j base`` one power node, ``L_{F_i} phi`` a Lie node
-(:mod:`uio_jax._calculus.generators`); the gradients of an order's children are evaluated
-by numpy over the graph, nothing is compiled.
+**Evaluation.** The order-k generators are mostly ``L_F0^j`` of a short word, so a generator
+is a node of the System's expression graph (``L_F0^j base`` one power node, ``L_{F_i} phi`` a
+Lie node, :mod:`uio_jax._calculus.generators`), its gradients evaluated by numpy.
 
 **Sampling.** The extended coordinates are sampled, like states without a given domain, in
-``uio_jax._model.system.DEFAULT_BOX`` = (0.5, 1.5): positive, away from 0, where inputs such
-as a speed make the rank drop (a vehicle at rest shows no heading). For analytic models the
-generic rank is the same on every open set of the extended space.
+``uio_jax._model.system.DEFAULT_BOX`` = (0.5, 1.5): away from 0, where inputs such as a speed
+make the rank drop. For analytic models the generic rank is the same on every open set.
 """
 
 import time
@@ -85,14 +82,9 @@ DRIFT_LABEL = "F0"
 class _Eorc(Recursion):
     """One EORC run (001 Algorithm 1) on ``Sigma^(K)``, order ``k`` = step ``k`` of the driver.
 
-    ``init``: ``Omega-bar_0 = span{dh}``. ``step(k)``: the children ``L_v phi`` of the
-    generators kept at order ``k - 1`` (``v`` in ``F0, F_1..F_mu``), pruned into
-    ``Omega-bar_k``. ``terminate``: nothing kept at order ``k`` (Omega-bar closed), every
-    state observable, or ``k = K``. After each order, :meth:`coordinates` reads the
-    observable coordinates off ``Omega-bar_k``.
-
-    The gradients of an order's children are evaluated in the expression graph, the next
-    order's while this order's rank work runs (:meth:`record`).
+    After each order, :meth:`coordinates` reads the observable coordinates off
+    ``Omega-bar_k``; the next order's gradients are evaluated during this order's rank work
+    (:meth:`record`).
     """
 
     def __init__(self, system, K, samples, seed, rtol, early_stop=True, analysed=None,
@@ -158,12 +150,9 @@ class _Eorc(Recursion):
 
     def at_bound(self, last):
         """The Stop when order ``last.m`` is final, else None. No decision so far may be
-        undecided, and then either
-
-        * ``dim_k`` equals the bound of the verified symmetries (:mod:`.symmetry`) and every
-          unknown input is observable or proved unobservable by one of them; or
-        * every unknown input is observable and ``dim_k`` equals the known-input bound
-          (:mod:`.known_bound`, computed once, the first time the rest holds).
+        undecided, and then either ``dim_k`` equals the bound of the verified symmetries
+        (:mod:`.symmetry`) and every unknown input is observable or proved unobservable by
+        one of them, or :meth:`at_known_bound` holds.
         """
         if any(e.result == "undecided" for e in self.ctx.codist.record.escalations):
             return None
@@ -180,7 +169,7 @@ class _Eorc(Recursion):
     def at_known_bound(self, observed, dim) -> bool:
         """Whether every unknown input ``w_j`` is observable (``observed``: the observable
         input coordinates) and ``dim`` (``dim_k``) equals the known-input bound
-        (:mod:`uio_jax._analysis.recursions.known_bound`, computed once, the first time they all are)."""
+        (:mod:`.known_bound`, computed once, the first time they all are)."""
         if not all(nm in observed for nm in self.names[: self.mw]):
             return False
         if not self._bound_tried:
@@ -250,18 +239,11 @@ class _Eorc(Recursion):
     def coordinates(self, k, meanwhile=None):
         """What ``Omega-bar_k`` says about the coordinates of ``Sigma^(k)``, certified.
 
-        The unit covectors ``e_1..e_{n + k m_w}`` are tested against the span once
-        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`); that one test decides
-        every membership and starts the dimension on the original state::
-
-            dim_k = rank(Omega-bar) + n - rank([Omega-bar; e_1..e_n]),
-
-        for which ``e_1..e_n`` are absorbed one by one into a copy of the codistribution
-        (each one that raises the generic rank removes one dimension).
-
-        ``meanwhile()`` is called once the memberships are known and some state is not
-        observable, before the dimension is computed (the run starts the next order's
-        block there, so that it computes during this host-side rank work).
+        One test of the unit covectors ``e_1..e_{n + k m_w}`` against the span
+        (:meth:`~uio_jax._analysis.decisions.rank.Codistribution.test_units`) decides every
+        membership; ``dim_k`` (module docstring) absorbs ``e_1..e_n`` one by one into a copy of
+        the codistribution. ``meanwhile()`` is called once the memberships are known and some
+        state is not observable (the run starts the next order's block there).
 
         Returns:
             ``(states, inputs, dim)``: names of the states and of the input coordinates
@@ -280,10 +262,8 @@ def check_eorc_memory(system, samples: int, K: int) -> int:
     """Refuse an EORC whose arrays on ``Sigma^(K)`` cannot fit, before any is allocated.
 
     The codistribution lives on ``N = n + K m_w`` coordinates, so its rank basis alone is
-    ``(N, S', N)`` float64 (:func:`uio_jax._analysis.decisions.memory.analysis_bytes`): quadratic in
-    ``k_max``; every order tests the unit covectors of all its coordinates (the observable
-    inputs), up to ``N`` of them. The message says to lower ``k_max`` when the default order
-    ``n + 2`` fits with these samples, else ``samples`` (and ``k_max`` when above the default).
+    ``(N, S', N)`` float64: quadratic in ``k_max``. The message says to lower ``k_max`` when
+    the default order ``n + 2`` fits with these samples, else ``samples`` (and ``k_max``).
 
     Returns:
         The estimated bytes.

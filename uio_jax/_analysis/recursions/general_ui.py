@@ -5,10 +5,9 @@ System ``x' = g0(x, t) + sum_j w_j g_j(x)``, outputs ``h(x)`` (no feedthrough), 
 jets are known coordinates, :mod:`uio_jax._model.smooth_inputs`) and an explicit time
 dependence (the time coordinate, ``t' = 1``). ``D`` below is the Lie derivative along this
 augmented drift: the total time derivative. Every rank, zero test and membership is decided
-at the sampled states (:mod:`uio_jax._analysis.decisions.rank`), the jets and the time being known
-coordinates whose differentials are in every span. Sources: arXiv 2201.07610 (Algorithm
-5.1/6.1) and Martinelli's TUIO6; the algorithm as implemented is stated in
-``docs/general_ui.md``.
+at the sampled states, the jets and the time being known coordinates whose differentials are
+in every span. Sources: arXiv 2201.07610 (Algorithm 5.1/6.1) and Martinelli's TUIO6; the
+algorithm as implemented is stated in ``docs/general_ui.md``.
 
 **Close(Theta_0, [F_0, F_1..F_q]; guard, filter)**: insert Theta_0 (independent members, each
 its own *root*); pass r processes the generators added in pass r - 1 (pass 0: Theta_0): if
@@ -38,12 +37,9 @@ Canonic: ``m = mw``. Rescaled fields ``g^0, g^_k, G~_k``: :mod:`uio_jax._calculu
                     the new UIs are d v_j^(i_j)/dt (unit fields) and G~_k;
                     Theta <- Theta + {kept v} + {theta_v}
 
-**Outputs**: the dimension of ``Omega`` on the original state, ``dim = rank(Omega) + n -
-rank([Omega; e_1..e_n])`` (every extension state and known coordinate is observable), the
-observable components, the degree of reconstructability, canonic or not, the extension, and
-which unknown inputs are reconstructable and observable. The answer is exact for known
-inputs that are generic smooth functions of time (``known_inputs="smooth"``); systems without
-known inputs have one meaning only.
+**Outputs**: ``dim = rank(Omega) + n - rank([Omega; e_1..e_n])`` on the original state (every
+extension state and known coordinate is observable), exact for known inputs that are generic
+smooth functions of time (``known_inputs="smooth"``).
 """
 
 import dataclasses
@@ -117,12 +113,9 @@ class GeneralRun:
 
 
 class GeneralSolution(Recursion):
-    """The main loop of the module docstring as a
-    :class:`~uio_jax._analysis.recursions.driver.Recursion`: step ``it`` is iteration ``it``
-    (``init`` is iteration 0), each iteration records one Step, and one that finishes (the
-    canonic closure, every unreconstructed field vanishing, the guarded closure passing, no
-    progress) sets the Stop that :meth:`terminate` returns. The driver's cap is
-    :data:`ITERATION_CAP` iterations (``GENERAL_CAP``).
+    """The main loop of the module docstring as a driver Recursion: step ``it`` is iteration
+    ``it`` (``init`` is iteration 0) and records one Step; an iteration that finishes sets the
+    Stop that :meth:`terminate` returns. The driver's cap: :data:`ITERATION_CAP` iterations.
 
     Args:
         w: the working system (:func:`~.general_ui_steps.start_working`).
@@ -293,7 +286,7 @@ def observable_inputs(out: GeneralRun, full: bool = False) -> dict:
 
 # ------------------------------------------------------------------ the report
 def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", notes=(),
-                      report_system=None, prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
+                      prob_threshold=DEFAULT_PROB_THRESHOLD) -> Report:
     """Run the general solution on ``system`` (joint; time as a known coordinate) and build
     the Report on the original state.
 
@@ -304,8 +297,6 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
         known_inputs: the meaning of the known inputs (must be ``"smooth"`` when there are
             any, :func:`check_applicable`).
         notes: notes to carry.
-        report_system: the System whose states the Report lists (default ``system``
-            without its known coordinates).
 
     Returns:
         :class:`~uio_jax.Report` with ``method="general_ui"``; ``details``: ``m`` (final
@@ -361,7 +352,7 @@ def general_ui_report(system, *, samples, seed, rtol, known_inputs="smooth", not
     notes = list(notes) + _report_notes(system, truncated, jet, weakest)
     space = SampledSpace(omega, n=n, dim=dim, original=system)
     omega.extra_decisions = [t.settled for t in zero_tests] + list(out.w.rank_tests)
-    view = report_system or report_view(system, n)
+    view = report_view(system, n)
     return omega.report("general_ui", out.history, out.stop, notes=notes, details=details,
                         projection=Projection(view, dim, observable, space), known_inputs=known_inputs)
 

@@ -97,7 +97,7 @@ class Working:
         return [cache[nd] for nd in nodes]
 
 
-def _working_system(states, outputs, drift, unknown, domain, angles, name, known_count, params, graph=None):
+def _working_system(states, outputs, drift, unknown, domain, angles, name, known_count, graph=None):
     """A validated-parts System for the algorithm (no traced checks): of JAX functions, or,
     with ``graph``, of its nodes (outputs name -> node, fields tuples of nodes)."""
     if graph is not None:
@@ -122,7 +122,7 @@ def start_working(system, jet_order, samples, seed, rtol, prob_threshold) -> Wor
         n = sys0.n
         sys0 = _working_system(sys0.states, dict(sys0.outputs), _zero_field(n),
                                dict(sys0.unknown), dict(sys0.domain), sys0.angles, sys0.name,
-                               known_coordinates(sys0), sys0.joint_param_names)
+                               known_coordinates(sys0))
     ctx = Context(sys0, samples, seed, rtol, prob_threshold)
     b = ctx.builder
     drift = b.field("g0", sys0.drift)
@@ -140,7 +140,6 @@ class Closed:
     aborted: bool = False
     root: Node | None = None
     order: int = 0
-    passes: int = 0
 
 
 def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=None) -> Closed:
@@ -173,7 +172,7 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=No
         if guard:
             for theta in frontier:
                 if _any_nonzero(w, ctx, theta, guard, guard_scale):
-                    return Closed(ctx, True, root[theta], r, r)
+                    return Closed(ctx, True, root[theta], r)
         active = frontier
         if filter_fields:
             active = [th for th in frontier if not _any_nonzero(w, ctx, th, filter_fields)]
@@ -185,7 +184,7 @@ def close(w: Working, theta0, fields, guard=(), filter_fields=(), guard_scale=No
         for nd in added:
             root[nd] = root[active[index[nd] // len(fields)]]
         frontier, r = added, r + 1
-    return Closed(ctx, passes=r)
+    return Closed(ctx)
 
 
 def _any_nonzero(w: Working, ctx: Context, theta, fields, scales=None) -> bool:
@@ -348,8 +347,7 @@ def _chain_lengths(w, theta_star, order, hat0, hats, vnames, samples, seed, rtol
         dz = [gf.add(a, gf.mul(v[j][0], c)) for a, c in zip(dz, lift(gf, src, hats[j].expr, z))]
     drift_full = tuple(dz) + tuple(e for j in range(m) for e in (*v[j][1:], gf.zero))
     full = _working_system(sysw.states + tuple(flat), {"theta*": lift(gf, src, theta_star.expr, z)[0]},
-                           drift_full, {}, domain, sysw.angles, sysw.name, known_coordinates(sysw),
-                           sysw.joint_param_names, graph=gf)
+                           drift_full, {}, domain, sysw.angles, sysw.name, known_coordinates(sysw), graph=gf)
     ctx_full = Context(full, samples, seed, rtol, w.ctx.prob_threshold)
     b = ctx_full.builder
     theta_v = b.power(b.field("F'", full.drift), b.scalar("theta*", full.outputs["theta*"]), order)
@@ -426,8 +424,7 @@ def _extended_working(w, theta_star, order, hat0, hats, tildes, rec, vnames, ids
     outputs["theta_v"] = lift(gn, full_graph, theta_v.expr, embed)[0]
     domain_new = {k: v for k, v in domain.items() if k in sysw.states or k in kept_flat}
     new_sys = _working_system(sysw.states + tuple(kept_flat), outputs, drift_new, new_uis,
-                              domain_new, sysw.angles, sysw.name, known_coordinates(sysw),
-                              sysw.joint_param_names, graph=gn)
+                              domain_new, sysw.angles, sysw.name, known_coordinates(sysw), graph=gn)
     ctx = Context(new_sys, samples, seed, rtol, w.ctx.prob_threshold)
     nb = ctx.builder
     uis = [ctx.field_node(k) for k in new_uis]

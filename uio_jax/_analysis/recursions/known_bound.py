@@ -86,8 +86,7 @@ def known_input_bound(system: System, *, samples: int, seed: int, rtol: float,
 
     Returns:
         :class:`KnownBound`, or None where no sound bound is available: known coordinates
-        (time, jets of smooth inputs), a series stopped
-        by its cap, or a decision that stayed undecided.
+        (time, jets of smooth inputs), a series stopped by its cap, or an undecided decision.
     """
     if known_coordinates(system) or not system.unknown:
         return None

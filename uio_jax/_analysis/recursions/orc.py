@@ -51,7 +51,7 @@ class Orc(Recursion):
         return None
 
 
-def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
+def run_orc(ctx: Context, field_labels, *, max_steps=None):
     """Run the ORC recursion on ``ctx``.
 
     Args:
@@ -59,18 +59,15 @@ def run_orc(ctx: Context, field_labels, *, max_steps=None, start_nodes=None):
         field_labels: labels of the fields along which to differentiate (``f0`` and the
             known inputs, as in ``System.fields()``).
         max_steps: optional cap on m (``max_order``); without it the driver's cap is ``n``,
-            which the ORC never reaches (a step that adds nothing stops it, and each other
-            step raises the rank).
-        start_nodes: generators of Omega_0 (default: the outputs).
+            which the ORC never reaches (each step that does not stop it raises the rank).
 
     Returns:
         ``(history, stop)``: one Step per m = 0..M (``Step.dim = dim Omega_m``) and the
         :class:`~uio_jax._analysis.recursions.driver.Stop` (its StopReason member and values).
     """
     fields = [ctx.field_node(lbl) for lbl in field_labels]
-    start = ctx.output_nodes() if start_nodes is None else list(start_nodes)
     n = ctx.system.n
     cap = Cap(n, StopReason.STEP_CAP.stop(cap=n)) if max_steps is None else \
         Cap(max_steps, StopReason.MAX_ORDER.stop(max_order=max_steps))
-    out = iterate(Orc(ctx, fields, start), cap=cap)
+    out = iterate(Orc(ctx, fields, ctx.output_nodes()), cap=cap)
     return out.history, out.stop

@@ -23,11 +23,8 @@ Stopping: the increments ``r_K - r_(K-1)`` never increase (the observability ind
 the output filtration), so the first order that adds nothing closes the span; otherwise
 the rank reaches n, or the cap (``max_order``, default n) is hit.
 
-Cost: the coefficients are expressions of the System's graph (:class:`GraphCoefficients`:
-``y^(k) = L_F^k h`` on ``[x; t]`` by symbolic forward mode with shared subexpressions, then
-``t = 0``), their gradients evaluated by numpy over the samples: only the combinations in
-``y^(K)`` are formed, so models whose ORC grows with every field (tens of states and
-parameters, several fields) take seconds.
+Cost: the coefficients are expressions of the System's graph (:class:`GraphCoefficients`),
+their gradients evaluated by numpy: only the combinations in ``y^(K)`` are formed.
 """
 
 import hashlib
@@ -73,7 +70,6 @@ class _Series:
         self.a = input_coefficients(self.system, cap + 1, seed)
         self.tag = hashlib.sha256(self.a.tobytes()).hexdigest()[:16]
         self.outs = ctx.output_nodes()
-        self.ctx = ctx
         self.nodes = {}
         self.coefficients = GraphCoefficients.of(ctx, self.a, cap)
 
@@ -148,21 +144,20 @@ class SeriesOrders(Recursion):
     :class:`~uio_jax._analysis.recursions.driver.Recursion`: step k absorbs ``dy_k`` (``p`` rows
     ``(S, p, n)``), ``Omega_k = span{dy_0 .. dy_k}``.
 
-    Orders are evaluated in blocks (:meth:`_Series.gradients`): the first block reaches
-    ``first`` (None: the fewest orders that could reach rank n, ``ceil(n / p) - 1``), a
-    later one the fewest more orders that could reach rank n if every order added what the last one did (2 at least).
+    Orders are evaluated in blocks (:meth:`_Series.gradients`): the first block reaches the
+    fewest orders that could reach rank n, ``ceil(n / p) - 1``, a later one the fewest more
+    orders that could reach rank n if every order added what the last one did (2 at least).
 
     Args:
         ctx: the analysis context.
         series: the nodes of the ``y_k``.
         cap: the highest order.
-        first: the highest order of the first block (None: see above).
     """
 
-    def __init__(self, ctx: Context, series: "_Series", cap: int, first=None):
+    def __init__(self, ctx: Context, series: "_Series", cap: int):
         self.ctx, self.series, self.cap = ctx, series, cap
         n, p = ctx.system.n, len(ctx.system.outputs)
-        self.chunk = max(1, math.ceil(n / max(p, 1))) if first is None else first + 1
+        self.chunk = max(1, math.ceil(n / max(p, 1)))
         self.computed, self.by_order, self.added = -1, {}, None
 
     def _order(self, k):
@@ -209,8 +204,7 @@ SERIES_NOTE = ("series: rank of the output Taylor coefficients y_0..y_K along a 
 
 def run_series(ctx: Context, *, seed: int, max_order=None):
     """Absorb ``dy_k`` order by order (:class:`SeriesOrders`), on the decision samples of
-    ``ctx`` (``ctx.xs``, :func:`uio_jax._analysis.decisions.memory.decision_count`; the final span is certified
-    on all of them when the report is built).
+    ``ctx`` (the final span is certified on all of them when the report is built).
 
     Returns:
         ``(history, stop, k_reached)``: one Step per order ``k = 0..K`` (``Step.dim =

@@ -15,9 +15,8 @@ Convergence (Lemma 1 of 002; Theorem 2 of 004):
 * otherwise ``tau = L_g^2 h / (L_g^1)^2`` and ``m'`` = first m with ``d tau in Omega_m``;
 * ``m*`` = first ``m >= m'`` with ``Omega_{m+1} = Omega_m``; ``Omega* = Omega_{m*}``.
 
-The rule, with the correction below, is :func:`stopping_rule`, a function of the dims
-``dim Omega_m`` and ``m'``; the recursion is :class:`SingleUi`, run by the shared driver
-(:func:`uio_jax._analysis.recursions.driver.iterate`).
+The rule, with the correction below, is :func:`stopping_rule`; the recursion is
+:class:`SingleUi`, run by the shared driver.
 
 **Correction to the papers' stopping rule** (implemented, reported as ``m_star`` next to
 the literal ``m_star_paper``): the induction in the proof of Theorem 2 of 004 uses eq. 25,
@@ -121,8 +120,7 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
       convergence part alone, :func:`converged`).
 
     Args:
-        dims: ``d_0 .. d_M`` (ints).
-        m_prime: ``m'`` or None.
+        dims, m_prime: as above.
         n: dimension of the state.
         phi1_vanish: whether every ``phi^i_1`` vanishes identically.
         cap: the step bound (default ``2n + 3``).
@@ -152,15 +150,9 @@ def stopping_rule(dims, m_prime, *, n, phi1_vanish, cap, max_order=None, offset=
 
 # --------------------------------------------------------------- the recursion
 class SingleUi(Recursion):
-    """Steps ``m >= 1`` of the single-unknown-input recursion, after the chosen output.
-
-    Omega_0 is the span built by :func:`_choose_output` (its last Step is passed to
-    :func:`~uio_jax._analysis.recursions.driver.iterate` as history); step m adds::
-
-        sum_i L_{f_i} Omega_{m-1} + L_{g/L_g^1} Omega_{m-1}      (the frontier's derivatives)
-        + sum_i span{d L_{phi^i_{m-1}} h~}                        (m >= 2, live phis)
-
-    with ``phi^i_m = [phi^i_{m-1}, g] / L_g^1``. Steps are numbered ``m + offset``.
+    """Steps ``m >= 1`` of the single-unknown-input recursion (the module docstring's
+    ``Omega_m``, numbered ``m + offset``), after the chosen output: Omega_0 is the span built
+    by :func:`_choose_output`, its last Step passed to ``iterate`` as history.
 
     Args:
         ctx: the analysis context.
@@ -238,12 +230,10 @@ class SingleUi(Recursion):
 
 
 def single_ui_report(ctx: Context, *, notes=(), max_order=None):
-    """Run the single-unknown-input analysis on ``ctx`` and build the Report.
-
-    Omega_0 .. Omega_offset: the outputs and their Lie derivatives along the known fields up
-    to the first function ``h~`` with ``L_g h~ != 0`` (:func:`_choose_output`); then the
-    recursion :class:`SingleUi` until :func:`stopping_rule` stops it. Steps ``m`` of the
-    history are the paper's (``Step.dim = dim Omega_m``, ``extra["tau_in_omega"]``).
+    """Run the single-unknown-input analysis on ``ctx`` and build the Report: the chosen
+    output's levels (:func:`_choose_output`), then :class:`SingleUi` until
+    :func:`stopping_rule` stops it. Steps ``m`` of the history are the paper's
+    (``Step.dim = dim Omega_m``, ``extra["tau_in_omega"]``).
     """
     system = ctx.system
     check_applicable(system)

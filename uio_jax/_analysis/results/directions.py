@@ -3,10 +3,8 @@
 The directions are the null space of the final codistribution at a point (the continuous
 symmetries of the system); the point is the centre of the sampling box when the
 codistribution has its generic rank there, else a fixed point off the centre
-(:func:`representative_point`). :class:`~uio_jax.Report` delegates its methods
-(``domain_centre``, ``unobservable_directions``, ``direction_summary``,
-``representative_point``, ``format_directions``, the direction keys of ``to_dict``) here,
-with the sampled space behind it (``space``: what evaluates the final generators).
+(:func:`representative_point`). :class:`~uio_jax.Report` delegates its direction methods
+here, with the sampled space behind it (``space``: what evaluates the final generators).
 """
 
 import math
@@ -68,15 +66,12 @@ def point(report, space, x, p, what) -> np.ndarray:
 def direction_summary(report, space, x=None, p=None) -> dict:
     """The unobservable directions at a point, labelled by the variables' names.
 
-    Each direction (a column of :meth:`unobservable_directions`, unit norm) is
-    signed so that its largest component is positive; components below ``1e-12``
-    (round-off) are set to 0. For a model with parameters, the identifiable
-    parameter combinations are given by their differentials at the point: the
-    covectors ``c`` on the parameters that are not identifiable one by one with
-    ``[0; c]`` orthogonal to every direction, i.e. in the codistribution (for
-    ``x' = -(a + b) x``: ``da + db``, the differential of ``a + b``; for a product
-    ``a b`` at ``a = b = 1`` it would read the same). Directions with several
-    columns are a basis of the null space, not unique.
+    Each direction (a column of :meth:`unobservable_directions`, unit norm, not unique when
+    there are several) is signed so that its largest component is positive; components below
+    ``1e-12`` are set to 0. For a model with parameters, the identifiable parameter
+    combinations are given by their differentials at the point: the covectors ``c`` on the
+    parameters that are not identifiable one by one with ``[0; c]`` in the codistribution
+    (for ``x' = -(a + b) x``: ``da + db``, the differential of ``a + b``).
 
     Args:
         x, p: the point, as in :meth:`unobservable_directions` (default: the centre
@@ -162,13 +157,9 @@ POINT_NAMES = 12
 
 
 def format_directions(report, space, summary=None) -> str:
-    """Text of :meth:`direction_summary` (default: at the centre of the sampling box).
-
-    One line naming the point (abridged past :data:`POINT_NAMES` coordinates), one line per
-    direction (components that print as zero at 3 decimals omitted; a long one wrapped),
-    and for a model with parameters one line per identifiable combination of parameters
-    that are not identifiable one by one.
-    """
+    """:meth:`Report.format_directions`: the point (abridged past :data:`POINT_NAMES`
+    coordinates), then one line per direction (a long one wrapped) and per identifiable
+    combination."""
     summary = direction_summary(report, space) if summary is None else summary
     coords = [f"{k}={v:.3g}" for k, v in summary["point"].items()]
     at = abridged(coords) if len(coords) <= POINT_NAMES else f"{len(coords)} coordinates: {abridged(coords)}"

@@ -47,39 +47,29 @@ class Certificate:
         used: states used (finite everywhere).
         dropped: states dropped because a generator was NaN/inf there.
         capped: states not evaluated on the final span because its gradients there would
-            exceed :data:`uio_jax._analysis.decisions.memory.CERTIFY_BYTES` (a deep EORC): the span
-            is certified on the first ``samples - capped`` states (``used + dropped``).
+            exceed :data:`uio_jax._analysis.decisions.memory.CERTIFY_BYTES` (a deep EORC).
         fraction: fraction of the used samples where the final codistribution has its
-            generic rank in float64 (SVD of the row-scaled generator gradients; below 1
-            where a direction settled beyond float64 is under ``rtol`` at many samples).
+            generic rank in float64 (SVD of the row-scaled generator gradients).
         min_fraction: the smallest agreeing fraction over the rank decisions that rest on
             their float64 vote (those settled beyond float64 are in ``escalations``).
         sigma_r_min: smallest margin among the agreeing samples over every direction that
-            was counted on its float64 vote (kept generators, non-member covectors): the
-            distance of the unit-scaled covector to the span it was added to (for an
-            orthonormal span plus one unit row this is, up to a factor in [1/sqrt(2), 1],
-            the last singular value ``s_{r+1} / s_1``). How close a counted direction came
-            to vanishing.
+            was counted on its float64 vote: the distance of the unit-scaled covector to the
+            span it was added to (up to a factor in [1/sqrt(2), 1], ``s_{r+1} / s_1``).
         sigma_next_max: the same margin, largest value over every direction that was
-            *not* counted (pruned candidates, member covectors): how close round-off
-            came to faking a rank.
+            *not* counted: how close round-off came to faking a rank.
         rtol: the relative tolerance between them.
         conditioning: smallest ``s_r / s_1`` of the final generator matrix among the
-            samples at the generic rank (how close the kept set comes to a singular
-            state; small values flag samples near the singular set).
+            samples at the generic rank (small values flag samples near the singular set).
         decisions: number of rank decisions taken.
-        escalations: the weak decisions settled again beyond float64
-            (:class:`uio_jax._analysis.decisions.settle.Escalation`: what, the float64 vote, how,
-            the result, the probability bound of a modular answer), and the clear float64
-            rises that exact arithmetic contradicted.
-        verified: clear float64 rank increases (generators kept, covectors found outside
-            the span) confirmed beyond float64: modulo p where the model is made rational.
-        closure_verified: float64 rejections of a step that kept nothing (the step a
-            recursion stops at) confirmed in extended precision, where the model is not
-            made rational (elsewhere they are counted in ``rejections_verified``).
+        escalations: the weak decisions settled again beyond float64, and the clear float64
+            rises that exact arithmetic contradicted (:class:`Escalation`).
+        verified: clear float64 rank increases confirmed beyond float64 (modulo p where the
+            model is made rational).
+        closure_verified: float64 rejections of a step that kept nothing confirmed in
+            extended precision (where the model is not made rational).
         rejections_verified: clear float64 rejections and memberships confirmed beyond
-            float64: every one, modulo p, where the model is made rational; and every one of
-            a span that must be proved (the known-input bound of the EORC, exact or mpmath).
+            float64 (modulo p where the model is made rational; and those of a span that
+            must be proved, the EORC's known-input bound).
         exact_decisions, extended_decisions, float64_decisions: how many decisions (of the
             span, memberships, zero tests and ranks outside it) were made modulo p, in
             extended precision, on float64 votes alone (or left undecided).

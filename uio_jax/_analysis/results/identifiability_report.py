@@ -4,14 +4,13 @@ order reached and the exact certificate."""
 
 import dataclasses
 import enum
-import json
 from collections.abc import Mapping
 from types import MappingProxyType
 
 from ..._output import printable, wrapped
 from .evidence import Arithmetic, jsonable
 from .kinds import Answer, Verdict
-from .report import Question, global_answer, refuse
+from .report import Question, ReportQueries, refuse
 
 
 class StopKind(enum.Enum):
@@ -28,7 +27,7 @@ AT_T0 = ("the answer at a known initial state is one verdict per unknown (rep.ve
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class IdentifiabilityReport:
+class IdentifiabilityReport(ReportQueries):
     """The answer of :func:`uio_jax.analyze` with ``initial=`` or several experiments.
 
     Attributes:
@@ -118,16 +117,6 @@ class IdentifiabilityReport:
             return Answer.EXACT
         return Answer.SUFFICIENT_ONLY if self.question.sufficient_only else Answer.NOT_CERTIFIED
 
-    @property
-    def global_identifiability(self) -> Mapping:
-        """Unknown -> :class:`~uio_jax.GlobalVerdict`, with ``scope="global"``; refused otherwise."""
-        return global_answer(self, "global_identifiability").global_identifiability
-
-    @property
-    def value_counts(self) -> Mapping:
-        """How many values each unknown takes where known (``scope="global"``)."""
-        return global_answer(self, "value_counts").value_counts
-
     def is_observable(self, fn) -> bool:
         """Whether the function ``fn(z)`` of the System's ``z = [x; p]`` (or ``fn(x, p)``) is
         determined at the known initial state: its differential in the span of the output
@@ -191,10 +180,6 @@ class IdentifiabilityReport:
             "notes": list(self.notes),
             **({} if self.global_answer is None else {"global": self.global_answer.to_dict()}),
         })
-
-    def to_json(self, **kw) -> str:
-        """``json.dumps(self.to_dict())``."""
-        return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
         title = f"uio_jax report: {self.system_name or 'system'} (identifiability at t = 0)"

@@ -16,16 +16,13 @@ _BANDS = ((0.0, 100.0, 0.15), (5.0, 95.0, 0.3), (25.0, 75.0, 0.5))
 def plot_analysis(report, path=None, ax=None):
     """Plot a :class:`~uio_jax.Report`: dimension per step and the evidence of the rank.
 
-    Left: the dimension of the observable codistribution (a count of independent
-    covectors) at each step m (each order k for the EORC and the series, where the rank of
-    the augmented codistribution is drawn too), with n (states plus parameters) as a
-    dashed line. Right: at every used sample, the singular values
-    ``s_i / s_1`` of the final generator matrix (gradients of the kept generators, columns
-    scaled by the sampling box, rows normalized), shown per index i as percentile bands over
-    the samples (min-max, 5-95 %, 25-75 %, median) on a log scale, with the rank tolerance
-    ``certificate.rtol`` and the largest margin of a rejected direction
-    ``certificate.sigma_next_max`` as horizontal lines: the distance between the lowest
-    band and these lines is how sure the rank is.
+    Left: the dimension of the observable codistribution at each step m (each order k for
+    the EORC and the series, where the augmented rank is drawn too), with n (states plus
+    parameters) dashed. Right: at every used sample, the singular values ``s_i / s_1`` of
+    the final generator matrix (scaled as in every rank decision), as percentile bands over
+    the samples on a log scale, with ``certificate.rtol`` and ``certificate.sigma_next_max``
+    as horizontal lines: the distance between the lowest band and these lines is how sure
+    the rank is.
 
     Main arguments:
         report: a :class:`~uio_jax.Report`.

@@ -1,16 +1,12 @@
 """The result of an analysis: dimensions per step, verdicts, evidence, the plan that chose it,
 and the follow-up answers computed on it so far.
 
-:class:`Report` holds the answer (the bottom of the analysis wing: it imports nothing above
-``results/``); its unobservable directions are computed by
-:mod:`uio_jax._analysis.results.directions` with the report's ``space`` (the final
-codistribution, built by the analysis that ran), the functions handed to
-:meth:`Report.is_observable` checked by :mod:`uio_jax._analysis.results.functions_of_z`, its
-text written by :mod:`uio_jax._analysis.results.report_text`. The follow-up questions
-(observable functions named, symmetries found, the reparametrised model) are functions of a
-report (:mod:`uio_jax._analysis.followups.questions`, ``uj.observable_functions(rep)``); what
-they computed is kept in :attr:`Report.followups` and serialised by :meth:`Report.to_dict`,
-which runs no search.
+:class:`Report` holds the answer (it imports nothing above ``results/``); its unobservable
+directions are computed by :mod:`uio_jax._analysis.results.directions` with the report's
+``space`` (the final codistribution), its text written by
+:mod:`uio_jax._analysis.results.report_text`. The follow-up questions
+(:mod:`uio_jax._analysis.followups.questions`) keep what they computed in
+:attr:`Report.followups`, which :meth:`Report.to_dict` serialises (it runs no search).
 """
 
 import json
@@ -52,12 +48,8 @@ class Question(TextEnum):
     """Which question a report answers (a ``str``: written as its value in JSON).
 
     ``GENERIC_STATES``: the observable codistribution at generic states (every
-    :class:`Report`). The others are answered by :func:`uio_jax.analyze` with ``initial=``
-    or several experiments (:mod:`uio_jax._analysis.at_t0.initial`): local identifiability of
-    the parameters and of the unknown initial states at the given initial state, from the
-    output's Taylor coefficients at ``t = 0``; ``*_FREE_INPUT_JETS``: with unknown inputs,
-    whose derivatives at ``t = 0`` are free unknowns (sufficient only: "determined" is
-    proven, the rest is not shown).
+    :class:`Report`); the others: :func:`uio_jax.analyze` with ``initial=`` or several
+    experiments (:attr:`description` says each).
     """
 
     GENERIC_STATES = "generic_states"
@@ -113,6 +105,25 @@ def global_answer(report, what: str):
     return report.global_answer
 
 
+class ReportQueries:
+    """What both reports (:class:`Report`, the identifiability report at t = 0) answer alike."""
+
+    @property
+    def global_identifiability(self) -> Mapping:
+        """Parameter or unknown initial state -> :class:`~uio_jax.GlobalVerdict` (``global``,
+        ``local``, ``not``, ``undecided``), with ``scope="global"``; refused otherwise."""
+        return global_answer(self, "global_identifiability").global_identifiability
+
+    @property
+    def value_counts(self) -> Mapping:
+        """How many values each unknown takes where known (``scope="global"``)."""
+        return global_answer(self, "value_counts").value_counts
+
+    def to_json(self, **kw) -> str:
+        """``json.dumps(self.to_dict())``."""
+        return json.dumps(self.to_dict(), **kw)
+
+
 @dataclass(eq=False)
 class FollowUps:
     """The follow-up answers computed on one report so far, each once (a cache the
@@ -137,7 +148,7 @@ class FollowUps:
 
 
 @dataclass(frozen=True, eq=False)
-class Report:
+class Report(ReportQueries):
     """Result of :func:`uio_jax.analyze`.
 
     Attributes:
@@ -153,8 +164,7 @@ class Report:
         history: one :class:`Step` per step m (per order k for the EORC).
         certificate: the sampling evidence behind every rank decision.
         generators: labels of the functions whose gradients span the final codistribution.
-        stop: why the recursion stopped: a :class:`~uio_jax._analysis.results.stop.Stop` (its
-            :class:`~uio_jax._analysis.results.stop.StopReason` member and values);
+        stop: why the recursion stopped: a :class:`~uio_jax._analysis.results.stop.Stop`;
             ``stop_reason`` is its text.
         answer: what the verdicts prove (:class:`~uio_jax._analysis.results.kinds.Answer`),
             decided by the analysis that ran; :attr:`exact` reads it.
@@ -162,17 +172,13 @@ class Report:
         details: method-specific results (``m_prime``, ``m_star``, ``k``, ...).
         semantics: what "unknown input" and "known input" mean in this answer.
         known_inputs: the meaning of the known inputs the answer is for: ``"switchable"``
-            (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``
-            (the System has no known input: one meaning).
+            (they may jump), ``"smooth"`` (generic smooth functions of time) or ``"none"``.
         system_name: name of the analyzed System.
         route: how the codistribution was computed (:class:`~uio_jax._analysis.results.kinds.Route`).
         plan: what :func:`uio_jax._analysis.plan.plan` chose before any sample was drawn, and
-            why (:class:`~uio_jax._analysis.results.kinds.Plan`; None for a report built
-            without :func:`uio_jax.analyze`).
+            why (:class:`~uio_jax._analysis.results.kinds.Plan`; None without ``analyze``).
         space: the final codistribution as the report's queries read it (a
-            :class:`~uio_jax._analysis.decisions.space.Space`: the directions,
-            ``is_observable``, the singular values; the follow-up questions read its
-            generators).
+            :class:`~uio_jax._analysis.decisions.space.Space`).
         followups: the follow-up answers computed so far (:class:`FollowUps`).
         global_answer: the :class:`~uio_jax.GlobalResult` of ``scope="global"`` (None when the
             global question was not asked): :attr:`global_identifiability`, :attr:`value_counts`.
@@ -275,17 +281,6 @@ class Report:
             for v, ok in {**self.observable, **self.identifiable}.items()})
 
     @property
-    def global_identifiability(self) -> Mapping:
-        """Parameter or unknown initial state -> :class:`~uio_jax.GlobalVerdict` (``global``,
-        ``local``, ``not``, ``undecided``), with ``scope="global"``; refused otherwise."""
-        return global_answer(self, "global_identifiability").global_identifiability
-
-    @property
-    def value_counts(self) -> Mapping:
-        """How many values each unknown takes where known (``scope="global"``)."""
-        return global_answer(self, "value_counts").value_counts
-
-    @property
     def fully_determined(self) -> bool:
         """:attr:`fully_observable` (the name an identifiability report at t = 0 uses)."""
         return self.fully_observable
@@ -384,10 +379,8 @@ class Report:
         return self.space.is_observable(function_of_z(self, fn, "is_observable"))
 
     # ------------------------------------------------------------------ follow-up aliases
-    # Thin aliases of the follow-up functions (``uj.observable_functions(rep)``,
-    # ``uj.find_symmetries(rep)``, ``uj.reparametrise(rep)``), kept for one release (0.2 drops
-    # them): the only imports of this module above ``results/`` (tests/test_layout.py lists
-    # them), made when an alias is called.
+    # Thin aliases of the follow-up functions, kept for one release (0.2 drops them): the only
+    # imports of this module above ``results/`` (tests/test_layout.py lists them).
 
     @property
     def named_functions(self):
@@ -468,10 +461,6 @@ class Report:
         (not a sufficient condition) and every decision was made in exact arithmetic, with
         the probability bound of the certificate (:attr:`answer` is ``Answer.EXACT``)."""
         return self.answer is Answer.EXACT
-
-    def to_json(self, **kw) -> str:
-        """``json.dumps(self.to_dict())``."""
-        return json.dumps(self.to_dict(), **kw)
 
     def __str__(self) -> str:
         return report_text(self)
