@@ -76,6 +76,12 @@ def half_power(graph, k):
     return int(e.numerator)
 
 
+def rational_exponent(graph, k):
+    """For a ``pow`` node with an exact constant exponent: the exponent (a Fraction); else None."""
+    b = graph.args[k][1]
+    return graph.exact_value(b) if graph.op[b] == "c" else None
+
+
 def rationalizable(graph, k) -> bool:
     """Whether node ``k`` is rational or an elementary function made rational here."""
     op = graph.op[k]

@@ -94,20 +94,10 @@ class TaylorDegrees:
             # deg num + deg den), as graph_exact.degrees counts it
             operands = param[3] if op == "free" else a
             return 2 * (1 + sum(max(int(E[u, 0]) + 2 * self._den(self.atoms[u][0]), 0) for u in operands)), {}
-        if op == "sqrt":  # 2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}
-            return self._over([(int(E[a[0], k]), self.atoms[a[0]][k]), self._inner(i, k)], i)
+        if op == "root":  # k u_0 w_k = sum_{j=1..k} ((alpha + 1) j - k) u_j w_{k-j}
+            return self._over([self._product(a[0], i, 1, k)], a[0])
         # s_k = (1/k) sum_{j>=1} j u_j c_{k-j} (and c_k alike); E_k = (1/k) sum j u_j E_{k-j}
         return self._product(a[0], param[0] if op == "sin" else i, 1, k)
-
-    def _inner(self, r, k):
-        """``sum_{0<j<k} r_j r_{k-j}``."""
-        if k < 2:
-            return ZERO, {}
-        er = self.e[r, 1:k]
-        both = (er > ZERO) & (er[::-1] > ZERO)
-        if not both.any():
-            return ZERO, {}
-        return int((er + er[::-1])[both].max()), _plus(self.atoms[r][k - 1], self.atoms[r][k - 1])
 
     def _over(self, terms, b):
         """The bound of ``(sum of terms) / b_0``: the denominator of ``b_0`` to the numerator,

@@ -10,7 +10,11 @@ An instruction is ``(op, operands, param)`` on earlier instructions:
   quotient;
 * ``exp`` (``param``: the graph node of ``u``): ``sinh``, ``tanh``, ``logistic``, ... are
   rational functions of it;
-* ``sqrt``: the square root of operand ``u`` (half-integer powers are its powers);
+* ``root``: ``w = u^alpha`` of operand ``u`` for a rational constant ``alpha``
+  (``param``; ``sqrt`` is ``alpha = 1/2``): ``w_0`` a ``b``-th root of ``u_0^a``
+  (``alpha = a/b``), then ``k u_0 w_k = sum_{j=1..k} ((alpha + 1) j - k) u_j w_{k-j}`` (from
+  ``u w' = alpha u' w``); a power ``u^v`` with a non-constant exponent is ``exp(v log u)``
+  (a logarithmic and an exponential kind);
 * ``free``: a logarithmic kind (``log``, ``atan``, ``atan2``, ``asin``, ...): a random value
   at ``t = 0`` modulo p (the real one in float64 and mpmath), then ``a_k = R_{k-1} / k`` with
   ``R = a'`` the derivative rule ``sum_i c_i(u) u_i'`` (``c_i`` ordinary instructions, the
@@ -100,8 +104,8 @@ def program(graph, roots):
             slot[k] = _exponential_kind(op, generators["exp", a[0]], em)
         elif op == "sqrt":
             slot[k] = _root(em, a[0], generators)
-        elif op == "pow" and graph_elementary.half_power(graph, k) is not None:
-            slot[k] = em.power(_root(em, a[0], generators), graph_elementary.half_power(graph, k))
+        elif op == "pow":
+            slot[k] = _power(graph, k, a, em, generators)
         elif op in graph_elementary.LOGARITHMIC:
             slot[k] = _logarithmic(em, op, a, (op, tuple(graph.args[k])), generators)
         else:
@@ -109,10 +113,24 @@ def program(graph, roots):
     return em.ins, slot, em.lagged
 
 
-def _root(em, u, generators):
-    if ("sqrt", u) not in generators:
-        generators["sqrt", u] = em.emit("sqrt", (u,))
-    return generators["sqrt", u]
+def _root(em, u, generators, alpha=Fraction(1, 2)):
+    if ("root", u, alpha) not in generators:
+        generators["root", u, alpha] = em.emit("root", (u,), alpha)
+    return generators["root", u, alpha]
+
+
+def _power(graph, k, a, em, generators):
+    """``u^e``: a constant rational ``e`` as a root instruction, any other exponent ``v`` as
+    ``exp(v log u)``."""
+    e = graph_elementary.rational_exponent(graph, k)
+    if e is not None:
+        return em.power(a[0], e.numerator) if e.denominator == 1 else _root(em, a[0], generators, e)
+    u, v = graph.args[k]
+    log = _logarithmic(em, "log", [a[0]], ("log", (u,)), generators)
+    arg = em.emit("mul", (a[1], log))
+    if ("exp", ("pow", k)) not in generators:
+        generators["exp", ("pow", k)] = em.emit("exp", (arg,), ("pow", k))
+    return generators["exp", ("pow", k)]
 
 
 def _exponential_kind(op, E, em):
