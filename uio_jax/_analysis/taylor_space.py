@@ -12,7 +12,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._engine import graph_elementary, graph_exact
+from .._engine import graph_elementary
 from .._engine.taylor import Extended, Float, TaylorSeries, Unsupported
 from .._engine.taylor_degrees import TaylorDegrees
 from .._errors import ModelError
@@ -98,17 +98,23 @@ class TaylorSpace(Space):
         node = function_node(self._ctx.builder, fn, n, n)
         if not self._ctx.settler.exact_capable([node.expr]):
             raise ModelError("is_observable: the function uses an operation that is not decided exactly here")
-        orders = self._orders
+        orders, problem = self._orders, self._problem
+
+        def series_at(arithmetic):
+            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [node.expr], arithmetic, 0)
+
         try:
-            series = TaylorSeries(self._problem.graph, self._problem.fields, self._problem.inputs, [node.expr],
-                                  orders.arith, 0)
-            row = series.coefficient(node.expr, 0)[0, 1:]
+            series = series_at(orders.arith)
+            slot = series.slot[node.expr]
+            bounds = TaylorDegrees.of(series, 0)
+            return orders.rank.member(lambda s: series_at(s.ar).coefficient(node.expr, 0)[:, 1:],
+                                      lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
         except Unsupported as exc:
             raise ModelError(f"is_observable: {exc}") from None
         except graph_elementary.Singular:
             raise ModelError("is_observable: the function's denominator vanishes at the analysis' point") from None
-        degree = TaylorDegrees.of(series, 0).degree(series.slot[node.expr], 0)
-        return orders.member(row, degree)
+        except ArithmeticError as exc:  # taylor_rank.Undecided
+            raise ModelError(f"is_observable: not decided modulo machine-word primes ({exc})") from None
 
     def sample_singular_values(self) -> np.ndarray:
         """``(S_used, r)`` ratios ``s_i / s_1`` at the margin samples (box-scaled columns)."""
@@ -147,7 +153,7 @@ def taylor_certificate(ctx, space: TaylorSpace, orders) -> Certificate:
         samples=ctx.samples, used=used, dropped=len(space.samples) - used, fraction=fraction,
         min_fraction=1.0, sigma_r_min=1.0, sigma_next_max=0.0, rtol=space.rtol, decisions=orders.decisions,
         conditioning=conditioning, capped=ctx.samples - len(space.samples), exact_decisions=orders.decisions,
-        error_bound=orders.error_bound, prime=graph_exact.PRIME, prob_threshold=ctx.prob_threshold,
+        error_bound=orders.error_bound, prime=orders.rank.primes[0], prob_threshold=ctx.prob_threshold,
         screen_only=True)
 
 

@@ -290,10 +290,10 @@ class TaylorSeries:
     def _root(self, r, m):
         """``w = u^alpha``: ``w_0`` a root of ``u_0^a`` (``alpha = a/b``), then
         ``m u_0 w_m = sum_{j=1..m} ((alpha + 1) j - m) u_j w_{m-j}``."""
-        ar, (u,), alpha = self.ar, self.ins[r][1], Fraction(self.ins[r][2])
+        ar, (u,), (alpha, key) = self.ar, self.ins[r][1], self.ins[r][2]
         if m == 0:
             u0 = self.now[:, u]
-            w0 = self._int_power(ar.root(ar.reduce(u0[:, 0]), alpha.denominator), alpha.numerator)
+            w0 = self._int_power(ar.root(ar.reduce(u0[:, 0]), alpha.denominator, key), alpha.numerator)
             slope = ar.reduce(ar.mul(w0, self._inverse_of(u)) * self._per_row(ar.scalar(alpha)))
             return self._dual(w0, slope, u0[:, 1:])
         j = np.arange(1, m + 1)

@@ -70,7 +70,7 @@ class Float(_Plain):
     def inverse(self, a):
         return 1.0 / a
 
-    def root(self, a, b: int):
+    def root(self, a, b: int, key=None):
         """The real ``b``-th root (odd ``b``: of either sign)."""
         if b % 2:
             return np.sign(a) * np.abs(a) ** (1.0 / b)
@@ -108,7 +108,7 @@ class Extended(_Plain):
     def inverse(self, a):
         return np.array([1 / v for v in a], dtype=object)
 
-    def root(self, a, b: int):
+    def root(self, a, b: int, key=None):
         ctx = self.ctx
         return np.array([ctx.sign(v) * ctx.root(abs(v), b) if b % 2 else ctx.root(v, b) for v in a], dtype=object)
 
@@ -163,7 +163,7 @@ class Modular(_Plain):
             out[i] = pow(v, -1, self.p)
         return out
 
-    def root(self, a, b: int):
+    def root(self, a, b: int, key=None):
         """``b``-th roots: square roots where they exist (``p = 3 mod 4``), odd roots where
         they are unique (``gcd(b, p - 1) = 1``).
 

@@ -103,7 +103,7 @@ def program(graph, roots):
                 generators["exp", a[0]] = em.emit("exp", (a[0],), graph.args[k][0])
             slot[k] = _exponential_kind(op, generators["exp", a[0]], em)
         elif op == "sqrt":
-            slot[k] = _root(em, a[0], generators)
+            slot[k] = _root(em, a[0], generators, ("root", graph.args[k][0]))
         elif op == "pow":
             slot[k] = _power(graph, k, a, em, generators)
         elif op in graph_elementary.LOGARITHMIC:
@@ -113,9 +113,10 @@ def program(graph, roots):
     return em.ins, slot, em.lagged
 
 
-def _root(em, u, generators, alpha=Fraction(1, 2)):
+def _root(em, u, generators, key, alpha=Fraction(1, 2)):
+    """``u^alpha``; ``key`` names its branch (the same root in every program of one graph)."""
     if ("root", u, alpha) not in generators:
-        generators["root", u, alpha] = em.emit("root", (u,), alpha)
+        generators["root", u, alpha] = em.emit("root", (u,), (alpha, key + (alpha,)))
     return generators["root", u, alpha]
 
 
@@ -124,7 +125,9 @@ def _power(graph, k, a, em, generators):
     ``exp(v log u)``."""
     e = graph_elementary.rational_exponent(graph, k)
     if e is not None:
-        return em.power(a[0], e.numerator) if e.denominator == 1 else _root(em, a[0], generators, e)
+        if e.denominator == 1:
+            return em.power(a[0], e.numerator)
+        return _root(em, a[0], generators, ("root", graph.args[k][0]), e)
     u, v = graph.args[k]
     log = _logarithmic(em, "log", [a[0]], ("log", (u,)), generators)
     arg = em.emit("mul", (a[1], log))
@@ -148,7 +151,7 @@ def _exponential_kind(op, E, em):
     return em.emit("div", (em.emit("add", (E2, em.const(sign))), em.emit("mul", (em.const(2), E))))
 
 
-def _slopes(em, op, a, generators):
+def _slopes(em, op, a, key, generators):
     """The derivative rule of a logarithmic kind: ``[(c_i, u_i)]`` with ``d op = sum c_i du_i``."""
     u = a[0]
     u2 = em.emit("mul", (u, u))
@@ -161,10 +164,11 @@ def _slopes(em, op, a, generators):
     if op == "atanh":
         return [(em.recip(em.emit("add", (em.const(1), em.emit("neg", (u2,))))), u)]
     if op in ("asin", "acos"):
-        w = em.recip(_root(em, em.emit("add", (em.const(1), em.emit("neg", (u2,)))), generators))
+        w = em.recip(_root(em, em.emit("add", (em.const(1), em.emit("neg", (u2,)))), generators, ("root", key)))
         return [(w if op == "asin" else em.emit("neg", (w,)), u)]
     if op in ("asinh", "acosh"):
-        w = em.recip(_root(em, em.emit("add", (u2, em.const(1 if op == "asinh" else -1))), generators))
+        w = em.recip(_root(em, em.emit("add", (u2, em.const(1 if op == "asinh" else -1))), generators,
+                           ("root", key)))
         return [(w, u)]
     v = a[1]  # atan2(u, v): (v du - u dv) / (u^2 + v^2)
     d = em.recip(em.emit("add", (u2, em.emit("mul", (v, v)))))
@@ -173,7 +177,7 @@ def _slopes(em, op, a, generators):
 
 def _logarithmic(em, op, a, key, generators):
     """A logarithmic kind: its slopes, the lagged derivative ``R = sum c_i u_i'``, the value."""
-    pairs = _slopes(em, op, a, generators)
+    pairs = _slopes(em, op, a, key, generators)
     R = None
     for c, u in pairs:
         term = em.emit("mul", (c, em.emit("deriv", (u,), lag=True)), lag=True)

@@ -84,7 +84,7 @@ class Word:
         self.rng = rng
         self.values = {}  # generator key -> its values (rows,)
         pts = np.array([[int(v) % p for v in row] for row, p in zip(points, self.primes)], dtype=np.int64)
-        self.points = self._embed(pts.reshape(self.lanes, -1))
+        self.points = self.embed(pts.reshape(self.lanes, -1))
         self._scalars = {}
         self.row_mod = np.tile(self.mod, self.rows // self.lanes)
 
@@ -92,7 +92,7 @@ class Word:
     def rows(self) -> int:
         return len(self.mod)
 
-    def _embed(self, a):
+    def embed(self, a):
         """Lane values ``(L, ...)`` of ``F_p`` as elements."""
         return a
 
@@ -159,16 +159,16 @@ class Word:
             mod = self.mod[:self.lanes]
             t = self._random()
             inv = _power((1 + t * t) % mod, mod - 2, mod)
-            return self._embed(2 * t * inv % mod), self._embed((1 - t * t) % mod * inv % mod)
+            return self.embed(2 * t * inv % mod), self.embed((1 - t * t) % mod * inv % mod)
         return self._draw(key, make)
 
     def exponential(self, key, u0):
         """A random nonzero value of ``exp u`` per lane."""
-        return self._draw(key, lambda: self._embed(np.maximum(self._random(), 1)))
+        return self._draw(key, lambda: self.embed(np.maximum(self._random(), 1)))
 
     def free(self, key, kind, values):
         """A random value of a logarithmic kind's generator per lane."""
-        return self._draw(key, lambda: self._embed(self._random()))
+        return self._draw(key, lambda: self.embed(self._random()))
 
     def _odd_root(self, a, b):
         """The unique ``b``-th root in ``F_p`` (``b`` odd, prime to ``p - 1``) of ``(L,)``."""
@@ -176,13 +176,14 @@ class Word:
         e = np.array([pow(b, -1, p - 1) for p in self.primes], dtype=np.int64)
         return _power(a % mod, e, mod)
 
-    def _sign(self, r):
-        """``r`` or ``-r`` per lane, at random (the branch of a square root)."""
-        flip = self.rng.integers(0, 2, size=self.lanes).astype(bool)
+    def _sign(self, r, key):
+        """``r`` or ``-r`` per lane, drawn once per root ``key`` (the branch of a square root:
+        the same in every program of the lane)."""
+        flip = self._draw(("sign",) + tuple(key), lambda: self.rng.integers(0, 2, size=self.lanes).astype(bool))
         flip = _column(np.tile(flip, self.rows // self.lanes), r.ndim)
         return np.where(flip, (-r) % _column(self.row_mod, r.ndim), r)
 
-    def root(self, a, b: int):
+    def root(self, a, b: int, key=("root",)):
         """``a^(1/b)`` of ``(rows,)`` elements (``b = 2^e b'``): the odd root, then ``e``
         square roots, each of a random branch.
 
@@ -191,8 +192,8 @@ class Word:
         """
         e = (b & -b).bit_length() - 1
         r = self._odd_root_rows(a, b >> e) if b >> e > 1 else self.reduce(a)
-        for _ in range(e):
-            r = self._sign(self._square_root(r))
+        for level in range(e):
+            r = self._sign(self._square_root(r), tuple(key) + (level,))
         return r
 
     def _odd_root_rows(self, a, b):
@@ -213,7 +214,7 @@ class Word:
 class WordSquare(Word):
     """``F_{p^2} = F_p[i]`` per lane (``i^2 = -1``): rows ``[real parts; imaginary parts]``."""
 
-    def _embed(self, a):
+    def embed(self, a):
         return np.concatenate([a, np.zeros_like(a)])
 
     @property
