@@ -21,8 +21,10 @@ from .sampled_rank import ratios
 from .space import EXTENDED_DIGITS, Space, annihilator_extended, function_node
 
 #: The float64 margins and singular values are taken at this many sampled states at most
-#: (they decide nothing; 16 of them cost as much as the exact decisions on a 100-variable chain).
+#: (they decide nothing), and at one from :data:`MARGIN_ONE_FROM` coordinates on: each sample
+#: costs as much as the exact decisions (one series, the same program), which dominate there.
 MARGIN_SAMPLES = 4
+MARGIN_ONE_FROM = 100
 #: Decimal digits of the directions where float64 cannot separate the kept gradients, tried
 #: in turn: the rows of deep orders can be separated by 70 decades at a generic state.
 EXTENDED_PRECISIONS = (EXTENDED_DIGITS, 4 * EXTENDED_DIGITS, 16 * EXTENDED_DIGITS)
@@ -39,7 +41,7 @@ class TaylorSpace(Space):
         self.rtol = ctx.codist.rtol
         lo, hi = ctx.system.box()
         self._width = hi - lo
-        xs = ctx.xs[ctx.defined[:len(ctx.xs)]][:MARGIN_SAMPLES]
+        xs = ctx.xs[ctx.defined[:len(ctx.xs)]][:MARGIN_SAMPLES if ctx.system.n < MARGIN_ONE_FROM else 1]
         self.samples = xs
         with np.errstate(all="ignore"):  # deep orders may overflow at a sample: dropped there
             self.grads = self._gradients(Float(xs)) if len(xs) else np.zeros((0, len(self._kept), ctx.system.n))

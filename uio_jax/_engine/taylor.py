@@ -106,10 +106,14 @@ class TaylorSeries:
         self.done = k
 
     def _grow(self, k):
+        """Room for order ``k`` in the history: numeric arrays get every order at once (zeroed
+        pages are mapped when first written, so the orders never reached cost no memory),
+        object arrays double."""
         cap = self.H.shape[2]
         if k < cap:
             return
-        new = np.zeros(self.H.shape[:2] + (min(max(2 * cap, 4), self.K + 1), self.N + 1), dtype=self.ar.dtype)
+        size = self.K + 1 if self.ar.dtype is not object else min(max(2 * cap, 4), self.K + 1)
+        new = np.zeros(self.H.shape[:2] + (size, self.N + 1), dtype=self.ar.dtype)
         new[:, :, :cap] = self.H
         self.H = new
 
@@ -178,6 +182,11 @@ class TaylorSeries:
         elif kind == "scale":
             factors = np.stack([self._per_row(ar.scalar(c)) for c in members[2]], axis=1)
             now[:, out] = ar.reduce(now[:, members[1]] * factors[:, :, None])
+        elif kind == "mul":  # sum_j a_j (x) b_{m-j}, one einsum for the group
+            A, B = self.H[:, members[1], :m + 1], self.H[:, members[2], :m + 1]
+            other = ar.dot(A[..., ::-1, 0], B)
+            other[..., 0] = 0
+            now[:, out] = ar.reduce(ar.dot(B[..., ::-1, 0], A) + other)
         else:  # cmul: c_0 (x) x_m for a factor constant along the flow
             c0, x = self._first_of(members[1]), now[:, members[2]]
             res = ar.mul(c0[..., :1], x)
@@ -250,10 +259,6 @@ class TaylorSeries:
         return out
 
     # ------------------------------------------------------------------ rules
-    def _mul(self, i, m):
-        a, b = self.ins[i][1]
-        return self._cauchy(self._past(a, 0, m), self._past(b, 0, m))
-
     def _div(self, i, m):
         a, b = self.ins[i][1]
         rest = self.now[:, a]

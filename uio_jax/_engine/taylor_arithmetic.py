@@ -52,7 +52,9 @@ class _Plain:
         return self.reduce(a * b)
 
     def dot(self, v, M):
-        return self.reduce(np.matmul(v[:, None, :], M)[:, 0])
+        if self.dtype is object:
+            return self.reduce(np.matmul(v[..., None, :], M)[..., 0, :])
+        return np.einsum("...j,...jw->...w", v, M)
 
     def scalar_dot(self, v, M):
         return self.dot(v, M)

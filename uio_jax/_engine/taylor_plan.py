@@ -18,7 +18,7 @@ groups one order is computed.
 import numpy as np
 
 #: the kinds computed as one numpy operation per group
-VECTOR = ("add", "neg", "scale", "cmul")
+VECTOR = ("add", "neg", "scale", "cmul", "mul")
 
 
 def _refs(ins, i):
@@ -135,8 +135,18 @@ class Plan:
         if kind == "scale":  # (out, operand, constant's value)
             pairs = [(a[1], a[0]) if ins[a[0]][0] == "c" else (a[0], a[1]) for a in (ins[i][1] for i in group)]
             return out, np.array([x for x, _ in pairs], dtype=np.int64), [ins[c][2] for _, c in pairs]
+        if kind == "mul":  # (out, histories of the two operands)
+            return (out, self._rows([ins[i][1][0] for i in group]), self._rows([ins[i][1][1] for i in group]))
         pairs = [(a[0], a[1]) if self.constant[a[0]] else (a[1], a[0]) for a in (ins[i][1] for i in group)]
         return out, np.array([c for c, _ in pairs], dtype=np.int64), np.array([x for _, x in pairs], dtype=np.int64)
+
+    def _rows(self, members):
+        """The history rows of ``members``: a slice where they are consecutive (a view of the
+        history, not a copy), else an index array."""
+        rows = np.array([self.hist[i] for i in members], dtype=np.int64)
+        if len(rows) and (np.diff(rows) == 1).all():
+            return slice(int(rows[0]), int(rows[0]) + len(rows))
+        return rows
 
 
 __all__ = ["Plan", "VECTOR"]

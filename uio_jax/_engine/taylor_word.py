@@ -41,14 +41,14 @@ def _column(a, ndim):
 
 
 def _lazy_dot(v, M, mod):
-    """``sum_j v[:, j] M[:, j] mod p`` per row (``mod (rows,)``), unreduced over blocks of
-    :data:`~uio_jax._engine.primes.LAZY_TERMS` terms."""
-    J, m = v.shape[1], mod[:, None]
+    """``sum_j v[..., j] M[..., j, :] mod p`` per row (``mod (rows,)``; any axes between the
+    rows and ``j``), unreduced over blocks of :data:`~uio_jax._engine.primes.LAZY_TERMS` terms."""
+    J, m = v.shape[-1], _column(mod, v.ndim)
     if J <= LAZY_TERMS:
-        return np.matmul(v[:, None, :], M)[:, 0] % m
+        return np.einsum("...j,...jw->...w", v, M) % m
     out = 0
     for lo in range(0, J, LAZY_TERMS):
-        out = out + np.matmul(v[:, None, lo:lo + LAZY_TERMS], M[:, lo:lo + LAZY_TERMS])[:, 0] % m
+        out = out + np.einsum("...j,...jw->...w", v[..., lo:lo + LAZY_TERMS], M[..., lo:lo + LAZY_TERMS, :]) % m
     return out % m
 
 
@@ -124,7 +124,8 @@ class Word:
         return self.reduce(a * b)
 
     def dot(self, v, M):
-        """``sum_j v[:, j] M[:, j]``: ``v (rows, J)``, ``M (rows, J, C)`` -> ``(rows, C)``."""
+        """``sum_j v[..., j] M[..., j, :]``: ``v (rows, .., J)``, ``M (rows, .., J, C)`` ->
+        ``(rows, .., C)``."""
         return _lazy_dot(v, M, self.row_mod)
 
     def scalar_dot(self, v, M):
