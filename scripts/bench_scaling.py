@@ -7,14 +7,15 @@ Two families (the exactness issue's targets):
   replaces ``x_{i-1} x_i`` by ``x_{i-1} sin(x_i)``. Variables: ``2 n_states``.
 * **slam**: a planar robot ``(px, py, th)`` with known speed and turn rate, range and bearing
   to ``L`` landmarks at unknown fixed positions: ``3 + 2 L`` states, generic dimension
-  ``n - 3`` (the rigid motions of the plane are hidden).
+  ``n - 3`` (the rigid motions of the plane are hidden). The range is squared; ``--fn sqrt``
+  writes it as the distance ``sqrt((lx - px)^2 + (ly - py)^2)``.
 
 Each size runs in a fresh process (``python scripts/bench_scaling.py --one FAMILY SIZE``), so
 the time is a first call: CPU time, wall time and peak memory (``ru_maxrss``) of the process,
 with the report's dimension and arithmetic.
 
     python scripts/bench_scaling.py chain 10 25 35 50 [--fn sin] [--repeat 3]
-    python scripts/bench_scaling.py slam 10 40 100 200
+    python scripts/bench_scaling.py slam 10 40 100 200 [--fn sqrt]
     python scripts/bench_scaling.py chain 6 8 12 16 [--symbolic]   # the engine's choice, A/B
 """
 
@@ -42,7 +43,7 @@ def chain(n_states: int, fn: str = "mul"):
                      drift=drift, params={f"a{i}": (0.5, 1.5) for i in range(n_states)}, name=f"chain{n_states}")
 
 
-def slam(landmarks: int):
+def slam(landmarks: int, fn: str = "mul"):
     import jax.numpy as jnp
 
     import uio_jax as uj
@@ -52,7 +53,8 @@ def slam(landmarks: int):
     outputs = {}
     for j in range(L):
         def rng(x, j=j):
-            return (x[3 + 2 * j] - x[0]) ** 2 + (x[4 + 2 * j] - x[1]) ** 2
+            squared = (x[3 + 2 * j] - x[0]) ** 2 + (x[4 + 2 * j] - x[1]) ** 2
+            return jnp.sqrt(squared) if fn == "sqrt" else squared
 
         def bearing(x, j=j):
             dx, dy = x[3 + 2 * j] - x[0], x[4 + 2 * j] - x[1]
@@ -68,14 +70,14 @@ def slam(landmarks: int):
         return jnp.zeros(n).at[2].set(1.0)
 
     return uj.System(states=states, outputs=outputs, known={"v": speed, "omega": turn},
-                     angles=("th",), name=f"slam{L}")
+                     angles=("th",), name=f"slam{L}" + ("_sqrt" if fn == "sqrt" else ""))
 
 
 def one(family: str, size: int, fn: str) -> dict:
     import uio_jax as uj
 
     t0, c0 = time.perf_counter(), time.process_time()
-    system = chain(size, fn) if family == "chain" else slam(size)
+    system = chain(size, fn) if family == "chain" else slam(size, fn)
     rep = uj.analyze(system)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return {"family": family, "size": size, "fn": fn, "variables": rep.n, "dim": rep.dim,
@@ -87,7 +89,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("family", choices=("chain", "slam"))
     ap.add_argument("sizes", type=int, nargs="+")
-    ap.add_argument("--fn", choices=("mul", "sin"), default="mul")
+    ap.add_argument("--fn", choices=("mul", "sin", "sqrt"), default="mul",
+                    help="chain: the coupling (mul, sin); slam: the range (mul: squared, sqrt: the distance)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--one", action="store_true", help="run one size in this process, print JSON")
     ap.add_argument("--symbolic", action="store_true",
@@ -115,7 +118,7 @@ def main(argv=None):
         if not runs:
             continue
         r = runs[0]
-        label = f"{args.family}" + (f" ({args.fn})" if args.family == "chain" else "")
+        label = f"{args.family} ({args.fn})"
         print(f"| {label} | {size} | {r['variables']} | {r['dim']} | {r['exact']} "
               f"| {statistics.median(x['wall_s'] for x in runs):.2f} "
               f"| {statistics.median(x['cpu_s'] for x in runs):.2f} "

@@ -40,6 +40,7 @@ import numpy as np
 
 from .graph_elementary import Singular
 from .taylor_arithmetic import Extended, Float, Modular
+from .taylor_columns import bits, colouring
 from .taylor_plan import VECTOR, Plan
 from .taylor_program import Unsupported, program
 
@@ -72,7 +73,10 @@ class TaylorSeries:
         moving = any(any(row) for row in inputs)
         self.plan = Plan(self.ins, self.fields, self.lagged, [self.slot[r] for r in roots], moving)
         self.P = arithmetic.rows
-        W = self.N + 1
+        self.colour, count, self.support = colouring(self.ins, self.fields, [self.slot[v] for v in wanted], self.N)
+        self._columns = {}  # instruction -> the coordinates of its support (expanded rows)
+        W = count + 1
+        self.W = W
         self.now = np.zeros((self.P, len(self.ins), W), dtype=arithmetic.dtype)
         self.H = np.zeros((self.P, len(self.plan.hist), 0, W), dtype=arithmetic.dtype)
         self.base = None  # order 0 of the instructions constant along the flow
@@ -86,8 +90,23 @@ class TaylorSeries:
             self._pass()
         i = self.slot[node]
         if self.plan.constant[i]:
-            return self.base[:, self.plan.base[i]] if k == 0 else np.zeros_like(self.base[:, 0])
-        return self.H[:, self.plan.hist[i], k]
+            packed = self.base[:, self.plan.base[i]] if k == 0 else np.zeros_like(self.base[:, 0])
+        else:
+            packed = self.H[:, self.plan.hist[i], k]
+        return self._expand(i, packed)
+
+    def _expand(self, i, packed):
+        """The gradient of instruction ``i`` over the ``N`` coordinates from its compressed
+        columns (:mod:`.taylor_columns`)."""
+        if self.support is None:
+            return packed
+        cols = self._columns.get(i)
+        if cols is None:
+            cols = self._columns[i] = np.array(bits(self.support[i]), dtype=np.int64)
+        out = np.zeros((self.P, self.N + 1), dtype=packed.dtype)
+        out[:, 0] = packed[:, 0]
+        out[:, 1 + cols] = packed[:, 1 + self.colour[cols]]
+        return out
 
     # ------------------------------------------------------------------ passes
     def _pass(self):
@@ -106,14 +125,13 @@ class TaylorSeries:
         self.done = k
 
     def _grow(self, k):
-        """Room for order ``k`` in the history: numeric arrays get every order at once (zeroed
-        pages are mapped when first written, so the orders never reached cost no memory),
-        object arrays double."""
+        """Room for order ``k`` in the history (its capacity doubles: a run that stops early
+        holds few orders)."""
         cap = self.H.shape[2]
         if k < cap:
             return
-        size = self.K + 1 if self.ar.dtype is not object else min(max(2 * cap, 4), self.K + 1)
-        new = np.zeros(self.H.shape[:2] + (size, self.N + 1), dtype=self.ar.dtype)
+        size = min(max(2 * cap, 4), self.K + 1)
+        new = np.zeros(self.H.shape[:2] + (size, self.W), dtype=self.ar.dtype)
         new[:, :, :cap] = self.H
         self.H = new
 
@@ -124,7 +142,7 @@ class TaylorSeries:
         if xs:
             rows, cols = np.array([i for i, _ in xs]), np.array([p for _, p in xs])
             self.now[:, rows, 0] = ar.points[:, cols]
-            self.now[:, rows, 1 + cols] = self._per_row(ar.element(Fraction(1)))[:, None]
+            self.now[:, rows, 1 + self.colour[cols]] = self._per_row(ar.element(Fraction(1)))[:, None]
         for i, (op, _, value) in enumerate(self.ins):
             if op == "c":
                 self.now[:, i, 0] = ar.element(value)
@@ -140,7 +158,7 @@ class TaylorSeries:
         if not len(rows):
             return
         src = plan.sources
-        out = np.zeros((self.P, len(rows), self.N + 1), dtype=ar.dtype)
+        out = np.zeros((self.P, len(rows), self.W), dtype=ar.dtype)
         has = src >= 0
         out[:, has] = self.now[:, src[has]]
         for pos, f, s in plan.input_terms:
@@ -253,7 +271,7 @@ class TaylorSeries:
 
     def _dual(self, value, slope, du):
         """The dual number of ``value`` whose gradient is ``slope du`` (``(rows,)``, ``(rows, N)``)."""
-        out = np.zeros((self.P, self.N + 1), dtype=self.ar.dtype)
+        out = np.zeros((self.P, self.W), dtype=self.ar.dtype)
         out[:, 0] = value
         out[:, 1:] = self.ar.mul(slope[:, None], du)
         return out
@@ -324,7 +342,7 @@ class TaylorSeries:
         R, (key, pairs, kind, operands) = self.ins[i][1][0], self.ins[i][2]
         if m:
             return ar.reduce(self.now[:, R] * _column(ar.scalar(Fraction(1, m)), 2))
-        out = np.zeros((self.P, self.N + 1), dtype=ar.dtype)
+        out = np.zeros((self.P, self.W), dtype=ar.dtype)
         out[:, 0] = ar.free(key, kind, [self.now[:, v, 0] for v in operands])
         for c, u in pairs:  # d a_0 = sum c_i(u_0) d u_i
             out[:, 1:] = out[:, 1:] + ar.mul(self.now[:, c, :1], self.now[:, u, 1:])

@@ -30,7 +30,7 @@ import numpy as np
 from .graph_elementary import Singular
 from .primes import LOW, prime_count, random_prime, root_conditions
 from .taylor_word import Word, WordSquare
-from .word_echelon import WordEchelon
+from .word_echelon import LaneSpan
 
 #: the most lanes a run may use (a decision needing more is undecided here)
 MAX_LANES = 16
@@ -94,8 +94,7 @@ class TaylorRank:
         else:
             raise Undecided("every random point drawn is singular modulo p")
         self.arith, self.series = arith, series
-        width = self.n * (2 if self.square else 1)
-        self.echelons = [WordEchelon(p, width) for p in primes]
+        self.echelons = [LaneSpan(p, self.n) for p in primes]
         self.live = list(range(lanes))
         for kind_, rows_of, outcome in self.log:
             self._replay(kind_, rows_of, outcome)
@@ -117,12 +116,12 @@ class TaylorRank:
     def _rises(self, rows_of):
         """Per live lane, whether the rows raised its rank (kept there)."""
         lane_rows = self._rows(rows_of)
-        return {lane: sum(self.echelons[lane].add(r) for r in lane_rows[lane][1]) > 0 for lane in self.live}
+        return {lane: self.echelons[lane].add(lane_rows[lane][1]) for lane in self.live}
 
     def _inside(self, rows_of):
         """Per live lane, whether the rows lie in its span."""
         lane_rows = self._rows(rows_of)
-        return {lane: not any(self.echelons[lane].reduce(r).any() for r in lane_rows[lane][1]) for lane in self.live}
+        return {lane: self.echelons[lane].inside(lane_rows[lane][1]) for lane in self.live}
 
     def _drop(self, lanes):
         for lane in lanes:

@@ -54,6 +54,8 @@ def _lazy_dot(v, M, mod):
 
 def _power(v, e, mod):
     """``v^e mod p`` per row (``v, e, mod`` of shape ``(rows,)``; ``e >= 0``)."""
+    if v.size <= 64:  # a few residues: Python's pow
+        return np.array([pow(int(a), int(b), int(m)) for a, b, m in zip(v, e, mod)], dtype=np.int64)
     out = np.ones_like(v)
     base = v % mod
     e = np.array(e, dtype=np.int64)
@@ -294,13 +296,19 @@ class WordSquare(Word):
         return np.concatenate([re, im])
 
     def lane_rows(self, X):
-        """Per lane, the two rows over ``F_p`` spanning ``X``'s row and ``i`` times it:
-        ``[re | im]`` and ``[-im | re]`` (``F_p``-rank twice the ``F_{p^2}``-rank)."""
+        """Per lane, the row of ``X`` over ``F_p``: a real or purely imaginary row as its
+        ``F_p`` part (``(1, N)``: ``i`` is a unit, and the rank over ``F_{p^2}`` of rows of
+        ``F_p`` is their rank over ``F_p``), any other as the two rows spanning it and ``i``
+        times it, ``[re | im]`` and ``[-im | re]`` (``(2, 2N)``: the ``F_p``-rank of these is
+        twice the ``F_{p^2}``-rank)."""
         n = self.lanes
         out = []
         for lane, p in enumerate(self.primes):
             re, im = X[lane], X[n + lane]
-            out.append((p, np.stack([np.concatenate([re, im]), np.concatenate([(-im) % p, re])])))
+            if not im.any() or not re.any():
+                out.append((p, (re if re.any() else im)[None]))
+            else:
+                out.append((p, np.stack([np.concatenate([re, im]), np.concatenate([(-im) % p, re])])))
         return out
 
 

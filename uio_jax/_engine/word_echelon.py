@@ -23,12 +23,16 @@ class WordEchelon:
 
     def __init__(self, p: int, n: int):
         self.p, self.n = int(p), int(n)
-        self.R = np.zeros((0, self.n), dtype=np.int64)
+        self._R = np.zeros((8, self.n), dtype=np.int64)  # the kept rows, capacity doubling
         self.pivots: list[int] = []
 
     @property
     def rank(self) -> int:
         return len(self.pivots)
+
+    @property
+    def R(self) -> np.ndarray:
+        return self._R[:self.rank]
 
     def reduce(self, row) -> np.ndarray:
         """The remainder of ``row`` after eliminating the pivot columns (zero iff in the span)."""
@@ -36,10 +40,10 @@ class WordEchelon:
         v = np.asarray(row, dtype=np.int64) % p
         if not self.pivots:
             return v
-        f = v[self.pivots]
+        f, R = v[self.pivots], self.R
         for lo in range(0, len(f), LAZY_TERMS):
-            v = (v - f[lo:lo + LAZY_TERMS] @ self.R[lo:lo + LAZY_TERMS] % p) % p
-        return v
+            v = v - np.einsum("j,jw->w", f[lo:lo + LAZY_TERMS], R[lo:lo + LAZY_TERMS]) % p
+        return v % p
 
     def add(self, row) -> bool:
         """Append ``row``; whether it raised the rank."""
@@ -47,13 +51,65 @@ class WordEchelon:
         nonzero = np.flatnonzero(v)
         if not len(nonzero):
             return False
-        p, c = self.p, int(nonzero[0])
+        p, c, r = self.p, int(nonzero[0]), self.rank
         v = v * pow(int(v[c]), -1, p) % p
-        if self.pivots:
-            self.R = (self.R - np.outer(self.R[:, c], v) % p) % p
-        self.R = np.vstack([self.R, v[None]])
+        if r:
+            R = self.R
+            R -= R[:, c:c + 1] * v % p
+            R %= p
+        if r == len(self._R):
+            self._R = np.concatenate([self._R, np.zeros_like(self._R)])
+        self._R[r] = v
         self.pivots.append(c)
         return True
 
 
-__all__ = ["WordEchelon"]
+class LaneSpan:
+    """The span of one lane's rows over ``F_p`` or ``F_{p^2} = F_p[i]``
+    (:meth:`uio_jax._engine.taylor_word.WordSquare.lane_rows`): rows of ``F_p`` (``(1, n)``)
+    in an echelon form of width ``n`` while every row is one; from the first other row on
+    (``(2, 2n)``, a row and ``i`` times it over ``F_p``), every row realified in one of width
+    ``2n`` (the rows kept so far entered again as ``[w | 0]`` and ``[0 | w]``).
+
+    Args:
+        p: the prime.
+        n: the row length over the field.
+    """
+
+    def __init__(self, p: int, n: int):
+        self.p, self.n = int(p), int(n)
+        self.plain = WordEchelon(p, n)
+        self.real = None
+        self._kept = []  # the plain rows kept, for the switch
+
+    def _realified(self, rows):
+        if rows.shape[1] == 2 * self.n:
+            return rows
+        zero = np.zeros(self.n, dtype=np.int64)
+        return np.array([np.concatenate([w, zero]) for w in rows] + [np.concatenate([zero, w]) for w in rows])
+
+    def _switch(self):
+        if self.real is None:
+            self.real = WordEchelon(self.p, 2 * self.n)
+            for r in self._realified(np.array(self._kept, dtype=np.int64).reshape(-1, self.n)):
+                self.real.add(r)
+
+    def add(self, rows) -> bool:
+        """Append the rows of one element row; whether they raised the rank."""
+        if self.real is None and rows.shape[1] == self.n:
+            rose = self.plain.add(rows[0])
+            if rose:
+                self._kept.append(np.asarray(rows[0], dtype=np.int64) % self.p)
+            return rose
+        self._switch()
+        return sum(self.real.add(r) for r in self._realified(rows)) > 0
+
+    def inside(self, rows) -> bool:
+        """Whether the rows of one element row lie in the span."""
+        if self.real is None and rows.shape[1] == self.n:
+            return not self.plain.reduce(rows[0]).any()
+        self._switch()
+        return not any(self.real.reduce(r).any() for r in self._realified(rows))
+
+
+__all__ = ["WordEchelon", "LaneSpan"]
