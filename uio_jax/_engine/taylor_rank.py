@@ -17,9 +17,10 @@ The rows ``d y_k`` are computed modulo several *lanes*, each a random prime ``p_
   ``D / p_l``, ``D`` its degree, :mod:`.taylor_degrees`). With the lanes drawn independently,
   the probability is at most ``prod_l (D / p_l + ceil(H / 25) / #primes)``. A dependence is
   certified when that bound is below ``max_bound``; otherwise lanes are added (every lane
-  drawn again, the decisions so far replayed in the new lanes: a kept row that a new lane does
-  not raise drops that lane, a certified dependence that a new lane contradicts ends the
-  decisions, :class:`Undecided`) until it is, up to :data:`MAX_LANES`.
+  drawn again, as many as a bound with fresh random primes needs, the decisions so far replayed
+  in the new lanes: a kept row that a new lane does not raise drops that lane, a certified
+  dependence that a new lane contradicts ends the decisions, :class:`Undecided`) until it is,
+  up to :data:`MAX_LANES`.
 * Once the rank is ``N`` every further row is dependent with certainty.
 """
 
@@ -193,11 +194,10 @@ class TaylorRank:
         if bound <= self.max_bound:
             self.error_bound += bound
             return True
-        worst = max(per_lane)
-        if worst >= 1.0:
+        fresh = self._lane_bound(LOW, D, H)  # a new lane: a random prime of the range
+        if fresh >= 1.0:
             raise Undecided(f"a dependence of degree {D} and {H:.0f} bits is beyond these primes")
-        needed = math.ceil(math.log(self.max_bound) / math.log(worst)) + 1
-        lanes = len(self.arith.primes) + needed - len(self.live)
+        lanes = max(math.ceil(math.log(self.max_bound) / math.log(fresh)) + 1, len(self.arith.primes) + 1)
         if lanes > MAX_LANES:
             raise Undecided(f"a dependence would need {lanes} lanes")
         self._build(lanes)
