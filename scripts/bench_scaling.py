@@ -12,20 +12,30 @@ Two families (the exactness issue's targets):
 
 Each size runs in a fresh process (``python scripts/bench_scaling.py --one FAMILY SIZE``), so
 the time is a first call: CPU time, wall time and peak memory (``ru_maxrss``) of the process,
-with the report's dimension and arithmetic.
+with the report's dimension and arithmetic (BLAS and OpenMP on one thread, :data:`THREADS`).
 
     python scripts/bench_scaling.py chain 10 25 35 50 [--fn sin] [--repeat 3]
     python scripts/bench_scaling.py slam 10 40 100 200 [--fn sqrt]
     python scripts/bench_scaling.py chain 6 8 12 16 [--symbolic]   # the engine's choice, A/B
+    python scripts/bench_scaling.py chain 50 --peer symident        # the same model, symident 0.12
+
+``--peer symident`` times ``symident.detect`` (a C++ kernel over finite fields) on the same
+equations in the same way (fresh process, the model built inside the timed span, one core).
 """
 
 import argparse
 import json
+import os
 import resource
 import statistics
 import subprocess
 import sys
 import time
+
+#: every timed process runs its BLAS and OpenMP libraries on one thread: on a shared 2-core
+#: machine spinning library threads count as CPU time (one SVD of 400 x 403: 0.02 s on one
+#: thread, 0.5 s with OpenBLAS's default threads under load)
+THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
 def chain(n_states: int, fn: str = "mul"):
@@ -73,6 +83,41 @@ def slam(landmarks: int, fn: str = "mul"):
                      angles=("th",), name=f"slam{L}" + ("_sqrt" if fn == "sqrt" else ""))
 
 
+def symident_model(family: str, size: int, fn: str):
+    """The same model as a ``symident.Model`` (equations as text)."""
+    import symident
+
+    if family == "chain":
+        n = size
+        odes = {}
+        for i in range(n):
+            nxt = f" + x{i + 1}" if i + 1 < n else ""
+            other = f"sin(x{i})" if fn == "sin" else f"x{i}"
+            prev = f" + 0.5*x{i - 1}*{other}" if i else ""
+            odes[f"x{i}"] = f"-a{i}*x{i}{nxt}{prev}"
+        return symident.Model(odes=odes, observables={"y": "x0"})
+    odes = {"px": "v*cos(th)", "py": "v*sin(th)", "th": "omega"}
+    obs = {}
+    for j in range(size):
+        odes[f"lx{j}"], odes[f"ly{j}"] = "0", "0"
+        squared = f"(lx{j} - px)^2 + (ly{j} - py)^2"
+        obs[f"r{j}"] = f"sqrt({squared})" if fn == "sqrt" else squared
+        obs[f"b{j}"] = f"atan2(ly{j} - py, lx{j} - px) - th"
+    return symident.Model(odes=odes, observables=obs, known_inputs=["v", "omega"])
+
+
+def one_peer(family: str, size: int, fn: str) -> dict:
+    import symident
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = symident.detect(symident_model(family, size, fn))
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    status = (res.info.get("rank_status") or {}).get("status")
+    return {"family": family, "size": size, "fn": fn, "variables": res.dim, "dim": res.rank, "method": "symident",
+            "exact": status, "arithmetic": "", "wall_s": wall, "cpu_s": cpu,
+            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
 def one(family: str, size: int, fn: str) -> dict:
     import uio_jax as uj
 
@@ -93,6 +138,7 @@ def main(argv=None):
                     help="chain: the coupling (mul, sin); slam: the range (mul: squared, sqrt: the distance)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--one", action="store_true", help="run one size in this process, print JSON")
+    ap.add_argument("--peer", choices=("symident",), help="time the peer on the same model instead")
     ap.add_argument("--symbolic", action="store_true",
                     help="force the symbolic route (no Taylor route at any size): the A/B of the engine's choice")
     args = ap.parse_args(argv)
@@ -101,7 +147,8 @@ def main(argv=None):
 
         taylor_route.TAYLOR_MIN_VARIABLES = 10**9
     if args.one:
-        print(json.dumps(one(args.family, args.sizes[0], args.fn)))
+        run = one_peer if args.peer else one
+        print(json.dumps(run(args.family, args.sizes[0], args.fn)))
         return
     print("| family | size | variables | dim | exact | median wall s | median CPU s | peak MB |")
     print("|---|---|---|---|---|---|---|---|", flush=True)
@@ -109,7 +156,9 @@ def main(argv=None):
         runs = []
         for _ in range(args.repeat):
             cmd = [sys.executable, __file__, args.family, str(size), "--fn", args.fn, "--one"]
-            out = subprocess.run(cmd + (["--symbolic"] if args.symbolic else []), capture_output=True, text=True)
+            cmd += ["--peer", args.peer] if args.peer else []
+            out = subprocess.run(cmd + (["--symbolic"] if args.symbolic else []), capture_output=True, text=True,
+                                 env=dict(os.environ, **THREADS))
             if out.returncode:
                 last = (out.stderr.strip().splitlines() or ["?"])[-1]
                 print(f"| {args.family} | {size} | failed: {last} |", flush=True)
@@ -118,7 +167,7 @@ def main(argv=None):
         if not runs:
             continue
         r = runs[0]
-        label = f"{args.family} ({args.fn})"
+        label = f"{args.family} ({args.fn})" + (f", {args.peer}" if args.peer else "")
         print(f"| {label} | {size} | {r['variables']} | {r['dim']} | {r['exact']} "
               f"| {statistics.median(x['wall_s'] for x in runs):.2f} "
               f"| {statistics.median(x['cpu_s'] for x in runs):.2f} "
