@@ -35,18 +35,25 @@ class WordEchelon:
         return self._R[:self.rank]
 
     def reduce(self, row) -> np.ndarray:
-        """The remainder of ``row`` after eliminating the pivot columns (zero iff in the span)."""
+        """The remainder of ``row`` after eliminating the pivot columns (zero iff in the span):
+        only the kept rows whose pivot is nonzero in ``row`` take part."""
         p = self.p
         v = np.asarray(row, dtype=np.int64) % p
         if not self.pivots:
             return v
-        f, R = v[self.pivots], self.R
+        f = v[self.pivots]
+        used = np.flatnonzero(f)
+        if not len(used):
+            return v
+        f, R = (f, self._R[:len(f)]) if len(used) == len(f) else (f[used], self._R[used])
         for lo in range(0, len(f), LAZY_TERMS):
             v = v - np.einsum("j,jw->w", f[lo:lo + LAZY_TERMS], R[lo:lo + LAZY_TERMS]) % p
         return v % p
 
     def add(self, row) -> bool:
-        """Append ``row``; whether it raised the rank."""
+        """Append ``row``; whether it raised the rank. Keeping it clears its pivot column in
+        the kept rows where that column is nonzero, over the columns where it is nonzero (the
+        rows of a sparse model stay sparse: one column in a few rows)."""
         v = self.reduce(row)
         nonzero = np.flatnonzero(v)
         if not len(nonzero):
@@ -54,9 +61,14 @@ class WordEchelon:
         p, c, r = self.p, int(nonzero[0]), self.rank
         v = v * pow(int(v[c]), -1, p) % p
         if r:
-            R = self.R
-            R -= R[:, c:c + 1] * v % p
-            R %= p
+            hit = np.flatnonzero(self._R[:r, c])
+            if 2 * len(hit) > r and 2 * len(nonzero) > self.n:  # dense: in place
+                R = self._R[:r]
+                R -= R[:, c:c + 1] * v % p
+                R %= p
+            elif len(hit):
+                block = np.ix_(hit, nonzero)
+                self._R[block] = (self._R[block] - self._R[hit, c][:, None] * v[nonzero] % p) % p
         if r == len(self._R):
             self._R = np.concatenate([self._R, np.zeros_like(self._R)])
         self._R[r] = v
