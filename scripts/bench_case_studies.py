@@ -22,8 +22,9 @@ Each process reports the CPU and wall seconds of the analysis call alone (``anal
 whole process; the table gives medians over ``--repeat`` runs, our dimension and arithmetic,
 symident's rank, number of coordinates and rank status, and whether the two leave the same
 number of directions hidden (coordinates less rank: a known input that enters non-affinely is
-a state of ours, a function of symident's; for models without unknown inputs only, the two
-tools give unknown inputs different meanings).
+a state of ours, a function of symident's; a declared parameter that no equation uses is a
+hidden coordinate of ours and unknown to symident; for models without unknown inputs only, the
+two tools give unknown inputs different meanings).
 """
 
 import argparse
@@ -57,6 +58,7 @@ def _ours(path) -> dict:
 
 def _symident(path) -> dict:
     import symident
+    import sympy
 
     from uio_jax._io.strikepy_import import read_strikepy
 
@@ -64,6 +66,9 @@ def _symident(path) -> dict:
     model = symident.Model(odes=dict(spec.dynamics), observables={f"obs_{k}": v for k, v in spec.outputs.items()},
                            known_inputs=list(spec.inputs_known), unknown_inputs=list(spec.inputs_unknown),
                            fixed=list(spec.constants))
+    texts = list(spec.dynamics.values()) + list(spec.outputs.values())
+    used = set().union(*(sympy.sympify(t).free_symbols for t in texts))
+    unused = [q for q in spec.params if sympy.Symbol(q) not in used]  # hidden for us, unknown to symident
     c0, t0 = time.process_time(), time.perf_counter()
     try:
         res = symident.detect(model)
@@ -71,7 +76,7 @@ def _symident(path) -> dict:
         return {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:90]}"}
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
     status = (res.info.get("rank_status") or {}).get("status")
-    return {"cpu_s": cpu, "wall_s": wall, "rank": res.rank, "coords": res.dim, "status": status}
+    return {"cpu_s": cpu, "wall_s": wall, "rank": res.rank, "coords": res.dim, "status": status, "unused": len(unused)}
 
 
 def one(tool: str, path: str) -> dict:
@@ -115,7 +120,7 @@ def _row(name, ours, theirs):
     else:
         peer = (f"{_median(theirs, 'cpu_s'):.3f} | {_median(theirs, 'process_cpu_s'):.2f} "
                 f"| {s['rank']}/{s['coords']} {s['status']}")
-        same = s["coords"] - s["rank"] == o["coords"] - o["dim"]  # the same number of hidden directions
+        same = s["coords"] - s["rank"] + s["unused"] == o["coords"] - o["dim"]  # the same hidden directions
         agree = ("yes" if same else "NO") if not o["unknown"] else "n/a (unknown inputs)"
     return (f"| {name} | {o['states']} | {o['coords'] - o['states']} | {inputs} | {route} | {o['dim']}/{o['coords']} "
             f"| {o['arithmetic']} | {mine} | {peer} | {agree} |")

@@ -2,7 +2,8 @@
 which instructions are constant along the flow, which keep their past orders, and in which
 groups one order is computed.
 
-* **Constant along the flow**: a parameter (a coordinate no field moves), a constant, and
+* **Constant along the flow**: a parameter (a coordinate whose field entries are all None or
+  the constant 0), a constant, and
   what is built from them only: their series stop at order 0, so a product with one of them
   is a scaling (``(c x)_k = c_0 x_k``), not a Cauchy sum, and they are not computed again.
 * **History**: the instructions whose past orders a recurrence reads (the operands of a
@@ -55,7 +56,7 @@ class Plan:
     def __init__(self, ins, fields, lagged, roots, inputs: bool):
         self.ins, self.lagged = ins, set(lagged)
         n = len(ins)
-        driven = {j for f in fields for j, s in enumerate(f) if s is not None}
+        driven = {j for f in fields for j, s in enumerate(f) if s is not None and ins[s] != ("c", (), 0)}
         self.constant = np.zeros(n, dtype=bool)
         level = [0] * n
         for i, (op, a, param) in enumerate(ins):
