@@ -31,6 +31,7 @@ import argparse
 import glob
 import json
 import os
+import re
 import resource
 import statistics
 import subprocess
@@ -58,7 +59,6 @@ def _ours(path) -> dict:
 
 def _symident(path) -> dict:
     import symident
-    import sympy
 
     from uio_jax._io.strikepy_import import read_strikepy
 
@@ -66,9 +66,9 @@ def _symident(path) -> dict:
     model = symident.Model(odes=dict(spec.dynamics), observables={f"obs_{k}": v for k, v in spec.outputs.items()},
                            known_inputs=list(spec.inputs_known), unknown_inputs=list(spec.inputs_unknown),
                            fixed=list(spec.constants))
-    texts = list(spec.dynamics.values()) + list(spec.outputs.values())
-    used = set().union(*(sympy.sympify(t).free_symbols for t in texts))
-    unused = [q for q in spec.params if sympy.Symbol(q) not in used]  # hidden for us, unknown to symident
+    texts = " ".join(list(spec.dynamics.values()) + list(spec.outputs.values()))
+    used = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", texts))
+    unused = [q for q in spec.params if q not in used]  # hidden for us, unknown to symident
     c0, t0 = time.process_time(), time.perf_counter()
     try:
         res = symident.detect(model)

@@ -16,8 +16,10 @@
 
 2. **The whole engine** on the one-output chain of ``bench_scaling.py`` (``2 n`` variables):
    the object-integer arithmetic modulo ``2^127 - 1`` against one int64 lane, CPU seconds per
-   order, and the multiply-adds of its Cauchy sums per second (their count: ``2 m (k + 1) W``
-   per order ``k`` for the ``m`` products with two moving factors).
+   order and per order and tangent column, and the multiply-adds of its Cauchy sums per second
+   (their count: ``2 m (k + 1) W`` per order ``k`` for the ``m`` products with two moving
+   factors, ``W`` the columns), also as a fraction of the int64 ``einsum``'s rate of part 1 (the
+   arithmetic's limit in this formulation: what the engine does besides its Cauchy sums).
 
 CPU seconds (``time.process_time``), one process, BLAS and OpenMP at one thread:
 
@@ -140,20 +142,25 @@ def main(argv=None):
     args = ap.parse_args(argv)
     print("| kernel | m x J x W | CPU s | multiply-adds / s |")
     print("|---|---|---|---|")
+    peak = 0.0
     for shape in args.shapes.split(","):
         m, J, W = (int(v) for v in shape.split("x"))
         for name, t, rate in primitive(m, J, W):
             print(f"| {name} | {shape} | {t:.4f} | {rate:.2e} |", flush=True)
+            peak = max(peak, rate) if name == "int64" else peak
     print()
-    print("| engine | chain variables | orders | CPU s | s / order | Cauchy multiply-adds | per s |")
-    print("|---|---|---|---|---|---|---|")
+    print("| engine | chain variables | orders | CPU s | s / order | us / order / tangent | Cauchy multiply-adds "
+          "| per s | of the int64 einsum's rate |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         for arithmetic in ("object", "int64"):
             if arithmetic == "object" and n > 50:
                 continue
             cpu, work = engine(n, arithmetic)
-            print(f"| {arithmetic} | {2 * n} | {2 * n + 1} | {cpu:.2f} | {cpu / (2 * n + 1):.4f} | {work:.2e} "
-                  f"| {work / cpu:.2e} |", flush=True)
+            orders = 2 * n + 1
+            print(f"| {arithmetic} | {2 * n} | {orders} | {cpu:.2f} | {cpu / orders:.4f} "
+                  f"| {1e6 * cpu / orders / (2 * n + 1):.1f} | {work:.2e} | {work / cpu:.2e} "
+                  f"| {work / cpu / peak:.0%} |", flush=True)
 
 
 if __name__ == "__main__":
