@@ -44,6 +44,9 @@ from .taylor_columns import bits, colouring
 from .taylor_plan import VECTOR, Plan
 from .taylor_program import Unsupported, program
 
+#: histories up to this many bytes are allocated for every order at once (no copies as they grow)
+WHOLE_HISTORY = 256 * 2**20
+
 
 class TaylorSeries:
     """The Taylor coefficients of graph nodes along the flow of ``F``, order by order, with
@@ -125,12 +128,14 @@ class TaylorSeries:
         self.done = k
 
     def _grow(self, k):
-        """Room for order ``k`` in the history (its capacity doubles: a run that stops early
-        holds few orders)."""
+        """Room for order ``k`` in the history: every order at once where that is at most
+        :data:`WHOLE_HISTORY` bytes, else a capacity that doubles (a run that stops early holds
+        few orders)."""
         cap = self.H.shape[2]
         if k < cap:
             return
-        size = min(max(2 * cap, 4), self.K + 1)
+        whole = self.H.shape[0] * self.H.shape[1] * (self.K + 1) * self.W * self.H.itemsize
+        size = self.K + 1 if whole <= WHOLE_HISTORY else min(max(2 * cap, 4), self.K + 1)
         new = np.zeros(self.H.shape[:2] + (size, self.W), dtype=self.ar.dtype)
         new[:, :, :cap] = self.H
         self.H = new

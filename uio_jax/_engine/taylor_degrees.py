@@ -56,8 +56,10 @@ class TaylorDegrees:
         lagged: the lagged instructions (computed one order behind, as the engine does).
     """
 
-    def __init__(self, ins, fields, inputs, orders: int, lagged=()):
+    def __init__(self, ins, fields, inputs, orders: int, lagged=(), constant=None):
         self.ins, self.fields, self.inputs, self.lagged = ins, fields, inputs, set(lagged)
+        #: the instructions constant along the flow (zero beyond order 0: not walked there)
+        self.constant = np.zeros(len(ins), dtype=bool) if constant is None else np.asarray(constant, dtype=bool)
         K = int(orders) + 2  # a lagged derivative reads one order ahead
         self.e = np.full((len(ins), K), ZERO, dtype=np.int64)
         self.eps = np.full((len(ins), K), NONE)
@@ -72,7 +74,7 @@ class TaylorDegrees:
     @classmethod
     def of(cls, series, orders: int) -> "TaylorDegrees":
         """The bounds of a :class:`~uio_jax._engine.taylor.TaylorSeries`' program."""
-        return cls(series.ins, series.fields, series.inputs, orders, series.lagged)
+        return cls(series.ins, series.fields, series.inputs, orders, series.lagged, series.plan.constant)
 
     def degree(self, i: int, k: int) -> int:
         """``deg N + deg Q`` of coefficient ``k`` of instruction ``i`` (the degree a rank
@@ -103,8 +105,8 @@ class TaylorDegrees:
     def _advance(self):
         k = self.done + 1
         for i, (op, a, param) in enumerate(self.ins):
-            if op == "cos":
-                continue  # the sine's bounds (the pair's recurrences are symmetric)
+            if op == "cos" or (k and self.constant[i]):
+                continue  # the sine's bounds (the pair's recurrences are symmetric); zero
             m = k - 1 if i in self.lagged else k
             if m < 0:
                 continue
@@ -209,16 +211,16 @@ class TaylorDegrees:
         w = self.lb[k - shift, j - shift] + extra
         n = math.log2(len(j))
         with np.errstate(invalid="ignore"):
-            eps = float(np.max(ea + eb + w)) + n
-            tau = float(np.max(np.maximum(ta + eb, ea + tb) + w)) + 1 + n
+            eps = float((ea + eb + w).max()) + n
+            tau = float((np.maximum(ta + eb, ea + tb) + w).max()) + 1 + n
         atoms = {}
         for atom in self.mult[a].keys() | self.mult[b].keys():
             ma = self.mult[a].get(atom)
             mb = self.mult[b].get(atom)
-            s = (ma[j] if ma is not None else 0) + (mb[k - j] if mb is not None else 0)
-            if np.max(s):
-                atoms[atom] = int(np.max(s))
-        return int(np.max(self.e[a, j] + self.e[b, k - j])), eps, tau, atoms
+            m = int(((ma[j] if ma is not None else 0) + (mb[k - j] if mb is not None else 0)).max())
+            if m:
+                atoms[atom] = m
+        return int((self.e[a, j] + self.e[b, k - j]).max()), eps, tau, atoms
 
     def _over(self, term, b):
         """``(N / Q) / b_0``: ``b_0``'s denominator to the numerator, its numerator a new atom."""
