@@ -128,14 +128,17 @@ class TaylorSeries:
         self.done = k
 
     def _grow(self, k):
-        """Room for order ``k`` in the history: every order at once where that is at most
-        :data:`WHOLE_HISTORY` bytes, else a capacity that doubles (a run that stops early holds
-        few orders)."""
+        """Room for order ``k`` in the history: a capacity that doubles from 4 orders (a run
+        that stops early holds few), and from 16 on every order at once where that is at most
+        :data:`WHOLE_HISTORY` bytes (a long run copies its history once more, not at every
+        doubling)."""
         cap = self.H.shape[2]
         if k < cap:
             return
         whole = self.H.shape[0] * self.H.shape[1] * (self.K + 1) * self.W * self.H.itemsize
-        size = self.K + 1 if whole <= WHOLE_HISTORY else min(max(2 * cap, 4), self.K + 1)
+        size = min(max(2 * cap, 4), self.K + 1)
+        if cap >= 16 and whole <= WHOLE_HISTORY:
+            size = self.K + 1
         new = np.zeros(self.H.shape[:2] + (size, self.W), dtype=self.ar.dtype)
         new[:, :, :cap] = self.H
         self.H = new
