@@ -261,6 +261,8 @@ class Graph:
                 return self.ipow(a, int(e))
             if e == Fraction(1, 2):
                 return self.unary("sqrt", a)
+            if self.op[b] != "c":  # u^v = exp(v log u): an exponential and a logarithmic kind
+                return self.unary("exp", self.mul(b, self.unary("log", a)))
         folded = self._fold(op, a, b)
         return folded if folded is not None else self._node(op, (a, b))
 

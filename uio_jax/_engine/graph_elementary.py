@@ -17,9 +17,12 @@ points of the *variety* of the generators, not of the states alone:
 * **logarithmic** (``log``, ``log1p``, ``atan``, ``atan2``, ``atanh``, ``asin``, ``acos``,
   ``asinh``, ``acosh``): a random value per node, with its derivative rule (``du/u``,
   ``du/(1+u^2)``, ``du/sqrt(1-u^2)``, ...).
-* **algebraic** (``sqrt u``, ``u ** (k/2)``): the square root of the value of ``u`` at the
-  point (``p = 3 mod 4``: ``r = u^((p+1)/4)``); a point where some ``u`` has no square root
-  modulo ``p`` is drawn again (:class:`NotSquare`, half of the points per root).
+* **algebraic** (``sqrt u``, ``u ** (m/b)`` for an exact rational exponent): the ``b``-th root
+  of the value of ``u`` at the point (square roots ``r = u^((p+1)/4)``, ``p = 3 mod 4``; roots
+  of an odd order prime to ``p - 1`` unique), to the power ``m``; a point where some ``u``
+  has no such root modulo ``p`` is drawn again (:class:`NotSquare`, half of the points per
+  square root). A power ``u ** v`` with a non-constant exponent is ``exp(v log u)`` in the
+  graph (an exponential and a logarithmic kind).
 
 **Why the rank is the real one.** The gradients are rational functions ``M(x, theta)`` of
 the states and the generators, equal to the real gradients on ``theta = theta(x)``. Their
@@ -38,9 +41,10 @@ it is always found); a model where it fails (``sin x`` with ``sin 2x``, ``exp u`
 extended precision, labelled so.
 
 Not made rational: ``erf``, ``cbrt``, ``abs``, ``sign``, rounding, comparisons and ``select``,
-powers with a state-dependent or non-half-integer exponent, and constants known in float64
-only.
+and constants known in float64 only (a power of a base known in float64 only among them).
 """
+
+import math
 
 import numpy as np
 
@@ -66,14 +70,33 @@ class NotSquare(Singular):
     """The argument of a square root has no square root modulo p at the point."""
 
 
-def half_power(graph, k):
-    """For a ``pow`` node with an exact constant exponent ``m/2`` (``m`` odd): ``m``; else
-    None (``pow`` with an integer exponent is ``ipow``, other exponents are not rational)."""
+def rational_exponent(graph, k):
+    """For a ``pow`` node with an exact constant exponent: the exponent (a Fraction); else
+    None (``pow`` with an integer exponent is ``ipow``; a non-constant exponent is
+    ``exp(v log u)`` in the graph, :meth:`uio_jax._engine.graph.Graph.binary`)."""
     b = graph.args[k][1]
-    e = graph.exact_value(b) if graph.op[b] == "c" else None
-    if e is None or e.denominator != 2:
-        return None
-    return int(e.numerator)
+    return graph.exact_value(b) if graph.op[b] == "c" else None
+
+
+def root_mod_p(a, b: int, p: int):
+    """``b``-th roots of residues ``a (P,)`` modulo ``p = 3 mod 4``: the unique root of the odd
+    part of ``b`` where it is prime to ``p - 1``, then principal square roots.
+
+    Raises:
+        NotSquare: a square root that does not exist at the point, or an odd root that is
+            not unique modulo ``p``.
+    """
+    e = (b & -b).bit_length() - 1
+    odd = b >> e
+    out = np.array([int(v) % p for v in a], dtype=object)
+    if odd > 1:
+        if math.gcd(odd, p - 1) != 1:
+            raise NotSquare(f"roots of order {odd} are not unique modulo p")
+        inv = pow(odd, -1, p - 1)
+        out = np.array([pow(int(v), inv, p) for v in out], dtype=object)
+    for _ in range(e):
+        out = sqrt_mod_p(out, p)
+    return out
 
 
 def rationalizable(graph, k) -> bool:
@@ -82,7 +105,7 @@ def rationalizable(graph, k) -> bool:
     if graph.is_rational_node(k):
         return True
     if op == "pow":
-        return half_power(graph, k) is not None
+        return rational_exponent(graph, k) is not None
     return op in ELEMENTARY
 
 
@@ -211,11 +234,12 @@ def evaluate(graph, k, V, draws):
     if op == "sqrt":
         r = sqrt_mod_p(u, p)
         return r, (_inv(2 * r, p),)
-    m = half_power(graph, k)  # u ** (m/2) = sqrt(u) ** m, slope (m/2) u^(m/2) / u
-    r = sqrt_mod_p(u, p)
+    e = rational_exponent(graph, k)  # u ** (m/b) = root_b(u) ** m, slope (m/b) u^(m/b) / u
+    m = e.numerator
+    r = root_mod_p(u, e.denominator, p)
     v = np.array([pow(int(x), m, p) if m >= 0 else pow(int(y), -m, p) for x, y in
                   zip(r, _inv(r, p) if m < 0 else r)], dtype=object)
-    return v, (m * v * _inv(2 * u, p) % p,)
+    return v, (m * v * _inv(e.denominator * u, p) % p,)
 
 
 def _log_slopes(op, u, b, p):
@@ -258,4 +282,4 @@ def family(key) -> str:
 
 __all__ = ["Singular", "ELEMENTARY", "CIRCLE", "EXPONENTIAL", "LOGARITHMIC", "ALGEBRAIC", "NotSquare", "Draws",
            "rationalizable", "generator_key", "evaluate", "omega_factors", "family", "sqrt_mod_p",
-           "half_power"]
+           "rational_exponent", "root_mod_p"]

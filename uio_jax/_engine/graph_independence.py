@@ -17,6 +17,7 @@ import numpy as np
 
 from . import graph_elementary
 from .graph_exact import PRIME, ModularEvaluator, rank_mod_p
+from .graph_numpy import columns as node_columns
 
 
 def generator_keys(graph, roots, nodes=None) -> dict:
@@ -51,18 +52,22 @@ def independent(graph, keys, rng, p: int = PRIME) -> tuple[bool, str]:
     by_family = {}
     for key in keys:
         by_family.setdefault(graph_elementary.family(key), []).append(key)
-    n = graph.n
     for fam, members in by_family.items():
-        count = math.ceil(len(members) / max(n, 1)) + 1
+        # each point gives one row per coordinate the generators' arguments depend on: enough
+        # points that the rank can reach their number (omegas on few coordinates need more)
+        nodes = graph.reachable([keys[k] for k in members])
+        cols, _ = node_columns(graph, nodes)
+        involved = set().union(*(cols[keys[k]] for k in members))
+        count = math.ceil(len(members) / max(len(involved), 1)) + 1
         for _ in range(4):  # a point where a root or a denominator fails: draw again
-            words = rng.integers(0, 2**63, size=(count, n, 3))
+            words = rng.integers(0, 2**63, size=(count, graph.n, 3))
             points = [[((int(a) << 126) | (int(b) << 63) | int(c)) % p for a, b, c in row] for row in words]
             ev = ModularEvaluator(graph, points, p)
             try:
                 ev.evaluate([keys[k] for k in members])
                 columns = []
                 for key in members:
-                    col = np.zeros((count, n), dtype=object)
+                    col = np.zeros((count, graph.n), dtype=object)
                     for operand, factor in graph_elementary.omega_factors(graph, key, ev.V, p):
                         col = col + (ev.dense(operand) * factor).T
                     columns.append(col.reshape(-1) % p)

@@ -5,179 +5,52 @@ For ``z' = F(z, t)`` on ``z = [x; p]`` (``p' = 0``), ``F = f0 + sum_i u_i(t) f_i
 inputs ``u_i(t) = sum_j a_ij t^j``, the solution from ``z(0) = z0`` and any node ``v`` of the
 expression graph have Taylor series ``v(t) = sum_k v_k t^k``; the output coefficients
 ``y_k = L_F^k h / k!`` (at ``t = 0``) are the rows of the observability matrix. They are
-computed here *numerically*, order by order, in one of three arithmetics, with their
-gradients ``d v_k / d z0`` (forward mode: a dual number of ``N + 1`` entries per
-coefficient):
+computed here *numerically*, order by order, with their gradients ``d v_k / d z0`` (forward
+mode: a dual number of ``N + 1`` entries per coefficient, the value first):
 
     x_{i,k}   = F_{i,k-1} / k                                 (the ODE)
     (a b)_k   = sum_{j<=k} a_j b_{k-j}                         (Cauchy product)
     (a / b)_k = (a_k - sum_{j<k} c_j b_{k-j}) / b_0
     s = sin u, c = cos u:  s_k =  (1/k) sum_{j=1..k} j u_j c_{k-j},  c_k = -(1/k) sum j u_j s_{k-j}
     E = exp u:             E_k =  (1/k) sum_{j=1..k} j u_j E_{k-j}
-    r = sqrt u:            2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}
+    w = u^alpha:           k u_0 w_k = sum_{j=1..k} ((alpha + 1) j - k) u_j w_{k-j}
     a = log u, atan2(u, v), ...:  a_k = R_{k-1} / k,  R = a' = sum_i c_i(u) u_i'
 
-(the instructions, and which of them run one order behind: :mod:`.taylor_program`).
+(the instructions, and which of them run one order behind: :mod:`.taylor_program`; their
+schedule: :mod:`.taylor_plan`). Every Cauchy sum of one instruction at one order is one
+matrix product of its past orders (``(J,) x (J, N + 1)`` per row), and the sums, negations
+and scalings of one level of the program are one numpy operation.
 
-Cost: ``O(|graph| K^2 N P)`` for ``K`` orders, ``N`` coordinates and ``P`` points, where the
-symbolic route builds ``L_F^k h`` as graph nodes whose number grows with every order (a
-single-output chain of 60 variables: 500 000 nodes). Modulo ``p`` the generators of the
-elementary functions take random values at ``t = 0`` (:mod:`.graph_elementary`: a point of
-the circle for ``sin``/``cos`` of one argument, a random ``exp u``, a random value of a
-logarithmic kind, a square root of the argument's value), which is the rank of the model
-made rational; in float64 and mpmath they are the real values.
+Cost: ``O(|products| K^2 N)`` multiply-adds for ``K`` orders and ``N`` coordinates (a product
+with a parameter or a constant is a scaling, ``O(K N)``), where the symbolic route builds
+``L_F^k h`` as graph nodes whose number grows with every order. Modulo ``p`` the generators
+of the elementary functions take random values at ``t = 0`` (:mod:`.graph_elementary`), which
+is the rank of the model made rational; in float64 and mpmath they are the real values.
 
-The arithmetic is an object (:class:`Modular`, :class:`Float`, :class:`Extended`) with the
-few operations the recurrences need, so that one program serves the exact decision, the
-float64 margins and the extended-precision directions.
+The arithmetic is an object (:mod:`.taylor_arithmetic`: float64, mpmath, Python integers
+modulo one prime; :mod:`.taylor_word`: int64 modulo several machine-word primes, and their
+quadratic extensions for roots) with the few operations the recurrences need, so that one
+program serves the exact decision, the float64 margins and the extended-precision
+directions.
 """
 
 from fractions import Fraction
 
 import numpy as np
 
-from . import graph_elementary
 from .graph_elementary import Singular
-from .graph_exact import PRIME, const_mod
+from .taylor_arithmetic import Extended, Float, Modular
+from .taylor_columns import bits, colouring
+from .taylor_plan import VECTOR, Plan
 from .taylor_program import Unsupported, program
 
-
-class Modular:
-    """Residues modulo the prime ``p`` (Python integers in numpy object arrays).
-
-    Args:
-        points: ``(P, N)`` residues, the coordinates at ``t = 0``.
-        draws: the :class:`~uio_jax._engine.graph_elementary.Draws` of the generators.
-    """
-
-    dtype = object
-
-    def __init__(self, points, draws, p: int = PRIME):
-        self.p = p
-        self.points = np.array([[int(v) % p for v in row] for row in points], dtype=object)
-        self.draws = draws
-
-    def reduce(self, a):
-        return a % self.p
-
-    def constant(self, value: Fraction):
-        return const_mod(value, self.p)
-
-    def inverse(self, a):
-        """Elementwise inverse of ``(P,)`` residues.
-
-        Raises:
-            Singular: a residue is zero (a denominator vanishes at the point).
-        """
-        out = np.empty(len(a), dtype=object)
-        for i, v in enumerate(a):
-            v = int(v) % self.p
-            if v == 0:
-                raise Singular("division by zero modulo p")
-            out[i] = pow(v, -1, self.p)
-        return out
-
-    def circle(self, key, u0):
-        s, c = self.draws.get(key)
-        return s, c
-
-    def exponential(self, key, u0):
-        return self.draws.get(key)
-
-    def sqrt(self, u0):
-        """Square roots of ``(P,)`` residues (:class:`~uio_jax._engine.graph_elementary.NotSquare`
-        where there is none: the point is drawn again)."""
-        return graph_elementary.sqrt_mod_p(u0, self.p)
-
-    def free(self, key, kind, values):
-        """The random value of a logarithmic kind's generator at the points."""
-        return self.draws.get(key)
-
-
-class Float:
-    """float64 at real points ``(P, N)`` (the elementary functions at their real values)."""
-
-    dtype = np.float64
-
-    def __init__(self, points):
-        self.points = np.asarray(points, dtype=np.float64)
-
-    def reduce(self, a):
-        return a
-
-    def constant(self, value: Fraction):
-        return float(value)
-
-    def inverse(self, a):
-        return 1.0 / a
-
-    def circle(self, key, u0):
-        return np.sin(u0), np.cos(u0)
-
-    def exponential(self, key, u0):
-        return np.exp(u0)
-
-    def sqrt(self, u0):
-        return np.sqrt(u0)
-
-    def free(self, key, kind, values):
-        if kind == "atan2":
-            return np.arctan2(values[0], values[1])
-        return _NUMPY[kind](values[0])
-
-
-class Extended:
-    """mpmath numbers at ``dps`` decimal digits, at real points ``(P, N)`` (floats taken as
-    exact binary numbers)."""
-
-    dtype = object
-
-    def __init__(self, points, dps: int):
-        import mpmath
-
-        self.ctx = mpmath.MPContext()
-        self.ctx.dps = dps
-        self.points = np.array([[self.ctx.mpf(float(v)) for v in row] for row in np.asarray(points, float)],
-                               dtype=object)
-
-    def reduce(self, a):
-        return a
-
-    def constant(self, value: Fraction):
-        return self.ctx.mpf(value.numerator) / value.denominator
-
-    def inverse(self, a):
-        return np.array([1 / v for v in a], dtype=object)
-
-    def circle(self, key, u0):
-        return (np.array([self.ctx.sin(v) for v in u0], dtype=object),
-                np.array([self.ctx.cos(v) for v in u0], dtype=object))
-
-    def exponential(self, key, u0):
-        return np.array([self.ctx.exp(v) for v in u0], dtype=object)
-
-    def sqrt(self, u0):
-        return np.array([self.ctx.sqrt(v) for v in u0], dtype=object)
-
-    def free(self, key, kind, values):
-        if kind == "atan2":
-            return np.array([self.ctx.atan2(a, b) for a, b in zip(*values)], dtype=object)
-        fn = getattr(self.ctx, kind)
-        return np.array([fn(v) for v in values[0]], dtype=object)
-
-
-#: numpy's functions of the logarithmic kinds (float64 values at real points)
-_NUMPY = {"log": np.log, "log1p": np.log1p, "atan": np.arctan, "atanh": np.arctanh, "asin": np.arcsin,
-          "acos": np.arccos, "asinh": np.arcsinh, "acosh": np.arccosh}
+#: histories up to this many bytes are allocated for every order at once (no copies as they grow)
+WHOLE_HISTORY = 256 * 2**20
 
 
 class TaylorSeries:
     """The Taylor coefficients of graph nodes along the flow of ``F``, order by order, with
     their gradients with respect to the ``N`` coordinates at ``t = 0``.
-
-    Coefficients are kept per order, ``C[k]`` of shape ``(instructions, P, N + 1)`` (the value
-    in column 0, the gradient after it), allocated when the order is computed: a model whose
-    span closes after two orders never holds more.
 
     Args:
         graph: the expression graph on ``N`` coordinates.
@@ -185,8 +58,8 @@ class TaylorSeries:
         inputs: ``(len(fields) - 1, orders + 1)`` exact coefficients ``a_ij`` of the known
             inputs (Fractions), empty for a drift-only model.
         roots: the graph nodes whose series are asked (outputs, test functions).
-        arithmetic: :class:`Modular`, :class:`Float` or :class:`Extended` (its ``points``
-            ``(P, N)`` are the coordinates at ``t = 0``).
+        arithmetic: an arithmetic of :mod:`.taylor_arithmetic` or :mod:`.taylor_word` (its
+            ``points`` ``(rows, N)`` are the coordinates at ``t = 0``).
         orders: the highest order ``K`` that will be asked.
 
     Raises:
@@ -200,171 +73,295 @@ class TaylorSeries:
         self.ins, self.slot, self.lagged = program(graph, wanted)
         self.fields = [[None if v is None else self.slot[v] for v in f] for f in fields]
         self.inputs = inputs
-        self.P = len(arithmetic.points)
-        self.C = []  # per order: (instructions, P, N + 1)
-        self._inverse = {}  # instruction -> inverse of its order-0 value (P,)
+        moving = any(any(row) for row in inputs)
+        self.plan = Plan(self.ins, self.fields, self.lagged, [self.slot[r] for r in roots], moving)
+        self.P = arithmetic.rows
+        self.colour, count, self.support = colouring(self.ins, self.fields, [self.slot[v] for v in wanted], self.N)
+        self._columns = {}  # instruction -> the coordinates of its support (expanded rows)
+        W = count + 1
+        self.W = W
+        self.now = np.zeros((self.P, len(self.ins), W), dtype=arithmetic.dtype)
+        self.H = np.zeros((self.P, len(self.plan.hist), 0, W), dtype=arithmetic.dtype)
+        self.base = None  # order 0 of the instructions constant along the flow
+        self.done = -1
+        self._inverse = {}  # instruction -> inverse of its order-0 value (rows,)
 
     def coefficient(self, node, k: int):
-        """``(P, N + 1)``: the value (column 0) and the gradient of coefficient ``k`` of a
+        """``(rows, N + 1)``: the value (column 0) and the gradient of coefficient ``k`` of a
         root node, computing the orders up to ``k`` on first request."""
-        while len(self.C) <= k:
-            self._advance()
-        return self.C[k][self.slot[node]]
+        while self.done < k:
+            self._pass()
+        i = self.slot[node]
+        if self.plan.constant[i]:
+            packed = self.base[:, self.plan.base[i]] if k == 0 else np.zeros_like(self.base[:, 0])
+        else:
+            packed = self.H[:, self.plan.hist[i], k]
+        return self._expand(i, packed)
 
-    def _zeros(self, *shape):
-        out = np.zeros(shape, dtype=self.ar.dtype)
-        if self.ar.dtype is object:
-            out[...] = 0
+    def _expand(self, i, packed):
+        """The gradient of instruction ``i`` over the ``N`` coordinates from its compressed
+        columns (:mod:`.taylor_columns`)."""
+        if self.support is None:
+            return packed
+        cols = self._columns.get(i)
+        if cols is None:
+            cols = self._columns[i] = np.array(bits(self.support[i]), dtype=np.int64)
+        out = np.zeros((self.P, self.N + 1), dtype=packed.dtype)
+        out[:, 0] = packed[:, 0]
+        out[:, 1 + cols] = packed[:, 1 + self.colour[cols]]
         return out
 
-    def _orders(self, i, lo, hi, reverse=False):
-        """``(hi - lo + 1, P, N + 1)``: coefficients ``lo..hi`` of instruction ``i`` (reversed)."""
-        ks = range(hi, lo - 1, -1) if reverse else range(lo, hi + 1)
-        return np.stack([self.C[j][i] for j in ks])
-
-    def _advance(self):
-        k = len(self.C)
+    # ------------------------------------------------------------------ passes
+    def _pass(self):
+        k = self.done + 1
         if k > self.K:
             raise ValueError(f"order {k} beyond the {self.K} orders prepared")
-        self.C.append(self._zeros(len(self.ins), self.P, self.N + 1))
-        for i, (op, a, param) in enumerate(self.ins):
-            if op == "cos":
-                continue  # computed with its sine
-            if i in self.lagged:
-                if k:  # one order behind: coefficient k - 1, which needs u_k
-                    self.C[k - 1][i] = self._order(i, op, a, param, k - 1)
-                continue
-            self.C[k][i] = self._order(i, op, a, param, k)
+        self._grow(k)
+        if k == 0:
+            self._first()
+        else:
+            self._coordinates(k)
+            if k == 1:
+                self.now[:, self.plan.const_rows] = 0
+            for step in self.plan.steps:
+                self._step(step, k)
+        self.done = k
 
-    def _order(self, i, op, a, param, k):
+    def _grow(self, k):
+        """Room for order ``k`` in the history: a capacity that doubles from 4 orders (a run
+        that stops early holds few), and from 16 on every order at once where that is at most
+        :data:`WHOLE_HISTORY` bytes (a long run copies its history once more, not at every
+        doubling)."""
+        cap = self.H.shape[2]
+        if k < cap:
+            return
+        whole = self.H.shape[0] * self.H.shape[1] * (self.K + 1) * self.W * self.H.itemsize
+        size = min(max(2 * cap, 4), self.K + 1)
+        if cap >= 16 and whole <= WHOLE_HISTORY:
+            size = self.K + 1
+        new = np.zeros(self.H.shape[:2] + (size, self.W), dtype=self.ar.dtype)
+        new[:, :, :cap] = self.H
+        self.H = new
+
+    def _first(self):
+        """Order 0: the point, the constants, then every instruction at ``k = 0``."""
+        ar, plan = self.ar, self.plan
+        xs = [(i, p) for i, (op, _, p) in enumerate(self.ins) if op == "x"]
+        if xs:
+            rows, cols = np.array([i for i, _ in xs]), np.array([p for _, p in xs])
+            self.now[:, rows, 0] = ar.points[:, cols]
+            self.now[:, rows, 1 + self.colour[cols]] = self._per_row(ar.element(Fraction(1)))[:, None]
+        for i, (op, _, value) in enumerate(self.ins):
+            if op == "c":
+                self.now[:, i, 0] = ar.element(value)
+        self._keep(np.array(sorted(i for i, _ in xs if i in plan.hist), dtype=np.int64), 0)
+        for step in plan.first:
+            self._step(step, 0)
+        self.base = self.now[:, plan.const_rows].copy()
+
+    def _coordinates(self, k):
+        """``x_k = (F0_{k-1} + sum_f sum_m a_fm F^f_{k-1-m}) / k`` for the moving coordinates."""
+        ar, plan = self.ar, self.plan
+        rows, _ = plan.coords
+        if not len(rows):
+            return
+        src = plan.sources
+        out = np.zeros((self.P, len(rows), self.W), dtype=ar.dtype)
+        has = src >= 0
+        out[:, has] = self.now[:, src[has]]
+        for pos, f, s in plan.input_terms:
+            coefs = [self.inputs[f - 1][m] for m in range(k)]
+            if not any(coefs):
+                continue
+            if plan.constant[s]:
+                a = self._per_row(ar.scalar(coefs[k - 1]))[:, None]
+                out[:, pos] = ar.reduce(out[:, pos] + a * self._first_of(s))
+                continue
+            v = np.stack([self._per_row(ar.scalar(c)) for c in coefs[::-1]], axis=1)
+            out[:, pos] = out[:, pos] + ar.scalar_dot(v, self.H[:, plan.hist[s], :k])
+        scale = _column(ar.scalar(Fraction(1, k)), 3)
+        self.now[:, rows] = ar.reduce(out * scale)
+        self._keep(np.array([i for i in rows if i in plan.hist], dtype=np.int64), k)
+
+    def _keep(self, kept, order):
+        if len(kept):
+            self.H[:, [self.plan.hist[int(i)] for i in kept], order] = self.now[:, kept]
+
+    def _step(self, step, k):
+        kind, lag, members, kept = step
+        m = k - lag
+        if kind in VECTOR:
+            self._vector(kind, members, m)
+        else:
+            rule = getattr(self, "_" + kind)
+            for i in members:
+                self.now[:, i] = rule(i, m)
+        self._keep(kept, m)
+
+    def _vector(self, kind, members, m):
+        ar, now = self.ar, self.now
+        out = members[0]
+        if kind == "add":
+            now[:, out] = ar.reduce(now[:, members[1]] + now[:, members[2]])
+        elif kind == "neg":
+            now[:, out] = ar.reduce(-now[:, members[1]])
+        elif kind == "scale":
+            factors = np.stack([self._per_row(ar.scalar(c)) for c in members[2]], axis=1)
+            now[:, out] = ar.reduce(now[:, members[1]] * factors[:, :, None])
+        elif kind == "mul":  # sum_j a_j (x) b_{m-j}, one einsum for the group
+            A, B = self.H[:, members[1], :m + 1], self.H[:, members[2], :m + 1]
+            other = ar.dot(A[..., ::-1, 0], B)
+            other[..., 0] = 0
+            now[:, out] = ar.reduce(ar.dot(B[..., ::-1, 0], A) + other)
+        else:  # cmul: c_0 (x) x_m for a factor constant along the flow
+            c0, x = self._first_of(members[1]), now[:, members[2]]
+            res = ar.mul(c0[..., :1], x)
+            res[..., 1:] = res[..., 1:] + ar.mul(x[..., :1], c0[..., 1:])
+            now[:, out] = ar.reduce(res)
+
+    # ------------------------------------------------------------------ helpers
+    def _per_row(self, c):
+        """A scalar or a per-row array as an array ``(rows,)``."""
+        if np.ndim(c):
+            return c
+        out = np.empty(self.P, dtype=self.ar.dtype)
+        out[:] = c
+        return out
+
+    def _first_of(self, i):
+        """Order 0 of instruction(s) ``i`` constant along the flow (during the first pass: the
+        pass buffer)."""
+        if self.done < 0:
+            return self.now[:, i]
+        idx = [self.plan.base[int(j)] for j in np.atleast_1d(i)]
+        return self.base[:, idx] if np.ndim(i) else self.base[:, idx[0]]
+
+    def _zero(self, i):
+        """Order 0 (rows, N + 1) of any instruction."""
+        if self.plan.constant[i]:
+            return self._first_of(i)
+        return self.H[:, self.plan.hist[i], 0]
+
+    def _past(self, i, lo, hi):
+        """``(rows, hi - lo + 1, N + 1)``: orders ``lo..hi`` of an instruction with history."""
+        return self.H[:, self.plan.hist[i], lo:hi + 1]
+
+    def _cauchy(self, A, B):
+        """``sum_j A_j (x) B_{J-1-j}`` of dual numbers: ``A, B (rows, J, N + 1)``."""
         ar = self.ar
-        if op == "x":
-            return self._coordinate(param, k)
-        if op == "c":
-            out = self._zeros(self.P, self.N + 1)
-            if k == 0:
-                out[:, 0] = ar.constant(param)
-            return out
-        if op == "add":
-            return ar.reduce(self.C[k][a[0]] + self.C[k][a[1]])
-        if op == "neg":
-            return ar.reduce(-self.C[k][a[0]])
-        if op == "mul":
-            return ar.reduce(_cauchy(self._orders(a[0], 0, k), self._orders(a[1], 0, k, reverse=True)))
-        if op == "div":
-            rest = self.C[k][a[0]]
-            if k:
-                rest = rest - _cauchy(self._orders(i, 0, k - 1), self._orders(a[1], 1, k, reverse=True))
-            return self._over(rest, a[1])
-        if op == "deriv":
-            return ar.reduce(self.C[k + 1][a[0]] * ar.constant(Fraction(k + 1)))
-        if op == "sin":
-            return self._circle(i, param, a[0], k)
-        if op == "exp":
-            return self._exponential(i, param, a[0], k)
-        if op == "sqrt":
-            return self._root(i, a[0], k)
-        return self._free(param, a[0], k)
+        other = ar.dot(A[:, ::-1, 0], B)
+        other[:, 0] = 0
+        return ar.reduce(ar.dot(B[:, ::-1, 0], A) + other)
+
+    def _weighted(self, U, V, q):
+        """``sum_{j=1..m} q_j u_j (x) v_{m-j}``: ``U`` orders ``1..m``, ``V`` orders ``0..m-1``,
+        ``q (m,)`` or ``(rows, m)`` weights."""
+        ar = self.ar
+        other = ar.dot(ar.reduce(q * U[:, :, 0])[:, ::-1], V)
+        other[:, 0] = 0
+        return ar.reduce(ar.dot(ar.reduce(q * V[:, ::-1, 0]), U) + other)
+
+    def _inverse_of(self, b):
+        if b not in self._inverse:
+            self._inverse[b] = self.ar.inverse(self.ar.reduce(self._zero(b)[:, 0]))
+        return self._inverse[b]
 
     def _over(self, rest, b, factor=1):
         """``c = rest / (factor b_0)`` of dual numbers: ``dc = (d rest - c factor d b_0) / (factor b_0)``."""
         ar = self.ar
-        if b not in self._inverse:
-            self._inverse[b] = ar.inverse(ar.reduce(self.C[0][b][:, 0]))
-        inv = self._inverse[b]
-        if factor != 1:
-            inv = ar.reduce(inv * ar.constant(Fraction(1, factor)))
-        value = ar.reduce(rest[:, 0] * inv)
-        out = rest * inv[:, None]
-        out[:, 1:] = out[:, 1:] - (value * inv * factor)[:, None] * self.C[0][b][:, 1:]
+        inv = self._inverse_of(b)
+        inv_f = inv if factor == 1 else ar.reduce(inv * ar.scalar(Fraction(1, factor)))
+        value = ar.mul(rest[:, 0], inv_f)
+        out = ar.mul(rest, inv_f[:, None])
+        out[:, 1:] = out[:, 1:] - ar.mul(ar.mul(value, inv)[:, None], self._zero(b)[:, 1:])
         out[:, 0] = value
         return ar.reduce(out)
 
-    def _coordinate(self, j, k):
+    def _dual(self, value, slope, du):
+        """The dual number of ``value`` whose gradient is ``slope du`` (``(rows,)``, ``(rows, N)``)."""
+        out = np.zeros((self.P, self.W), dtype=self.ar.dtype)
+        out[:, 0] = value
+        out[:, 1:] = self.ar.mul(slope[:, None], du)
+        return out
+
+    # ------------------------------------------------------------------ rules
+    def _div(self, i, m):
+        a, b = self.ins[i][1]
+        rest = self.now[:, a]
+        if m and not self.plan.constant[b]:
+            C, B = self._past(i, 0, m - 1), self._past(b, 1, m)
+            rest = self.ar.reduce(rest - self._cauchy(C, B))
+        return self._over(rest, b)
+
+    def _deriv(self, i, m):
+        """``D_m = (m + 1) u_{m+1}`` (lagged: ``u_{m+1}`` is the pass's order)."""
+        return self.ar.reduce(self.now[:, self.ins[i][1][0]] * _column(self.ar.scalar(Fraction(m + 1)), 2))
+
+    def _sin(self, s, m):
+        ar, (u,), (c, node) = self.ar, self.ins[s][1], self.ins[s][2]
+        if m == 0:
+            u0 = self.now[:, u]
+            sv, cv = ar.circle(("circle", node), u0[:, 0])
+            self.now[:, c] = self._dual(cv, ar.reduce(-sv), u0[:, 1:])
+            return self._dual(sv, cv, u0[:, 1:])
+        U, w = self._past(u, 1, m), np.arange(1, m + 1)
+        inv = _column(ar.scalar(Fraction(1, m)), 2)
+        self.now[:, c] = ar.reduce(-self._weighted(U, self._past(s, 0, m - 1), w) * inv)
+        return ar.reduce(self._weighted(U, self._past(c, 0, m - 1), w) * inv)
+
+    def _exp(self, e, m):
+        ar, (u,), node = self.ar, self.ins[e][1], self.ins[e][2]
+        if m == 0:
+            u0 = self.now[:, u]
+            E = ar.exponential(("exp", node), u0[:, 0])
+            return self._dual(E, E, u0[:, 1:])
+        prod = self._weighted(self._past(u, 1, m), self._past(e, 0, m - 1), np.arange(1, m + 1))
+        return ar.reduce(prod * _column(ar.scalar(Fraction(1, m)), 2))
+
+    def _root(self, r, m):
+        """``w = u^alpha``: ``w_0`` a root of ``u_0^a`` (``alpha = a/b``), then
+        ``m u_0 w_m = sum_{j=1..m} ((alpha + 1) j - m) u_j w_{m-j}``."""
+        ar, (u,), (alpha, key) = self.ar, self.ins[r][1], self.ins[r][2]
+        if m == 0:
+            u0 = self.now[:, u]
+            w0 = self._int_power(ar.root(ar.reduce(u0[:, 0]), alpha.denominator, key), alpha.numerator)
+            slope = ar.reduce(ar.mul(w0, self._inverse_of(u)) * self._per_row(ar.scalar(alpha)))
+            return self._dual(w0, slope, u0[:, 1:])
+        j = np.arange(1, m + 1)
+        q = ar.reduce(np.multiply.outer(self._per_row(ar.scalar(alpha + 1)), j)
+                      - self._per_row(ar.scalar(Fraction(m)))[:, None])
+        rest = self._weighted(self._past(u, 1, m), self._past(r, 0, m - 1), q)
+        return self._over(rest, u, factor=m)
+
+    def _int_power(self, r, a):
         ar = self.ar
-        out = self._zeros(self.P, self.N + 1)
-        if k == 0:
-            out[:, 0] = ar.points[:, j]
-            out[:, 1 + j] = 1
-            return out
-        for f, field in enumerate(self.fields):
-            s = field[j]
-            if s is None:
-                continue
-            if f == 0:
-                out = out + self.C[k - 1][s]
-            else:  # u_f(t) f_f: the Cauchy product with the input's coefficients
-                for m in range(k):
-                    if self.inputs[f - 1][m]:
-                        out = out + ar.constant(self.inputs[f - 1][m]) * self.C[k - 1 - m][s]
-        return ar.reduce(out * ar.constant(Fraction(1, k)))
+        out, base, e = None, r, abs(a)
+        while e:
+            if e & 1:
+                out = base if out is None else ar.mul(out, base)
+            e >>= 1
+            if e:
+                base = ar.mul(base, base)
+        return out if a > 0 else ar.inverse(out)
 
-    def _weighted(self, u, k):
-        """``j u_j`` for ``j = 1..k`` (the derivative's coefficients times their order)."""
-        w = np.arange(1, k + 1).reshape(-1, 1, 1)
-        return self._orders(u, 1, k) * (w.astype(object) if self.ar.dtype is object else w)
-
-    def _circle(self, s, param, u, k):
-        ar, (c, node) = self.ar, param
-        if k == 0:
-            sv, cv = ar.circle(("circle", node), self.C[0][u][:, 0])
-            out_c = self._zeros(self.P, self.N + 1)
-            out_c[:, 0] = cv
-            out_c[:, 1:] = ar.reduce(-sv[:, None] * self.C[0][u][:, 1:])
-            self.C[0][c] = out_c
-            out = self._zeros(self.P, self.N + 1)
-            out[:, 0] = sv
-            out[:, 1:] = ar.reduce(cv[:, None] * self.C[0][u][:, 1:])
-            return out
-        du, inv_k = self._weighted(u, k), ar.constant(Fraction(1, k))
-        self.C[k][c] = ar.reduce(-_cauchy(du, self._orders(s, 0, k - 1, reverse=True)) * inv_k)
-        return ar.reduce(_cauchy(du, self._orders(c, 0, k - 1, reverse=True)) * inv_k)
-
-    def _exponential(self, e, node, u, k):
+    def _free(self, i, m):
+        """A logarithmic kind: a free value at ``t = 0``, then ``a_m = R_{m-1} / m``."""
         ar = self.ar
-        if k == 0:
-            E = ar.exponential(("exp", node), self.C[0][u][:, 0])
-            out = self._zeros(self.P, self.N + 1)
-            out[:, 0] = E
-            out[:, 1:] = ar.reduce(E[:, None] * self.C[0][u][:, 1:])
-            return out
-        prod = _cauchy(self._weighted(u, k), self._orders(e, 0, k - 1, reverse=True))
-        return ar.reduce(prod * ar.constant(Fraction(1, k)))
-
-    def _root(self, r, u, k):
-        """``r = sqrt u``: ``r_0`` a root of ``u_0``, ``2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}``."""
-        ar = self.ar
-        if k == 0:
-            value = ar.sqrt(self.C[0][u][:, 0])
-            out = self._zeros(self.P, self.N + 1)
-            out[:, 0] = value
-            inv = ar.inverse(ar.reduce(2 * value))
-            out[:, 1:] = ar.reduce(self.C[0][u][:, 1:] * inv[:, None])
-            return out
-        rest = self.C[k][u]
-        if k > 1:
-            rest = rest - _cauchy(self._orders(r, 1, k - 1), self._orders(r, 1, k - 1, reverse=True))
-        return self._over(rest, r, factor=2)
-
-    def _free(self, param, R, k):
-        """A logarithmic kind: a free value at ``t = 0``, then ``a_k = R_{k-1} / k``."""
-        ar = self.ar
-        key, pairs, kind, operands = param
-        if k:
-            return ar.reduce(self.C[k - 1][R] * ar.constant(Fraction(1, k)))
-        out = self._zeros(self.P, self.N + 1)
-        out[:, 0] = ar.free(key, kind, [self.C[0][v][:, 0] for v in operands])
+        R, (key, pairs, kind, operands) = self.ins[i][1][0], self.ins[i][2]
+        if m:
+            return ar.reduce(self.now[:, R] * _column(ar.scalar(Fraction(1, m)), 2))
+        out = np.zeros((self.P, self.W), dtype=ar.dtype)
+        out[:, 0] = ar.free(key, kind, [self.now[:, v, 0] for v in operands])
         for c, u in pairs:  # d a_0 = sum c_i(u_0) d u_i
-            out[:, 1:] = out[:, 1:] + self.C[0][c][:, :1] * self.C[0][u][:, 1:]
+            out[:, 1:] = out[:, 1:] + ar.mul(self.now[:, c, :1], self.now[:, u, 1:])
         return ar.reduce(out)
 
 
-def _cauchy(A, B):
-    """``sum_j A_j B_j`` of dual numbers (value in column 0, gradient after it): ``A, B``
-    ``(J, P, N + 1)`` with ``B`` already reversed; ``(P, N + 1)``."""
-    out = (A * B[..., :1]).sum(axis=0)
-    out[:, 1:] = out[:, 1:] + (A[..., :1] * B[..., 1:]).sum(axis=0)
-    return out
+def _column(a, ndim):
+    """A per-row factor ``(rows,)`` (or a scalar) shaped to broadcast over ``ndim`` axes."""
+    if np.ndim(a) == 0:
+        return a
+    return np.asarray(a).reshape((-1,) + (1,) * (ndim - 1))
 
 
 __all__ = ["Unsupported", "Modular", "Float", "Extended", "program", "TaylorSeries", "Singular"]

@@ -1,27 +1,52 @@
-"""Degree bounds of the Taylor coefficients of :mod:`.taylor`: the Schwartz-Zippel bound of
-a rank decision taken on them modulo p.
+"""Degree and height bounds of the Taylor coefficients of :mod:`.taylor` and of their
+gradients: the probability that a rank decision taken on them modulo a prime is wrong
+(:mod:`.taylor_rank`).
 
-Every coefficient ``v_k`` of an instruction is a rational function of the coordinates (and
-of the generators of the elementary functions, counted as :func:`.graph_exact.degrees`
-counts them). Its bound is kept as an *excess* ``e_k = deg num - deg den`` and a denominator
-written as a product of *atoms* (the numerators of the order-0 coefficients divided by,
-with multiplicities), as :func:`.graph_exact.degrees` keeps it, so that a sum over the same
-denominators takes their least common multiple instead of their product. The atoms of an
-instruction are kept non-decreasing in ``k`` (each order's denominator is taken as a
-multiple of the previous one's), so the Cauchy product ``sum_j a_j b_{k-j}`` is bounded by
-the excess ``max_j (e^a_j + e^b_{k-j})`` over the denominator ``A^a_k A^b_k``. Bounds only:
-no cancellation is assumed.
+Every coefficient ``v_k`` of an instruction is a rational function of the coordinates and of
+the generators' values at ``t = 0`` (each a variable, of degree ``2 (1 + deg u)`` for its
+argument ``u``, as :func:`.graph_exact.degrees` counts it). It is bounded in *derivative form*
+``v^(k) = k! v_k`` (scaling a row by ``k!`` changes neither the rank nor whether a minor
+vanishes modulo ``p > k``), written ``N / Q`` with gradient ``T / Q^2``, ``N`` and ``T``
+polynomials with integer coefficients and ``Q`` a product of *atoms*: the numerators of the
+order-0 coefficients divided by, and the denominators of the rational constants (the
+model's, the known inputs', the exponents'), each with a multiplicity. Kept per coefficient:
+
+* ``e = deg N - deg Q`` (the degree excess), ``eps = log2 |N|_1 - log2 |Q|_1`` and
+  ``tau = log2 |T|_1 - 2 log2 |Q|_1`` (``|.|_1`` the sum of the absolute values of the
+  coefficients, which is sub-multiplicative), and the atoms' multiplicities.
+* A sum of ``n`` terms is written over the least common multiple of their denominators:
+  each numerator is multiplied by the atoms it lacks, which leaves its excesses unchanged, so
+  the sum has the largest excesses (plus ``log2 n`` bits) over the lcm. A Cauchy sum
+  ``sum_j C(k, j) a^(j) b^(k-j)`` takes, per atom, the largest multiplicity of
+  ``a^(j) b^(k-j)`` over its terms (multiplicities growing linearly in ``k`` stay linear; a
+  bound by the atoms of ``a^(k) b^(k)`` doubled them at every order).
+* A product adds excesses (``tau``: ``max(tau_a + eps_b, eps_a + tau_b) + 1``); a quotient by
+  ``b_0`` subtracts ``b``'s (``tau``: ``max(tau - eps_b, eps + tau_b - 2 eps_b) + 1``) and adds the
+  atom ``b``; a generator's value is a variable over its argument's atoms, its gradient the
+  argument's times a slope. Bounds only: no cancellation is assumed.
+
+A decision on rows ``(i_r, k_r)`` has a minor of degree at most ``sum_r deg(i_r, k_r)``
+(:meth:`TaylorDegrees.degree`: ``deg N + deg Q``) and a numerator of at most
+``log2 r! + sum_r bits(i_r, k_r)`` bits (:meth:`TaylorDegrees.row_bits`: ``log2 |T|_1``).
 """
+
+import math
+from fractions import Fraction
 
 import numpy as np
 
-#: the excess of a zero coefficient
+#: the degree excess of a zero coefficient
 ZERO = -(10**9)
+NONE = -math.inf
+
+
+def _bits(value):
+    return math.log2(abs(value)) if value else NONE
 
 
 class TaylorDegrees:
-    """Degree bounds ``(numerator, denominator)`` of every coefficient of a Taylor program
-    (:func:`uio_jax._engine.taylor.program`), order by order.
+    """Degree and height bounds of every coefficient of a Taylor program
+    (:func:`uio_jax._engine.taylor.program`), order by order, computed on request.
 
     Args:
         ins: the instructions.
@@ -31,145 +56,179 @@ class TaylorDegrees:
         lagged: the lagged instructions (computed one order behind, as the engine does).
     """
 
-    def __init__(self, ins, fields, inputs, orders: int, lagged=()):
+    def __init__(self, ins, fields, inputs, orders: int, lagged=(), constant=None):
         self.ins, self.fields, self.inputs, self.lagged = ins, fields, inputs, set(lagged)
+        #: the instructions constant along the flow (zero beyond order 0: not walked there)
+        self.constant = np.zeros(len(ins), dtype=bool) if constant is None else np.asarray(constant, dtype=bool)
         K = int(orders) + 2  # a lagged derivative reads one order ahead
-        self.e = np.full((len(ins), K), ZERO, dtype=np.int64)  # excess per order
-        self.atoms = [[{} for _ in range(K)] for _ in ins]  # instruction -> order -> {atom: mult}
-        self.atom_degree = {}  # atom (an instruction) -> degree of its order-0 numerator
+        self.e = np.full((len(ins), K), ZERO, dtype=np.int64)
+        self.eps = np.full((len(ins), K), NONE)
+        self.tau = np.full((len(ins), K), NONE)
+        self.mult = [{} for _ in ins]  # instruction -> {atom: multiplicity per order (K,)}
+        self.atom_degree, self.atom_bits = {}, {}
+        self.lb = np.array([[math.lgamma(k + 1) - math.lgamma(j + 1) - math.lgamma(k - j + 1) if j <= k else 0.0
+                             for j in range(K)] for k in range(K)]) / math.log(2)
+        self.K = K
         self.done = -1
 
     @classmethod
     def of(cls, series, orders: int) -> "TaylorDegrees":
         """The bounds of a :class:`~uio_jax._engine.taylor.TaylorSeries`' program."""
-        return cls(series.ins, series.fields, series.inputs, orders, series.lagged)
+        return cls(series.ins, series.fields, series.inputs, orders, series.lagged, series.plan.constant)
 
     def degree(self, i: int, k: int) -> int:
-        """``deg num + deg den`` of coefficient ``k`` of instruction ``i`` (the degree the
-        rank decisions count per row, as :meth:`uio_jax._analysis.decisions.settle.Settler.count_bound`)."""
+        """``deg N + deg Q`` of coefficient ``k`` of instruction ``i`` (the degree a rank
+        decision counts per row)."""
+        self._upto(k)
+        return self._degree(i, k)
+
+    def _degree(self, i, k):
+        return max(int(self.e[i, k]) + 2 * self._den(i, k, self.atom_degree), 0)
+
+    def row_bits(self, i: int, k: int) -> float:
+        """``log2 |T|_1``: the bits of the numerator of coefficient ``k``'s gradient (0 for a
+        zero gradient)."""
+        self._upto(k)
+        tau = self.tau[i, k]
+        return max(float(tau) + 2 * self._den(i, k, self.atom_bits), 0.0) if tau > NONE else 0.0
+
+    def _upto(self, k):
         while self.done < k:
             self._advance()
-        d = self._den(self.atoms[i][k])
-        return max(int(self.e[i, k]) + 2 * d, 0)
 
-    def _den(self, atoms) -> int:
-        return sum(m * self.atom_degree[a] for a, m in atoms.items())
+    def _den(self, i, k, weight):
+        return sum(int(m[k]) * weight[a] for a, m in self.mult[i].items() if m[k])
+
+    def _atoms(self, i, k):
+        return {a: int(m[k]) for a, m in self.mult[i].items() if m[k]}
 
     def _advance(self):
         k = self.done + 1
         for i, (op, a, param) in enumerate(self.ins):
-            if op == "cos":
-                continue  # the sine's bounds (the pair's recurrences are symmetric)
+            if op == "cos" or (k and self.constant[i]):
+                continue  # the sine's bounds (the pair's recurrences are symmetric); zero
             m = k - 1 if i in self.lagged else k
             if m < 0:
                 continue
-            e, atoms = self._order(i, op, a, param, m)
-            if m and self.atoms[i][m - 1]:  # non-decreasing denominators
-                atoms = _lcm(atoms, self.atoms[i][m - 1])
+            e, eps, tau, atoms = self._order(i, op, a, param, m)
             for j in (i, param[0]) if op == "sin" else (i,):
-                self.e[j, m], self.atoms[j][m] = e, atoms
-                if m == 0:  # the degree of its numerator, should it become an atom
-                    self.atom_degree[j] = max(e + self._den(atoms), 0)
+                self.e[j, m], self.eps[j, m], self.tau[j, m] = e, eps, tau
+                for atom, mult in atoms.items():
+                    self.mult[j].setdefault(atom, np.zeros(self.K, dtype=np.int64))[m] = mult
+                if m == 0:  # its numerator's bounds, should it become an atom
+                    self.atom_degree[j] = max(e + self._den(j, 0, self.atom_degree), 0)
+                    self.atom_bits[j] = max(eps + self._den(j, 0, self.atom_bits), 0.0) if eps > NONE else 0.0
         self.done = k
 
+    def _term(self, i, k):
+        return int(self.e[i, k]), float(self.eps[i, k]), float(self.tau[i, k]), self._atoms(i, k)
+
+    def _constant_atom(self, key, value: Fraction):
+        if value.denominator == 1:
+            return {}
+        self.atom_degree[key], self.atom_bits[key] = 0, math.log2(value.denominator)
+        return {key: 1}
+
     def _order(self, i, op, a, param, k):
-        E = self.e
         if op == "x":
             return self._coordinate(param, k)
         if op == "c":
-            return (0, {}) if k == 0 else (ZERO, {})
+            if k or not param:
+                return ZERO, NONE, NONE, {}
+            value = Fraction(param)
+            return 0, _bits(value.numerator), NONE, self._constant_atom(("c", i), value)
         if op == "neg":
-            return int(E[a[0], k]), self.atoms[a[0]][k]
+            return self._term(a[0], k)
         if op == "add":
-            return max(int(E[a[0], k]), int(E[a[1], k])), _lcm(self.atoms[a[0]][k], self.atoms[a[1]][k])
+            return _sum([self._term(a[0], k), self._term(a[1], k)])
         if op == "mul":
-            return self._product(a[0], a[1], 0, k)
-        if op == "div":
-            return self._quotient(i, a, k)
-        if op == "deriv":  # D_m = (m + 1) u_{m+1}
-            return int(E[a[0], k + 1]), self.atoms[a[0]][k + 1]
-        if op == "free" and k:  # a_k = R_{k-1} / k
-            return int(E[a[0], k - 1]), self.atoms[a[0]][k - 1]
-        if k == 0:  # a generator or a root: a new variable of degree 2 (1 + its operands'
-            # deg num + deg den), as graph_exact.degrees counts it
-            operands = param[3] if op == "free" else a
-            return 2 * (1 + sum(max(int(E[u, 0]) + 2 * self._den(self.atoms[u][0]), 0) for u in operands)), {}
-        if op == "sqrt":  # 2 r_0 r_k = u_k - sum_{0<j<k} r_j r_{k-j}
-            return self._over([(int(E[a[0], k]), self.atoms[a[0]][k]), self._inner(i, k)], i)
-        # s_k = (1/k) sum_{j>=1} j u_j c_{k-j} (and c_k alike); E_k = (1/k) sum j u_j E_{k-j}
-        return self._product(a[0], param[0] if op == "sin" else i, 1, k)
+            return self._product(a[0], a[1], 0, k, k)
+        if op == "div":  # b_0 c^(k) = a^(k) - sum_{j<k} C(k, j) c^(j) b^(k-j)
+            return self._over(_sum([self._term(a[0], k), self._product(i, a[1], 0, k - 1, k)]), a[1])
+        if op == "deriv":  # D^(m) = u^(m+1)
+            return self._term(a[0], k + 1)
+        if op == "free" and k:  # a^(k) = R^(k-1)
+            return self._term(a[0], k - 1)
+        if k == 0:
+            return self._generator(i, op, a, param)
+        if op == "root":  # u_0 w^(k) = sum_j (alpha C(k-1, j-1) - C(k-1, j)) u^(j) w^(k-j)
+            alpha = Fraction(param[0])
+            e, eps, tau, atoms = self._product(a[0], i, 1, k, k, extra=math.log2(abs(alpha.numerator) +
+                                                                                 alpha.denominator))
+            return self._over((e, eps, tau, _plus(atoms, self._constant_atom(("alpha", i), alpha))), a[0])
+        # sin, cos, exp: v^(k) = sum_{j=1..k} C(k-1, j-1) u^(j) w^(k-j)
+        return self._product(a[0], param[0] if op == "sin" else i, 1, k, k, shift=1)
 
-    def _inner(self, r, k):
-        """``sum_{0<j<k} r_j r_{k-j}``."""
-        if k < 2:
-            return ZERO, {}
-        er = self.e[r, 1:k]
-        both = (er > ZERO) & (er[::-1] > ZERO)
-        if not both.any():
-            return ZERO, {}
-        return int((er + er[::-1])[both].max()), _plus(self.atoms[r][k - 1], self.atoms[r][k - 1])
-
-    def _over(self, terms, b):
-        """The bound of ``(sum of terms) / b_0``: the denominator of ``b_0`` to the numerator,
-        its numerator a new atom."""
-        e, atoms = _sum(terms)
-        if e == ZERO:
-            return ZERO, {}
-        atoms = dict(atoms)
-        atoms[b] = atoms.get(b, 0) + 1
-        return e - int(self.e[b, 0]), atoms
+    def _generator(self, i, op, a, param):
+        """A generator's value at ``t = 0`` (or a root's): a variable of degree
+        ``2 (1 + deg u)`` over its arguments' atoms; its gradient the arguments' times a slope
+        (a root's slope ``alpha w / u``: the atom ``u`` too)."""
+        operands = param[3] if op == "free" else a
+        degree = 2 * (1 + sum(self._degree(u, 0) for u in operands))
+        if op == "free":
+            key, pairs, kind, values = param
+            _, _, tau, atoms = _sum([(0, self.eps[c, 0], self.eps[c, 0] + self.tau[u, 0],
+                                      _plus(self._atoms(c, 0), self._atoms(u, 0))) for c, u in pairs])
+            return degree, 0.0, tau, atoms
+        u = a[0]
+        _, eps_u, tau_u, atoms = self._term(u, 0)
+        if op != "root":
+            return degree, 0.0, tau_u, atoms
+        alpha = Fraction(param[0])
+        atoms = _plus(_plus(atoms, {u: 1}), self._constant_atom(("alpha", i), alpha))
+        return degree, 0.0, _bits(alpha.numerator) + tau_u - eps_u - math.log2(alpha.denominator), atoms
 
     def _coordinate(self, j, k):
-        """``x_{j,k} = F_{j,k-1} / k`` with ``F = f0 + sum_i u_i(t) f_i``."""
+        """``x^(k) = F0^(k-1) + sum_f sum_m C(k-1, m) m! a_fm F_f^(k-1-m)``."""
         if k == 0:
-            return 1, {}
+            return 1, 0.0, 0.0, {}
         terms = []
         for f, field in enumerate(self.fields):
             s = field[j]
             if s is None:
                 continue
             if f == 0:
-                terms.append((int(self.e[s, k - 1]), self.atoms[s][k - 1]))
-            else:
-                terms += [(int(self.e[s, k - 1 - m]), self.atoms[s][k - 1 - m])
-                          for m in range(k) if self.inputs[f - 1][m]]
+                terms.append(self._term(s, k - 1))
+                continue
+            for m in range(k):
+                value = Fraction(self.inputs[f - 1][m])
+                if value:
+                    w = self.lb[k - 1, m] + math.lgamma(m + 1) / math.log(2) + _bits(value.numerator)
+                    e, eps, tau, atoms = self._term(s, k - 1 - m)
+                    terms.append((e, eps + w, tau + w, _plus(atoms, self._constant_atom(("in", f, m), value))))
         return _sum(terms)
 
-    def _product(self, a, b, lo, k):
-        """``sum_{j=lo..k} a_j b_{k-j}``: the largest excess of a term over ``A^a_k A^b_{k-lo}``."""
-        ea, eb = self.e[a, lo:k + 1], self.e[b, k - lo::-1]
-        both = (ea > ZERO) & (eb > ZERO)
+    def _product(self, a, b, lo, top, k, shift=0, extra=0.0):
+        """``sum_{j=lo..top} C(k - shift, j - shift) a^(j) b^(k-j)``."""
+        if top < lo:
+            return ZERO, NONE, NONE, {}
+        j = np.arange(lo, top + 1)
+        both = (self.e[a, j] > ZERO) & (self.e[b, k - j] > ZERO)
         if not both.any():
-            return ZERO, {}
-        return int((ea + eb)[both].max()), _plus(self.atoms[a][k], self.atoms[b][k - lo])
+            return ZERO, NONE, NONE, {}
+        j = j[both]
+        ea, eb, ta, tb = self.eps[a, j], self.eps[b, k - j], self.tau[a, j], self.tau[b, k - j]
+        w = self.lb[k - shift, j - shift] + extra
+        n = math.log2(len(j))
+        with np.errstate(invalid="ignore"):
+            eps = float((ea + eb + w).max()) + n
+            tau = float((np.maximum(ta + eb, ea + tb) + w).max()) + 1 + n
+        atoms = {}
+        for atom in self.mult[a].keys() | self.mult[b].keys():
+            ma = self.mult[a].get(atom)
+            mb = self.mult[b].get(atom)
+            m = int(((ma[j] if ma is not None else 0) + (mb[k - j] if mb is not None else 0)).max())
+            if m:
+                atoms[atom] = m
+        return int((self.e[a, j] + self.e[b, k - j]).max()), eps, tau, atoms
 
-    def _quotient(self, i, a, k):
-        """``c_k = (a_k - sum_{j<k} c_j b_{k-j}) / b_0``: the bound of the sum, over ``b_0``
-        (its denominator to the numerator, its numerator a new atom)."""
-        terms = [(int(self.e[a[0], k]), self.atoms[a[0]][k])]
-        if k:
-            terms.append(self._tail(i, a[1], k))
-        return self._over(terms, a[1])
-
-    def _tail(self, c, b, k):
-        """``sum_{j<k} c_j b_{k-j}``."""
-        ec, eb = self.e[c, :k], self.e[b, k:0:-1]
-        both = (ec > ZERO) & (eb > ZERO)
-        if not both.any():
-            return ZERO, {}
-        return int((ec + eb)[both].max()), _plus(self.atoms[c][k - 1], self.atoms[b][k])
-
-
-def _lcm(p, q):
-    if not q:
-        return p
-    if not p:
-        return q
-    out = dict(p)
-    for atom, m in q.items():
-        if m > out.get(atom, 0):
-            out[atom] = m
-    return out
+    def _over(self, term, b):
+        """``(N / Q) / b_0``: ``b_0``'s denominator to the numerator, its numerator a new atom."""
+        e, eps, tau, atoms = term
+        if e == ZERO:
+            return ZERO, NONE, NONE, {}
+        eb, tb = float(self.eps[b, 0]), float(self.tau[b, 0])
+        return (e - int(self.e[b, 0]), eps - eb, max(tau - eb, eps + tb - 2 * eb) + 1, _plus(atoms, {b: 1}))
 
 
 def _plus(p, q):
@@ -184,14 +243,17 @@ def _plus(p, q):
 
 
 def _sum(terms):
-    """The bound of a sum: the largest excess over the lcm of the denominators."""
+    """A sum: the largest excesses (plus ``log2`` of the number of terms) over the lcm."""
     terms = [t for t in terms if t[0] > ZERO]
     if not terms:
-        return ZERO, {}
+        return ZERO, NONE, NONE, {}
     atoms = {}
-    for _, t in terms:
-        atoms = _lcm(atoms, t)
-    return max(e for e, _ in terms), atoms
+    for _, _, _, t in terms:
+        for atom, m in t.items():
+            if m > atoms.get(atom, 0):
+                atoms[atom] = m
+    n = math.log2(len(terms))
+    return (max(t[0] for t in terms), max(t[1] for t in terms) + n, max(t[2] for t in terms) + n, atoms)
 
 
 __all__ = ["TaylorDegrees", "ZERO"]

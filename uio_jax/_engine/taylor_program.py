@@ -10,7 +10,11 @@ An instruction is ``(op, operands, param)`` on earlier instructions:
   quotient;
 * ``exp`` (``param``: the graph node of ``u``): ``sinh``, ``tanh``, ``logistic``, ... are
   rational functions of it;
-* ``sqrt``: the square root of operand ``u`` (half-integer powers are its powers);
+* ``root``: ``w = u^alpha`` of operand ``u`` for a rational constant ``alpha``
+  (``param``; ``sqrt`` is ``alpha = 1/2``): ``w_0`` a ``b``-th root of ``u_0^a``
+  (``alpha = a/b``), then ``k u_0 w_k = sum_{j=1..k} ((alpha + 1) j - k) u_j w_{k-j}`` (from
+  ``u w' = alpha u' w``); a power ``u^v`` with a non-constant exponent is ``exp(v log u)``
+  (a logarithmic and an exponential kind);
 * ``free``: a logarithmic kind (``log``, ``atan``, ``atan2``, ``asin``, ...): a random value
   at ``t = 0`` modulo p (the real one in float64 and mpmath), then ``a_k = R_{k-1} / k`` with
   ``R = a'`` the derivative rule ``sum_i c_i(u) u_i'`` (``c_i`` ordinary instructions, the
@@ -99,9 +103,9 @@ def program(graph, roots):
                 generators["exp", a[0]] = em.emit("exp", (a[0],), graph.args[k][0])
             slot[k] = _exponential_kind(op, generators["exp", a[0]], em)
         elif op == "sqrt":
-            slot[k] = _root(em, a[0], generators)
-        elif op == "pow" and graph_elementary.half_power(graph, k) is not None:
-            slot[k] = em.power(_root(em, a[0], generators), graph_elementary.half_power(graph, k))
+            slot[k] = _root(em, a[0], generators, ("root", graph.args[k][0]))
+        elif op == "pow":
+            slot[k] = _power(graph, k, a, em, generators)
         elif op in graph_elementary.LOGARITHMIC:
             slot[k] = _logarithmic(em, op, a, (op, tuple(graph.args[k])), generators)
         else:
@@ -109,10 +113,27 @@ def program(graph, roots):
     return em.ins, slot, em.lagged
 
 
-def _root(em, u, generators):
-    if ("sqrt", u) not in generators:
-        generators["sqrt", u] = em.emit("sqrt", (u,))
-    return generators["sqrt", u]
+def _root(em, u, generators, key, alpha=Fraction(1, 2)):
+    """``u^alpha``; ``key`` names its branch (the same root in every program of one graph)."""
+    if ("root", u, alpha) not in generators:
+        generators["root", u, alpha] = em.emit("root", (u,), (alpha, key + (alpha,)))
+    return generators["root", u, alpha]
+
+
+def _power(graph, k, a, em, generators):
+    """``u^e``: a constant rational ``e`` as a root instruction, any other exponent ``v`` as
+    ``exp(v log u)``."""
+    e = graph_elementary.rational_exponent(graph, k)
+    if e is not None:
+        if e.denominator == 1:
+            return em.power(a[0], e.numerator)
+        return _root(em, a[0], generators, ("root", graph.args[k][0]), e)
+    u, v = graph.args[k]
+    log = _logarithmic(em, "log", [a[0]], ("log", (u,)), generators)
+    arg = em.emit("mul", (a[1], log))
+    if ("exp", ("pow", k)) not in generators:
+        generators["exp", ("pow", k)] = em.emit("exp", (arg,), ("pow", k))
+    return generators["exp", ("pow", k)]
 
 
 def _exponential_kind(op, E, em):
@@ -130,7 +151,7 @@ def _exponential_kind(op, E, em):
     return em.emit("div", (em.emit("add", (E2, em.const(sign))), em.emit("mul", (em.const(2), E))))
 
 
-def _slopes(em, op, a, generators):
+def _slopes(em, op, a, key, generators):
     """The derivative rule of a logarithmic kind: ``[(c_i, u_i)]`` with ``d op = sum c_i du_i``."""
     u = a[0]
     u2 = em.emit("mul", (u, u))
@@ -143,10 +164,11 @@ def _slopes(em, op, a, generators):
     if op == "atanh":
         return [(em.recip(em.emit("add", (em.const(1), em.emit("neg", (u2,))))), u)]
     if op in ("asin", "acos"):
-        w = em.recip(_root(em, em.emit("add", (em.const(1), em.emit("neg", (u2,)))), generators))
+        w = em.recip(_root(em, em.emit("add", (em.const(1), em.emit("neg", (u2,)))), generators, ("root", key)))
         return [(w if op == "asin" else em.emit("neg", (w,)), u)]
     if op in ("asinh", "acosh"):
-        w = em.recip(_root(em, em.emit("add", (u2, em.const(1 if op == "asinh" else -1))), generators))
+        w = em.recip(_root(em, em.emit("add", (u2, em.const(1 if op == "asinh" else -1))), generators,
+                           ("root", key)))
         return [(w, u)]
     v = a[1]  # atan2(u, v): (v du - u dv) / (u^2 + v^2)
     d = em.recip(em.emit("add", (u2, em.emit("mul", (v, v)))))
@@ -155,7 +177,7 @@ def _slopes(em, op, a, generators):
 
 def _logarithmic(em, op, a, key, generators):
     """A logarithmic kind: its slopes, the lagged derivative ``R = sum c_i u_i'``, the value."""
-    pairs = _slopes(em, op, a, generators)
+    pairs = _slopes(em, op, a, key, generators)
     R = None
     for c, u in pairs:
         term = em.emit("mul", (c, em.emit("deriv", (u,), lag=True)), lag=True)

@@ -13,7 +13,8 @@ A StrikePy model is a Python file that builds sympy symbols and lists::
     variables_locales = locals().copy()
 
 The source is parsed with :mod:`ast` and only these statements are interpreted:
-imports (the aliases of sympy are recorded, other imports ignored), docstrings,
+imports (the aliases of sympy are recorded, and the functions imported from sympy or math;
+other imports ignored), docstrings,
 ``variables_locales = locals().copy()`` (ignored), and assignments whose value is
 
 * ``sym.Symbol('a')`` / ``sym.symbols('a b, c')`` (or ``Symbol``/``symbols`` imported from
@@ -267,7 +268,7 @@ class _Reader:
                     self.sympy_aliases.add(a.asname or "sympy")
             return
         if isinstance(stmt, ast.ImportFrom):
-            if stmt.module == "sympy":
+            if stmt.module in ("sympy", "math"):  # math's functions on symbols: their sympy namesakes
                 for a in stmt.names:
                     if a.name == "*":
                         self.fail(stmt, "'from sympy import *' is not supported: use 'import sympy as sym'")

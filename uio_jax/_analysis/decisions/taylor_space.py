@@ -22,8 +22,10 @@ from .sampled_rank import ratios
 from .space import EXTENDED_DIGITS, Space, annihilator_extended, function_node
 
 #: The float64 margins and singular values are taken at this many sampled states at most
-#: (they decide nothing; 16 of them cost as much as the exact decisions on a 100-variable chain).
+#: (they decide nothing), and at one from :data:`MARGIN_ONE_FROM` coordinates on: each sample
+#: costs as much as the exact decisions (one series, the same program), which dominate there.
 MARGIN_SAMPLES = 4
+MARGIN_ONE_FROM = 100
 #: Decimal digits of the directions where float64 cannot separate the kept gradients, tried
 #: in turn: the rows of deep orders can be separated by 70 decades at a generic state.
 EXTENDED_PRECISIONS = (EXTENDED_DIGITS, 4 * EXTENDED_DIGITS, 16 * EXTENDED_DIGITS)
@@ -40,7 +42,7 @@ class TaylorSpace(Space):
         self.rtol = ctx.codist.rtol
         lo, hi = ctx.system.box()
         self._width = hi - lo
-        xs = ctx.xs[ctx.defined[:len(ctx.xs)]][:MARGIN_SAMPLES]
+        xs = ctx.xs[ctx.defined[:len(ctx.xs)]][:MARGIN_SAMPLES if ctx.system.n < MARGIN_ONE_FROM else 1]
         self.samples = xs
         with np.errstate(all="ignore"):  # deep orders may overflow at a sample: dropped there
             self.grads = self._gradients(Float(xs)) if len(xs) else np.zeros((0, len(self._kept), ctx.system.n))
@@ -99,17 +101,23 @@ class TaylorSpace(Space):
         node = function_node(self._ctx.builder, fn, n, n)
         if self._ctx.settler.arithmetic([node.expr]) is not Arithmetic.EXACT:
             raise ModelError("is_observable: the function uses an operation that is not decided exactly here")
-        orders = self._orders
+        orders, problem = self._orders, self._problem
+
+        def series_at(arithmetic):
+            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [node.expr], arithmetic, 0)
+
         try:
-            series = TaylorSeries(self._problem.graph, self._problem.fields, self._problem.inputs, [node.expr],
-                                  orders.arith, 0)
-            row = series.coefficient(node.expr, 0)[0, 1:]
+            series = series_at(orders.arith)
+            slot = series.slot[node.expr]
+            bounds = TaylorDegrees.of(series, 0)
+            return orders.rank.member(lambda s: series_at(s.ar).coefficient(node.expr, 0)[:, 1:],
+                                      lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
         except Unsupported as exc:
             raise ModelError(f"is_observable: {exc}") from None
         except graph_elementary.Singular:
             raise ModelError("is_observable: the function's denominator vanishes at the analysis' point") from None
-        degree = TaylorDegrees.of(series, 0).degree(series.slot[node.expr], 0)
-        return orders.member(row, degree)
+        except ArithmeticError as exc:  # taylor_rank.Undecided
+            raise ModelError(f"is_observable: not decided modulo machine-word primes ({exc})") from None
 
     def naming_graph(self):
         """``(graph, roots, names)``: the model's expression graph, the nodes of its outputs
@@ -119,10 +127,14 @@ class TaylorSpace(Space):
         return p.graph, roots, tuple(self._ctx.system.states)
 
     def rows_at_point(self, nodes):
-        """``{node: (gradient row, degree bound)}`` modulo p at the analysis' random point of
-        the nodes made rational there (the others left out)."""
+        """``{node: gradient row}`` modulo ``p = 2^127 - 1`` at one random point of the nodes
+        made rational and defined there (the others left out): rows to tell the named
+        functions apart (an independence at a point is certain); their membership in the span
+        is :meth:`member`'s."""
         graph = self._problem.graph
-        ev = graph_exact.ModularEvaluator(graph, [self._orders.point])
+        rng = np.random.default_rng([int(self._ctx.seed), 0x9A111])
+        point = [int(v) for v in rng.integers(1, 2**62, size=graph.n)]
+        ev = graph_exact.ModularEvaluator(graph, [point])
         out = {}
         for node in nodes:
             if self._ctx.settler.arithmetic([node]) is not Arithmetic.EXACT:
@@ -131,14 +143,26 @@ class TaylorSpace(Space):
                 ev.evaluate([node])
             except (graph_elementary.Singular, ValueError):
                 continue
-            num, den = graph_exact.degrees(graph, [node])[0]
-            out[node] = ([int(v) for v in ev.row(node, 0)], num + den)
+            out[node] = [int(v) for v in ev.row(node, 0)]
         return out
 
-    def member(self, row, degree) -> bool:
-        """Whether the gradient ``row`` (at the analysis' point) lies in the span: exact modulo
-        p, a dependence's Schwartz-Zippel bound counted in :attr:`error_bound`."""
-        return self._orders.member(row, degree)
+    def member(self, node) -> bool:
+        """Whether the gradient of the graph node ``node`` (a function of the coordinates)
+        lies in the span: the route's own exact membership in every lane, its bound counted in
+        :attr:`error_bound` (False where it is not decided)."""
+        problem, rank = self._problem, self._orders.rank
+
+        def series_at(arithmetic):
+            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [node], arithmetic, 0)
+
+        try:
+            series = series_at(rank.arith)
+            bounds = TaylorDegrees.of(series, 0)
+            slot = series.slot[node]
+            return rank.member(lambda s: series_at(s.ar).coefficient(node, 0)[:, 1:],
+                               lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
+        except (Unsupported, graph_elementary.Singular, ArithmeticError):
+            return False
 
     @property
     def error_bound(self) -> float:
@@ -182,7 +206,7 @@ def taylor_certificate(ctx, space: TaylorSpace, orders) -> Certificate:
         samples=ctx.samples, used=used, dropped=len(space.samples) - used, fraction=fraction,
         min_fraction=1.0, sigma_r_min=1.0, sigma_next_max=0.0, rtol=space.rtol, decisions=orders.decisions,
         conditioning=conditioning, capped=ctx.samples - len(space.samples), exact_decisions=orders.decisions,
-        error_bound=orders.error_bound, prime=graph_exact.PRIME, prob_threshold=ctx.prob_threshold,
+        error_bound=orders.error_bound, prime=orders.rank.primes[0], prob_threshold=ctx.prob_threshold,
         screen_only=True)
 
 

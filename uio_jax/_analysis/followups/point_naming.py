@@ -5,8 +5,9 @@ The Taylor route keeps no graph nodes of its generators, so the ansatzes of
 :mod:`.observable_functions` (which need the unobservable directions at many points) do not
 apply; the candidates that need no ansatz do (the coordinates, the model's subexpressions,
 ratios and products of two of the simplest), ranked by simplicity. Each is kept when its
-gradient at the route's point lies in the span there (the route's own exact membership) and
-raises the rank of those kept (an independence at a point is certain).
+gradient lies in the span (the route's own exact membership, in every lane of its
+machine-word primes) and raises the rank of those kept at one random point modulo
+``2^127 - 1`` (an independence at a point is certain).
 """
 
 import time
@@ -20,10 +21,10 @@ from .observable_functions import MAX_SUBEXPRESSIONS, PAIR_POOL, ObservableFunct
 def name_at_point(space, dim: int, generators) -> ObservableFunctions:
     """Name observable functions where the analysis keeps no symbolic generators (the module
     docstring: the candidates of :func:`name_functions` that need no ansatz, each kept by the
-    route's own exact membership, :meth:`~uio_jax._analysis.taylor_space.TaylorSpace.member`).
+    route's own exact membership, :meth:`~uio_jax._analysis.decisions.taylor_space.TaylorSpace.member`).
 
     Args:
-        space: the report's :class:`~uio_jax._analysis.taylor_space.TaylorSpace`.
+        space: the report's :class:`~uio_jax._analysis.decisions.taylor_space.TaylorSpace`.
         dim: the observable dimension.
         generators: labels of the kept generators.
     """
@@ -46,11 +47,11 @@ def name_at_point(space, dim: int, generators) -> ObservableFunctions:
         for fn, node in cands:
             if len(chosen) >= dim:
                 return
-            found = rows.get(node)
-            if found is None or not any(kept.reduce(found[0])):
+            row = rows.get(node)
+            if row is None or not any(kept.reduce(row)):
                 continue
-            if space.member(*found):
-                kept.add(found[0])
+            if space.member(node):
+                kept.add(row)
                 chosen.append(fn)
 
     select(variables + subs)

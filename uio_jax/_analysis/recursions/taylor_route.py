@@ -6,18 +6,18 @@ Without inputs (``z' = F(z)`` on ``z = [x; p]``) the ORC's codistribution after 
 ``span{d y_j : j <= k}`` along a generic input (:mod:`.series`). Both are the spans of the
 gradients of the output's Taylor coefficients ``y_j = L_F^j h / j!`` at ``t = 0``, which
 :class:`uio_jax._engine.taylor.TaylorSeries` computes *numerically*, order by order, with
-their gradients, at a random point of ``F_p^N`` (``p = 2^127 - 1``): no symbolic Lie
-derivative is built. The symbolic route's graph of ``L_F^j h`` grows with every order (a
-single-output chain with parameters: 500 000 nodes and 2.7 GB at 60 variables, out of
-memory at 100); here the cost is ``O(|graph| K^2 N)`` for ``K`` orders and ``N``
-coordinates, and the memory ``O(|graph| K N)`` (100 variables: 5 s, 0.3 GB).
+their gradients, at random points of ``F_p^N`` for random primes ``p`` below ``2^26`` (int64
+arithmetic): no symbolic Lie derivative is built. The symbolic route's graph of ``L_F^j h``
+grows with every order (a single-output chain with parameters: 500 000 nodes and 2.7 GB at
+60 variables, out of memory at 100); here the cost is ``O(|products| K^2 N)`` for ``K``
+orders and ``N`` coordinates, and the memory ``O(|history| K N)``.
 
-Every rank decision is exact: a row that raises the rank at the point raises the generic
-rank (certain); a row that does not is dependent with probability of error at most
-``D / p`` (Schwartz-Zippel, ``D`` the degree bound of the minor,
-:class:`uio_jax._engine.taylor_degrees.TaylorDegrees`), summed over the decisions into
-``Certificate.error_bound``. The float64 Taylor series at a few sampled states give the
-margins and the singular values of the report (:class:`.taylor_space.TaylorSpace`).
+Every rank decision is exact (:class:`uio_jax._engine.taylor_rank.TaylorRank`): a row that
+raises the rank at a point raises the generic rank (certain); a row that does not is
+dependent with a probability of error bounded from the degree and the height of the minor
+(:mod:`uio_jax._engine.taylor_degrees`), with as many primes as that bound needs, summed over
+the decisions into ``Certificate.error_bound``. The float64 Taylor series at a few sampled
+states give the margins and the singular values of the report (:class:`.taylor_space.TaylorSpace`).
 
 :func:`taylor_applicable` says when the engine takes this route (once per analysis):
 no unknown input, no known input for the ORC (its steps are the orders only then), every
@@ -29,10 +29,11 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..._engine import graph_elementary, graph_exact
 from ..._engine.graph import exact_literal
-from ..._engine.taylor import Modular, TaylorSeries, Unsupported, program
+from ..._engine.graph_elementary import Singular
+from ..._engine.taylor import TaylorSeries, Unsupported, program
 from ..._engine.taylor_degrees import TaylorDegrees
+from ..._engine.taylor_rank import TaylorRank, Undecided
 from ..._model.smooth_inputs import known_coordinates
 from ..decisions.answer import decide_answer
 from ..decisions.taylor_space import TaylorSpace, taylor_certificate
@@ -47,9 +48,6 @@ from .series import SERIES_NOTE, input_coefficients
 #: generators are graph nodes that the naming of observable functions and the search for
 #: symmetries test candidates against (:mod:`.observable_functions`, :mod:`.found_symmetries`).
 TAYLOR_MIN_VARIABLES = 24
-#: Draws of the random point where a denominator vanishes there.
-DRAWS = 4
-
 
 class NotTaken(Exception):
     """The Taylor route cannot decide this model (every point drawn singular, a bound too
@@ -89,6 +87,10 @@ class _Problem:
         self.cap = cap
         self.method = method
 
+    def roots(self):
+        """The outputs and the fields' entries (the program's roots)."""
+        return list(self.outputs) + [v for f in self.fields for v in f if v is not None]
+
     def series(self, arithmetic, orders=None, roots=()):
         return TaylorSeries(self.graph, self.fields, self.inputs, list(self.outputs) + list(roots), arithmetic,
                             self.cap if orders is None else orders)
@@ -100,67 +102,59 @@ class _Problem:
         return " ".join(["L_f0"] * k + [self.names[i]]) if self.method == "orc" else f"y_{k}[{self.names[i]}]"
 
 
-def _draw(rng, n):
-    words = rng.integers(0, 2**63, size=(n, 3))
-    return [((int(a) << 126) | (int(b) << 63) | int(c)) % graph_exact.PRIME for a, b, c in words]
-
-
 class _Orders:
-    """The rows ``d y_k[h_i]`` absorbed order by order at one point modulo p."""
+    """The rows ``d y_k[h_i]`` absorbed order by order, decided modulo random machine-word
+    primes at random points (:class:`uio_jax._engine.taylor_rank.TaylorRank`)."""
 
     def __init__(self, problem, seed, max_bound):
-        rng = np.random.default_rng([int(seed), 0x7A110])
-        for _ in range(DRAWS):
-            point = _draw(rng, problem.n)
-            draws = graph_elementary.Draws(graph_exact.PRIME, 1, [int(v) % 2**32 for v in point[:64]])
-            self.arith = Modular([point], draws)
-            self.point = point
-            self.series = problem.series(self.arith)
-            try:
-                self.series.coefficient(problem.outputs[0], 0)
-                break
-            except graph_elementary.Singular:
-                continue
-        else:
-            raise NotTaken("every random point drawn is singular")
-        self.problem, self.max_bound = problem, max_bound
-        self.degrees = TaylorDegrees.of(self.series, problem.cap)
-        self.echelon = graph_exact.Echelon()
-        self.kept, self.kept_degree = [], 0  # (k, i) of the kept rows; sum of their degrees
-        self.error_bound, self.decisions = 0.0, 0
+        self.problem = problem
+        ins = program(problem.graph, problem.roots())[0]
+        try:
+            self.rank = TaylorRank(problem.series, ins, problem.outputs[0], problem.n, seed, max_bound)
+        except Undecided as exc:
+            raise NotTaken(str(exc)) from None
+        self.bounds = TaylorDegrees.of(self.rank.series, problem.cap)
+        self.kept = []  # (k, i) of the kept rows
+
+    @property
+    def dim(self) -> int:
+        return self.rank.rank
+
+    @property
+    def arith(self):
+        return self.rank.arith
+
+    @property
+    def error_bound(self) -> float:
+        return self.rank.error_bound
+
+    @property
+    def decisions(self) -> int:
+        return self.rank.decisions
 
     def absorb(self, k, outputs):
         """Offer ``d y_k[h_i]`` for ``i`` in ``outputs``: the ones that raised the rank."""
         added = []
         for i in outputs:
             node = self.problem.outputs[i]
-            try:
-                row = self.series.coefficient(node, k)[0, 1:]
-            except graph_elementary.Singular:
-                raise NotTaken("a denominator vanishes at the random point") from None
-            degree = self.degrees.degree(self.series.slot[node], k)
-            self.decisions += 1
-            if self.echelon.add(row):
+            slot = self.rank.series.slot[node]
+            if self._decide(self.rank.offer, lambda s, node=node: s.coefficient(node, k)[:, 1:],
+                            lambda slot=slot: (self.bounds.degree(slot, k), self.bounds.row_bits(slot, k))):
                 added.append(i)
                 self.kept.append((k, i))
-                self.kept_degree += degree
-            else:
-                self._bound(self.kept_degree + degree)
         return added
 
-    def member(self, row, degree) -> bool:
-        """Whether ``row`` lies in the span (a dependence: its bound counted)."""
-        self.decisions += 1
-        if any(self.echelon.reduce(row)):
-            return False
-        self._bound(self.kept_degree + degree)
-        return True
+    def member(self, row) -> bool:
+        """Whether ``row`` (``(N,)`` integers) lies in the span (a dependence: its bound counted)."""
+        return self._decide(self.rank.member, lambda s: np.asarray(row, dtype=np.int64), lambda: (0, 0.0))
 
-    def _bound(self, degree):
-        bound = min(1.0, degree / graph_exact.PRIME)
-        if bound > self.max_bound:
-            raise NotTaken(f"a dependence of degree {degree} would need more points")
-        self.error_bound += bound
+    def _decide(self, how, rows_of, bounds):
+        try:
+            return how(rows_of, bounds)
+        except Undecided as exc:
+            raise NotTaken(str(exc)) from None
+        except Singular:
+            raise NotTaken("a denominator vanishes at the random point") from None
 
 
 class TaylorOrders(Recursion):
@@ -187,10 +181,10 @@ class TaylorOrders(Recursion):
         self.added = self.orders.absorb(k, self.alive)
         if self.problem.method == "orc":
             self.alive = self.added
-        return Step(k, self.orders.echelon.rank, tuple(self.problem.label(k, i) for i in self.added), 1.0)
+        return Step(k, self.orders.dim, tuple(self.problem.label(k, i) for i in self.added), 1.0)
 
     def terminate(self, k, history):
-        n, rank = self.problem.n, self.orders.echelon.rank
+        n, rank = self.problem.n, self.orders.dim
         if self.problem.method == "orc":  # as orc.Orc.terminate
             if k > 0 and not self.added:
                 return StopReason.CONVERGED.stop(m=k, prev=k - 1)
@@ -232,18 +226,20 @@ def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None,
     for j, name in enumerate(system.states):
         unit = [0] * system.n
         unit[j] = 1
-        observable[name] = orders.member(unit, 0)
+        observable[name] = orders.member(unit)
     space = TaylorSpace(ctx, problem, orders)
     cert = taylor_certificate(ctx, space, orders)
-    route = ("decided on the output's Taylor series at a random point modulo p (Sedoglavic's route: "
-             f"{k + 1} orders, no symbolic Lie derivative)")
+    primes = orders.rank.primes
+    route = (f"decided on the output's Taylor series at random points modulo {len(primes)} random "
+             f"prime{'s' if len(primes) > 1 else ''} below 2^26 (Sedoglavic's route: {k + 1} orders, no symbolic "
+             "Lie derivative)")
     notes = [why] if why else []
     if method == "series" and system.known:
         notes.append(SERIES_NOTE)
     notes.append(route)
     details = {"order": k} if method == "series" else {}
     return Report(
-        method=method, states=system.states, dim=orders.echelon.rank, observable=observable,
+        method=method, states=system.states, dim=orders.dim, observable=observable,
         history=tuple(history), certificate=cert,
         generators=tuple(problem.label(kk, i) for kk, i in orders.kept), stop=stop,
         answer=decide_answer(method, stop, details, cert.arithmetic), route=Route.TAYLOR,
