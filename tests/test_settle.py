@@ -174,6 +174,41 @@ def test_settler_on_a_graph_by_hand():
     assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30
 
 
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_zero_gradient_under_round_off_is_dependent_in_extended_precision(seed):
+    """``h c / d - h (c / d)`` with ``h = x1 + erf(x0)`` (not made rational): its gradient is
+    zero, computed as rounding noise along ``d x0`` (about 1e-32 at 30 digits, 1e-62 or 0 at
+    60). The noise's direction is not a row: against ``span{d x1}`` the candidate is
+    dependent at every seed (a normalized noise row was "independent" at seeds 0 and 3)."""
+    from uio_jax._calculus.generators import Node
+
+    g = Graph(2)
+    h = g.add(g.x(1), g.unary("erf", g.x(0)))
+    c, d = g.const(0.7), g.const(1.3)
+    noise = g.add(g.div(g.mul(h, c), d), g.neg(g.mul(h, g.div(c, d))))
+    settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=seed)
+    found = settler.settle([Node("x1", "scalar", expr=g.x(1))], Node("noise", "scalar", expr=noise), "dependent")
+    assert found.how == "mpmath" and found.result == "dependent"
+
+
+def test_roots_with_no_common_point_modulo_p_are_decided_in_extended_precision():
+    """``sqrt(x0)`` and ``sqrt(7 x0)``: their arguments are never squares together modulo
+    ``p = 2^127 - 1`` (7 is no square there: ``p = 1 mod 7``, quadratic reciprocity), so the
+    modular points of their variety do not exist. The arithmetic is extended precision,
+    with the reason; the rank decisions are not left undecided (they were, all three)."""
+    g = Graph(2)
+    expr = g.add(g.unary("sqrt", g.x(0)), g.mul(g.x(1), g.unary("sqrt", g.mul(g.const(7), g.x(0)))))
+    settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=0)
+    assert pow(7, (graph_exact.PRIME - 1) // 2, graph_exact.PRIME) == graph_exact.PRIME - 1
+    assert settler.arithmetic([expr]) is Arithmetic.EXTENDED
+    assert "no point modulo p" in settler.not_rational
+    system = uj.System(states=("x0", "x1"), outputs={"y": lambda x: jnp.sqrt(x[0]) + x[1] * jnp.sqrt(7 * x[0])},
+                       drift=lambda x: jnp.array([x[1], -x[0]]))
+    rep = uj.analyze(system)
+    assert rep.plan.arithmetic is Arithmetic.EXTENDED and rep.certificate.undecided == 0 and rep.dim == 2
+
+
 def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table(unsettled):
     """The undecided vote rejected y2 (float64: dependent): the verdicts it could change are
     the 'not observable' ones: x2. The CLI text and the batch row say UNDECIDED."""

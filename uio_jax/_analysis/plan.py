@@ -28,7 +28,9 @@ Taylor route cannot decide at its random points, the plan's ``fallback`` runs: t
 route of the method the caller's options chose.
 The arithmetic: exact modulo p where the model's outputs and fields are made rational (every
 derivative of them is: :meth:`uio_jax._analysis.decisions.settle.Settler.arithmetic`, the one
-place it is decided), extended precision otherwise.
+place it is decided), extended precision otherwise. The symbolic route also needs a point
+modulo p where the model's roots exist; the Taylor route takes roots in ``F_p[i]``, where
+they always do.
 """
 
 from .._calculus.generators import builder_for
@@ -119,7 +121,7 @@ def plan(system, method: str = "auto", known_inputs: str = "switchable", *, seed
     if settler is None:
         settler = new_settler(system, seed) if prob_threshold is None else new_settler(system, seed, prob_threshold)
     roots = model_roots(system, builder)
-    arithmetic = settler.arithmetic(roots)
+    arithmetic = settler.arithmetic(roots, roots_in_extension=True)  # the Taylor route's
     route, fallback = Route.SYMBOLIC, None
     route_why = ("the symbolic route: Lie derivatives and brackets as nodes of the model's expression graph, "
                  "decided at sampled states and settled at random points")
@@ -135,6 +137,8 @@ def plan(system, method: str = "auto", known_inputs: str = "switchable", *, seed
         chosen, route = taylor, Route.TAYLOR
         route_why = (f"the Taylor route ({system.n} coordinates, at least {TAYLOR_MIN_VARIABLES}, no unknown input): "
                      "the output's Taylor coefficients at a random point modulo p, no symbolic Lie derivative")
+    else:
+        arithmetic = settler.arithmetic(roots)  # the symbolic route's: roots modulo p
     method_why = note or f"method {chosen.value!r} as asked"
     why = f"{method_why}; {route_why}; {ARITHMETIC_WHY[arithmetic]}"
     return Plan(chosen, route, arithmetic, why, note, fallback)

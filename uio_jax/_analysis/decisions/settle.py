@@ -29,7 +29,10 @@ A weak decision is settled again (:class:`Settler`) in the System's expression g
   are added, up to :data:`MAX_POINTS`, while a deep derivative's ``D`` needs them);
 * **extended precision** otherwise (mpmath at :data:`DIGITS` = 30 and 60 decimal digits at
   states of the sampling box): a genuine distance keeps its value between the two
-  precisions, round-off shrinks below ``10^-(0.6 digits)``.
+  precisions, round-off shrinks below ``10^-(0.6 digits)``; a gradient whose norm is under
+  that size is zero (its direction is rounding noise, never a row). Extended precision is
+  also the arithmetic of a rational graph whose roots have no common point modulo ``p``
+  (``sqrt(x)`` with ``sqrt(7 x)``: 7 is no square modulo ``2^127 - 1``).
 
 Neither can decide (the points are singular; the two precisions disagree): the decision is **undecided**. The float64
 majority is kept for the rest of the run, and the report says that its verdicts are not
@@ -146,6 +149,7 @@ class Settler:
         self._modular = {}  # point number -> ModularEvaluator at that point
         self._echelons = {}  # point -> {kept expressions: Echelon}
         self._rational_nodes = set()  # nodes known to be rational (or made rational)
+        self._pointed = set()  # nodes whose roots exist at a modular point found
         self._generators = {}  # the elementary generators met so far, checked independent
         #: why the graph is not made rational, where a relation between its elementary
         #: functions was found ("" otherwise)
@@ -185,13 +189,17 @@ class Settler:
         self._answers[tuple(exprs)] = answer
         return answer
 
-    def arithmetic(self, exprs) -> Arithmetic:
+    def arithmetic(self, exprs, roots_in_extension: bool = False) -> Arithmetic:
         """The arithmetic of decisions on the graph nodes ``exprs`` and on what is built from
         them (every derivative of a node made rational is made rational): the one place where
         it is chosen. :attr:`Arithmetic.EXACT` (modulo p) where every node behind them is
-        rational or an elementary function made rational by independent generators;
-        :attr:`Arithmetic.EXTENDED` (mpmath at two precisions) otherwise."""
-        rational = self._rational([e for e in exprs if e is not None])
+        rational or an elementary function made rational by independent generators, and a
+        point modulo ``p = 2^127 - 1`` where their roots exist is found (:meth:`_has_point`;
+        not asked with ``roots_in_extension``: the Taylor route takes roots in ``F_p[i]``,
+        where every residue has its square roots); :attr:`Arithmetic.EXTENDED` (mpmath at
+        two precisions) otherwise."""
+        exprs = [e for e in exprs if e is not None]
+        rational = self._rational(exprs) and (roots_in_extension or self._has_point(exprs))
         return Arithmetic.EXACT if rational else Arithmetic.EXTENDED
 
     def vanishes(self, exprs) -> tuple[bool, str]:
@@ -284,6 +292,21 @@ class Settler:
             if not ok:
                 return False
         known.update(new)
+        return True
+
+    def _has_point(self, exprs) -> bool:
+        """Whether a point of ``F_p^n`` is found where the roots behind ``exprs`` exist: roots
+        whose arguments are never squares together modulo p have no point of their variety
+        there (``8.4/G`` and ``G/4.8``: their product 7/4 is no square modulo 2^127 - 1), and
+        :data:`SQUARE_DRAWS` draws miss the one point in ``2^k`` of ``k`` unrelated roots
+        for large ``k``. Memoized per node, as :meth:`_rational`."""
+        new = self.graph.reachable(exprs, known=self._pointed)
+        if any(self.graph.op[k] in graph_elementary.ALGEBRAIC for k in new) and \
+                self._modular_evaluator(0, exprs) is None:
+            self.not_rational = ("no point modulo p where every root's argument has its root (or every "
+                                 "point drawn was singular)")
+            return False
+        self._pointed.update(new)
         return True
 
     # ------------------------------------------------------------------ modulo p
@@ -381,7 +404,7 @@ class Settler:
             tiny1, tiny2 = [10.0 ** (-0.6 * d) for d in DIGITS]
             if rho1 is None or rho2 is None:
                 continue  # the span is degenerate at this point
-            if rho2 < tiny2:
+            if rho1 < tiny1 and rho2 < tiny2:
                 dependent += 1
             elif rho2 > tiny1 and abs(rho1 - rho2) <= 1e-6 * rho2:
                 independent += 1
@@ -432,7 +455,7 @@ class _Orthonormal:
         ctx = self.ev.ctx
         row = [g * s for g, s in zip(self.ev.gradients([expr])[1][0], self.scale)]
         norm = ctx.sqrt(ctx.fsum(v * v for v in row))
-        if norm == 0:
+        if norm < self.tiny:  # a zero gradient computed with rounding (its direction is noise)
             return ctx.mpf(0), None
         v = [x / norm for x in row]
         for _ in range(2):
