@@ -17,6 +17,7 @@ from helpers import zoo_system
 import uio_jax as uj
 from uio_jax._analysis.decisions.settle import WEAK_ABOVE, WEAK_BELOW, Settler, is_weak
 from uio_jax._analysis.results.evidence import Arithmetic
+from uio_jax._analysis.results.kinds import Answer, Route
 from uio_jax._engine import graph_exact
 from uio_jax._engine.graph import Graph
 
@@ -195,18 +196,25 @@ def test_a_zero_gradient_under_round_off_is_dependent_in_extended_precision(seed
 def test_roots_with_no_common_point_modulo_p_are_decided_in_extended_precision():
     """``sqrt(x0)`` and ``sqrt(7 x0)``: their arguments are never squares together modulo
     ``p = 2^127 - 1`` (7 is no square there: ``p = 1 mod 7``, quadratic reciprocity), so the
-    modular points of their variety do not exist. The arithmetic is extended precision,
-    with the reason; the rank decisions are not left undecided (they were, all three)."""
+    modular points of their variety do not exist. The symbolic route's decisions are in
+    extended precision (they were left undecided, all three); the plan takes the Taylor
+    route, exact with roots in ``F_p[i]``, at any size."""
+    from uio_jax._calculus.generators import Node
+
     g = Graph(2)
     expr = g.add(g.unary("sqrt", g.x(0)), g.mul(g.x(1), g.unary("sqrt", g.mul(g.const(7), g.x(0)))))
     settler = Settler(g, [0.5, 0.5], [1.5, 1.5], seed=0)
     assert pow(7, (graph_exact.PRIME - 1) // 2, graph_exact.PRIME) == graph_exact.PRIME - 1
     assert settler.arithmetic([expr]) is Arithmetic.EXTENDED
-    assert "no point modulo p" in settler.not_rational
+    assert settler.arithmetic([expr], roots_in_extension=True) is Arithmetic.EXACT
+    assert settler.arithmetic([g.mul(g.x(0), g.x(1))]) is Arithmetic.EXACT  # what needs no root
     system = uj.System(states=("x0", "x1"), outputs={"y": lambda x: jnp.sqrt(x[0]) + x[1] * jnp.sqrt(7 * x[0])},
                        drift=lambda x: jnp.array([x[1], -x[0]]))
-    rep = uj.analyze(system)
-    assert rep.plan.arithmetic is Arithmetic.EXTENDED and rep.certificate.undecided == 0 and rep.dim == 2
+    rep = uj.analyze(system)  # 2 coordinates, yet the Taylor route: it takes roots in F_p[i]
+    assert rep.plan.route is Route.TAYLOR and rep.answer is Answer.EXACT and rep.dim == 2
+    assert rep.plan.fallback.arithmetic is Arithmetic.EXTENDED and "no common point" in rep.plan.why
+    found = settler.settle([], Node("y", "scalar", expr=expr), "independent")  # the symbolic route's decisions
+    assert found.how == "mpmath" and found.result == "independent"
 
 
 def test_undecided_verdicts_are_named_in_the_report_and_the_batch_table(unsettled):

@@ -25,7 +25,9 @@ node; below that size the symbolic route costs as little, and its generators are
 follow-up questions test candidates against. With switchable known inputs ``"auto"`` takes
 the series test on the Taylor route (the ORC's final span; the report says so). Where the
 Taylor route cannot decide at its random points, the plan's ``fallback`` runs: the symbolic
-route of the method the caller's options chose.
+route of the method the caller's options chose. A smaller model whose roots have no common
+point modulo ``2^127 - 1`` (the symbolic route's prime) takes the Taylor route too, where that
+route applies: it takes roots in ``F_p[i]`` and stays exact.
 The arithmetic: exact modulo p where the model's outputs and fields are made rational (every
 derivative of them is: :meth:`uio_jax._analysis.decisions.settle.Settler.arithmetic`, the one
 place it is decided), extended precision otherwise. The symbolic route also needs a point
@@ -44,11 +46,14 @@ from .results.kinds import Arithmetic, Method, Plan, Route
 
 #: Why each arithmetic, in words (:attr:`Plan.why`).
 ARITHMETIC_WHY = {
-    Arithmetic.EXACT: "every decision modulo p = 2^127 - 1 at random points (the model's outputs and fields "
-                      "are rational, or made rational by independent generators)",
+    Arithmetic.EXACT: "every decision modulo p at random points (the model's outputs and fields are rational, "
+                      "or made rational by independent generators)",
     Arithmetic.EXTENDED: "decisions in extended precision (mpmath at two precisions): the model has a function "
-                         "that is not made rational",
+                         "that is not made rational, or roots with no common point modulo p",
 }
+
+#: The primes of each route, in words (:attr:`Plan.why`, exact arithmetic).
+PRIMES_WHY = {Route.SYMBOLIC: "p = 2^127 - 1", Route.TAYLOR: "random primes p below 2^26, roots in F_p[i]"}
 
 
 def choose_method(system, method: str, known_inputs: str = "switchable") -> tuple[Method, str]:
@@ -122,25 +127,34 @@ def plan(system, method: str = "auto", known_inputs: str = "switchable", *, seed
         settler = new_settler(system, seed) if prob_threshold is None else new_settler(system, seed, prob_threshold)
     roots = model_roots(system, builder)
     arithmetic = settler.arithmetic(roots, roots_in_extension=True)  # the Taylor route's
+    symbolic = arithmetic  # the symbolic route's: roots modulo p (asked where it matters)
+    if arithmetic is Arithmetic.EXACT and system.n < TAYLOR_MIN_VARIABLES:
+        symbolic = settler.arithmetic(roots)
     route, fallback = Route.SYMBOLIC, None
     route_why = ("the symbolic route: Lie derivatives and brackets as nodes of the model's expression graph, "
                  "decided at sampled states and settled at random points")
     taylor = chosen
     if method == "auto" and chosen is Method.ORC and system.known:
         taylor = Method.SERIES  # the ORC's steps are not the Taylor orders with inputs
-    if taylor in (Method.ORC, Method.SERIES) and taylor_applicable(system, builder.graph, roots, arithmetic, taylor):
-        fallback = Plan(chosen, Route.SYMBOLIC, arithmetic, "the symbolic route, where the Taylor route "
+    rootless = symbolic is not arithmetic  # exact only with roots in F_p[i]: the Taylor route at any size
+    if taylor in (Method.ORC, Method.SERIES) and taylor_applicable(system, builder.graph, roots, arithmetic, taylor,
+                                                                   any_size=rootless):
+        fallback = Plan(chosen, Route.SYMBOLIC, symbolic, "the symbolic route, where the Taylor route "
                         "cannot decide at its random points", note)
         if taylor is not chosen:
             note = (f"{note}; {system.n} variables with known inputs -> the series test on the Taylor route "
                     "(the ORC's final span; its orders are not the ORC's steps)")
         chosen, route = taylor, Route.TAYLOR
-        route_why = (f"the Taylor route ({system.n} coordinates, at least {TAYLOR_MIN_VARIABLES}, no unknown input): "
+        size = ("the model's roots have no common point modulo 2^127 - 1; roots in F_p[i] here" if rootless
+                else f"{system.n} coordinates, at least {TAYLOR_MIN_VARIABLES}")
+        route_why = (f"the Taylor route ({size}, no unknown input): "
                      "the output's Taylor coefficients at a random point modulo p, no symbolic Lie derivative")
     else:
-        arithmetic = settler.arithmetic(roots)  # the symbolic route's: roots modulo p
+        arithmetic = symbolic if system.n < TAYLOR_MIN_VARIABLES else settler.arithmetic(roots)
     method_why = note or f"method {chosen.value!r} as asked"
     why = f"{method_why}; {route_why}; {ARITHMETIC_WHY[arithmetic]}"
+    if arithmetic is Arithmetic.EXACT:
+        why = why.replace("modulo p at", f"modulo {PRIMES_WHY[route]} at")
     return Plan(chosen, route, arithmetic, why, note, fallback)
 
 

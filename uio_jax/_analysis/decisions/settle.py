@@ -150,6 +150,7 @@ class Settler:
         self._echelons = {}  # point -> {kept expressions: Echelon}
         self._rational_nodes = set()  # nodes known to be rational (or made rational)
         self._pointed = set()  # nodes whose roots exist at a modular point found
+        self._rootless = set()  # roots with no common point modulo p found (with others)
         self._generators = {}  # the elementary generators met so far, checked independent
         #: why the graph is not made rational, where a relation between its elementary
         #: functions was found ("" otherwise)
@@ -299,12 +300,14 @@ class Settler:
         whose arguments are never squares together modulo p have no point of their variety
         there (``8.4/G`` and ``G/4.8``: their product 7/4 is no square modulo 2^127 - 1), and
         :data:`SQUARE_DRAWS` draws miss the one point in ``2^k`` of ``k`` unrelated roots
-        for large ``k``. Memoized per node, as :meth:`_rational`."""
+        for large ``k``. Memoized per node, as :meth:`_rational`: the roots of a failure are
+        remembered, and only what is built on them is refused."""
         new = self.graph.reachable(exprs, known=self._pointed)
-        if any(self.graph.op[k] in graph_elementary.ALGEBRAIC for k in new) and \
-                self._modular_evaluator(0, exprs) is None:
-            self.not_rational = ("no point modulo p where every root's argument has its root (or every "
-                                 "point drawn was singular)")
+        roots = {k for k in new if self.graph.op[k] in graph_elementary.ALGEBRAIC}
+        if roots & self._rootless:
+            return False
+        if roots and self._modular_evaluator(0, exprs) is None:
+            self._rootless |= roots
             return False
         self._pointed.update(new)
         return True

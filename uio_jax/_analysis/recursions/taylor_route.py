@@ -54,11 +54,12 @@ class NotTaken(Exception):
     large): the symbolic route runs instead."""
 
 
-def taylor_applicable(system, graph, roots, arithmetic, method: str) -> bool:
+def taylor_applicable(system, graph, roots, arithmetic, method: str, any_size: bool = False) -> bool:
     """Whether ``method`` (``"orc"`` or ``"series"``) on ``system`` takes the Taylor route
     (module docstring): ``roots`` are the graph nodes of its outputs and fields (in ``graph``)
-    and ``arithmetic`` the arithmetic of their decisions (the plan's)."""
-    if system.unknown or known_coordinates(system) or system.n < TAYLOR_MIN_VARIABLES:
+    and ``arithmetic`` the arithmetic of their decisions (the plan's); ``any_size``: below
+    :data:`TAYLOR_MIN_VARIABLES` coordinates too (the symbolic route is not exact there)."""
+    if system.unknown or known_coordinates(system) or (system.n < TAYLOR_MIN_VARIABLES and not any_size):
         return False
     if method == "orc" and system.known:
         return False
