@@ -27,6 +27,7 @@ import math
 import random
 from fractions import Fraction
 
+from ..._engine.primes import is_prime
 from .jets import SATURATION, flint_module
 
 #: The primes are drawn in ``[2^29, 2^30)``.
@@ -37,33 +38,11 @@ MAX_DRAWS = 20
 
 
 def draw_prime(rng: random.Random) -> int:
-    """A random prime in :data:`PRIME_RANGE` (Miller-Rabin with fixed bases: exact below 3.4e14)."""
+    """A random prime in :data:`PRIME_RANGE` (:func:`uio_jax._engine.primes.is_prime`)."""
     while True:
         p = rng.randrange(*PRIME_RANGE) | 1
-        if _is_prime(p):
+        if is_prime(p):
             return p
-
-
-def _is_prime(n: int) -> bool:
-    if n < 2:
-        return False
-    for q in (2, 3, 5, 7, 11, 13, 17):
-        if n % q == 0:
-            return n == q
-    d, s = n - 1, 0
-    while d % 2 == 0:
-        d, s = d // 2, s + 1
-    for a in (2, 3, 5, 7, 11, 13, 17):
-        x = pow(a, d, n)
-        if x in (1, n - 1):
-            continue
-        for _ in range(s - 1):
-            x = x * x % n
-            if x == n - 1:
-                break
-        else:
-            return False
-    return True
 
 
 def sian_degree(truncation, eqs, asked: int) -> int:
