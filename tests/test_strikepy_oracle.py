@@ -246,7 +246,9 @@ def test_importer_and_analysis_match_the_sympy_oracle(name):
     system = load_strikepy(str(path))
     rep = uj.analyze(system, samples=SAMPLES)
     series = uj.analyze(system, samples=SAMPLES, method="series")  # StrikePy's own kind of test
-    assert (rep.method, series.method) == ("orc", "series")
+    # auto: the ORC, or the series test on the Taylor route (BIG_known_input: its roots have
+    # no common point modulo 2^127 - 1, the symbolic route would not be exact)
+    assert rep.method == ("series" if rep.plan.route == "taylor" else "orc") and series.method == "series"
     for r in (rep, series):
         assert {s: bool(r.observable[s]) for s in obs} == obs
         assert {q: bool(r.identifiable[q]) for q in ident} == ident
