@@ -175,7 +175,6 @@ def test_settler_on_a_graph_by_hand():
     assert flat.result == "dependent" and 0.0 <= flat.bound < 1e-30
 
 
-
 @pytest.mark.parametrize("seed", range(5))
 def test_a_zero_gradient_under_round_off_is_dependent_in_extended_precision(seed):
     """``h c / d - h (c / d)`` with ``h = x1 + erf(x0)`` (not made rational): its gradient is

@@ -44,10 +44,10 @@ from .recursions.single_ui import check_applicable as single_ui_applicable
 from .recursions.taylor_route import TAYLOR_MIN_VARIABLES, taylor_applicable
 from .results.kinds import Arithmetic, Method, Plan, Route
 
-#: Why each arithmetic, in words (:attr:`Plan.why`).
+#: Why each arithmetic, in words (:attr:`Plan.why`; ``{primes}``: the route's, :data:`PRIMES_WHY`).
 ARITHMETIC_WHY = {
-    Arithmetic.EXACT: "every decision modulo p at random points (the model's outputs and fields are rational, "
-                      "or made rational by independent generators)",
+    Arithmetic.EXACT: "every decision modulo {primes} at random points (the model's outputs and fields are "
+                      "rational, or made rational by independent generators)",
     Arithmetic.EXTENDED: "decisions in extended precision (mpmath at two precisions): the model has a function "
                          "that is not made rational, or roots with no common point modulo p",
 }
@@ -152,9 +152,7 @@ def plan(system, method: str = "auto", known_inputs: str = "switchable", *, seed
     else:
         arithmetic = symbolic if system.n < TAYLOR_MIN_VARIABLES else settler.arithmetic(roots)
     method_why = note or f"method {chosen.value!r} as asked"
-    why = f"{method_why}; {route_why}; {ARITHMETIC_WHY[arithmetic]}"
-    if arithmetic is Arithmetic.EXACT:
-        why = why.replace("modulo p at", f"modulo {PRIMES_WHY[route]} at")
+    why = f"{method_why}; {route_why}; {ARITHMETIC_WHY[arithmetic].format(primes=PRIMES_WHY[route])}"
     return Plan(chosen, route, arithmetic, why, note, fallback)
 
 
