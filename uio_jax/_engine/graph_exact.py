@@ -21,6 +21,7 @@ points:
 """
 
 import math
+from collections import Counter
 from fractions import Fraction
 
 import numpy as np
@@ -195,44 +196,13 @@ def gradients_mod_p(graph, roots, points, p: int = PRIME):
     return ModularEvaluator(graph, points, p).gradients(roots)
 
 
-def _reduced_echelon(m, p, cols):
-    """Gauss-Jordan over ``F_p`` on the rows ``m`` (lists of residues, changed in place),
-    eliminating in the first ``cols`` columns; the pivot columns, in row order."""
-    pivots, rows = [], len(m)
-    for c in range(cols):
-        r = len(pivots)
-        if r == rows:
-            break
-        pivot = next((i for i in range(r, rows) if m[i][c] != 0), None)
-        if pivot is None:
-            continue
-        m[r], m[pivot] = m[pivot], m[r]
-        inv = pow(m[r][c], -1, p)
-        m[r] = [v * inv % p for v in m[r]]
-        for i in range(rows):
-            if i != r and m[i][c] != 0:
-                f = m[i][c]
-                m[i] = [(v - f * w) % p for v, w in zip(m[i], m[r])]
-        pivots.append(c)
-    return pivots
-
-
 def rank_mod_p(mat, p: int = PRIME) -> int:
     """Rank of an integer matrix ``(r, n)`` over ``F_p`` (Gaussian elimination, Python
     integers)."""
-    m = [[int(v) % p for v in row] for row in np.asarray(mat, dtype=object)]
-    return len(_reduced_echelon(m, p, len(m[0]) if m else 0))
-
-
-def solve_mod_p(A, y, p: int = PRIME):
-    """The unique ``b`` with ``A b = y`` over ``F_p`` (``A`` an integer matrix ``(N, m)``),
-    or None when ``A`` has rank below ``m`` or the system is inconsistent."""
-    N = len(A)
-    m = len(A[0]) if N else 0
-    rows = [[int(v) % p for v in A[i]] + [int(y[i]) % p] for i in range(N)]
-    if _reduced_echelon(rows, p, m) != list(range(m)) or any(rows[i][m] for i in range(m, N)):
-        return None
-    return [rows[i][m] for i in range(m)]
+    echelon = Echelon(p)
+    for row in np.asarray(mat, dtype=object):
+        echelon.add(row)
+    return echelon.rank
 
 
 def rational_reconstruction(a: int, p: int = PRIME):
@@ -341,22 +311,12 @@ def degrees(graph, roots, memo=None) -> list[tuple[int, int]]:
             if qa is qb or qa == qb:
                 D[k] = (max(na, nb), qa, da)
             else:
-                lcm = dict(qa)
-                for atom, m in qb.items():
-                    if m > lcm.get(atom, 0):
-                        lcm[atom] = m
+                lcm = dict(Counter(qa) | Counter(qb))
                 d = atoms_deg(lcm)
                 D[k] = (max(na + d - da, nb + d - db), lcm, d)
         elif op == "mul":
             (na, qa, da), (nb, qb, db) = D[a[0]], D[a[1]]
-            if not qb:
-                q = qa
-            elif not qa:
-                q = qb
-            else:
-                q = dict(qa)
-                for atom, m in qb.items():
-                    q[atom] = q.get(atom, 0) + m
+            q = qa if not qb else qb if not qa else dict(Counter(qa) + Counter(qb))
             D[k] = (na + nb, q, da + db)
         elif op == "div":  # (na / qa) / (nb / qb) = na qb / (qa * atom b)
             (na, qa, da), (nb, qb, db) = D[a[0]], D[a[1]]

@@ -194,13 +194,10 @@ class Word:
             NotSquare: a square root that does not exist here (drawn again elsewhere).
         """
         e = (b & -b).bit_length() - 1
-        r = self._odd_root_rows(a, b >> e) if b >> e > 1 else self.reduce(a)
+        r = self._odd_root(a, b >> e) if b >> e > 1 else self.reduce(a)
         for level in range(e):
             r = self._sign(self._square_root(r), tuple(key) + (level,))
         return r
-
-    def _odd_root_rows(self, a, b):
-        return self._odd_root(a, b)
 
     def _square_root(self, a):
         mod = self.mod
@@ -257,11 +254,11 @@ class WordSquare(Word):
         inv = _power(norm, mod - 2, mod)
         return np.concatenate([x * inv % mod, (-y) * inv % mod])
 
-    def _odd_root_rows(self, a, b):
+    def _odd_root(self, a, b):
         x, y = self._halves(self.reduce(a))
         if y.any():
             raise NotSquare("a root of odd order of an element outside F_p")
-        return np.concatenate([self._odd_root(x, b), np.zeros_like(x)])
+        return np.concatenate([super()._odd_root(x, b), np.zeros_like(x)])
 
     def _square_root(self, a):
         """Square roots in ``F_{p^2}``: of ``x`` in ``F_p``, ``sqrt x`` or ``i sqrt(-x)``; of

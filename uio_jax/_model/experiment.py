@@ -368,11 +368,8 @@ class Experiment:
 
     def state_names(self) -> tuple[str, ...]:
         """Names of the filter state: system states, then ``w``, ``w1``, ... per input."""
-        names = list(self.system.states)
-        unk = list(self.system.unknown)
-        for k in range(self.order):
-            names += [u if k == 0 else f"{u}{k}" for u in unk]
-        return tuple(names)
+        derived = (u if k == 0 else f"{u}{k}" for k in range(self.order) for u in self.system.unknown)
+        return (*self.system.states, *derived)
 
     def angle_mask(self) -> np.ndarray:
         """Boolean ``(n_aug,)``: which filter states are angles (wrapped)."""

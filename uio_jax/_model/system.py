@@ -223,12 +223,8 @@ class System:
 
     def fields(self) -> dict[str, Field]:
         """Every vector field by its label: ``f0`` (drift, if any), known, then unknown."""
-        out = {}
-        if self.drift is not None:
-            out["f0"] = self.drift
-        out.update(self.known)
-        out.update(self.unknown)
-        return out
+        drift = {} if self.drift is None else {"f0": self.drift}
+        return {**drift, **self.known, **self.unknown}
 
     def box(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper corners of the sampling box, each of shape ``(n,)``."""
@@ -341,10 +337,7 @@ class System:
         :meth:`joint` (``known_coordinates == 0``). Built (and validated: finiteness at
         states, parameters and times drawn in their boxes) with the System.
         """
-        if self.time is None:
-            return self.joint()
-        joint = self.joint()
-        return joint._autonomous
+        return self.joint() if self.time is None else self.joint()._autonomous
 
     def with_known(self, names) -> "System":
         """A copy where the unknown inputs ``names`` are treated as known inputs."""
@@ -352,8 +345,7 @@ class System:
         for nm in names:
             if nm not in self.unknown:
                 raise ModelError(f"{nm!r} is not an unknown input of this system")
-        known = dict(self.known)
-        known.update({nm: self.unknown[nm] for nm in names})
+        known = {**self.known, **{nm: self.unknown[nm] for nm in names}}
         unknown = {k: v for k, v in self.unknown.items() if k not in names}
         with derived_system():  # the same (validated) functions
             return System(self.states, dict(self.outputs), known, unknown, self.drift,

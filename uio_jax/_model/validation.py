@@ -67,7 +67,6 @@ def check_shapes(system) -> set:
             has a primitive the expression graph has no rule for, or indexes outside its
             arguments.
     """
-    promote = set()
     # functions of (x, p) or (x, t) are translated into one scratch graph of [x; p; t]
     scratch = (Graph(system.n + len(system.params) + (system.time is not None))
                if system.params or system.time is not None else None)
@@ -77,9 +76,7 @@ def check_shapes(system) -> set:
             _check_index_range(system, what, fn, expected, scratch)
         else:
             traced.append((what, fn, expected))
-    if traced:
-        promote = _check_traced(system, traced, scratch)
-    return promote
+    return _check_traced(system, traced, scratch) if traced else set()
 
 
 def _check_traced(system, traced, scratch) -> set:
@@ -184,12 +181,8 @@ def _finite_masks(system, named, samples, seed) -> list[np.ndarray]:
     exprs = [system.expression(fn, shape, what) for what, fn, shape in named]
     roots = [r for e in exprs for r in ((e,) if isinstance(e, int) else e)]
     values = evaluate(system.expression_graph, roots, xs, gradients=False)
-    masks, at = [], 0
-    for e in exprs:
-        width = 1 if isinstance(e, int) else len(e)
-        masks.append(np.isfinite(values[:, at:at + width]).all(axis=1))
-        at += width
-    return masks
+    ends = np.cumsum([1 if isinstance(e, int) else len(e) for e in exprs])
+    return [np.isfinite(v).all(axis=1) for v in np.split(values, ends[:-1], axis=1)]
 
 
 def _percent(fraction: float) -> str:
