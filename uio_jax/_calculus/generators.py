@@ -63,24 +63,20 @@ class Builder:
         self._walk_memo = (None, None)
         self._powers: dict[tuple, tuple] = {}  # (node, field label) -> (base node, j)
 
-    def _get(self, key, make):
-        node = self._nodes.get(key)
-        if node is None:
-            node = make()
-            self._nodes[key] = node
-        return node
-
     def node(self, key, make) -> Node:
         """The node memoized under ``key`` (a tuple), created by ``make()`` the first time."""
-        return self._get(key, make)
+        found = self._nodes.get(key)
+        if found is None:
+            found = self._nodes[key] = make()
+        return found
 
     def scalar(self, label, fn) -> Node:
         """A named scalar function given by the user (an output)."""
-        return self._get(("scalar", label), lambda: self.make(label, "scalar", 0, self.translate(fn, (), label)))
+        return self.node(("scalar", label), lambda: self.make(label, "scalar", 0, self.translate(fn, (), label)))
 
     def field(self, label, fn) -> Node:
         """A named vector field given by the user."""
-        return self._get(("field", label),
+        return self.node(("field", label),
                          lambda: self.make(label, "field", 0, self.translate(fn, (self.graph.n,), label)))
 
     def function(self, label, fn) -> Node:
@@ -108,10 +104,6 @@ class Builder:
         except IndexOutOfRange as exc:
             raise ModelError(f"{label} indexes outside the state vector: {exc}") from None
 
-    def _jvp(self, exprs, v):
-        """Graph nodes ``d e . v`` of the expressions ``exprs`` along the field node ``v``."""
-        return self.graph.jvp(exprs, v.expr)
-
     def lie(self, v: Node, phi: Node) -> Node:
         """``L_v phi`` (one symbolic derivative of ``phi``'s expression along ``v``).
 
@@ -124,7 +116,7 @@ class Builder:
             return node
         base, j = self.power_of(phi, v)
         node = self.make(f"L_{_wrap(v.label)} {phi.label}", "scalar", phi.depth + v.depth + 1,
-                         self._jvp([phi.expr], v)[0])
+                         self.graph.jvp([phi.expr], v.expr)[0])
         self._nodes[key] = node
         self._powers[(node, v.label)] = (base, j + 1)
         return node
@@ -142,7 +134,7 @@ class Builder:
             label = f"L_{_wrap(v.label)}{'' if j == 1 else f'^{j}'} {base.label}"
             expr = base.expr
             for _ in range(j):
-                expr = self._jvp([expr], v)[0]
+                expr = self.graph.jvp([expr], v.expr)[0]
             node = self.make(label, "scalar", base.depth + j if depth is None else depth, expr)
             self._nodes[key] = node
             self._powers[(node, v.label)] = (base, j)
@@ -161,7 +153,7 @@ class Builder:
             expr = tuple(g.sub(p, q) for p, q in zip(db_a, da_b))
             return self.make(f"[{a.label}, {b.label}]", "field", max(a.depth, b.depth) + 1, expr)
 
-        return self._get(("bracket", a.label, b.label), make)
+        return self.node(("bracket", a.label, b.label), make)
 
     def scaled(self, v: Node, s: Node, label=None) -> Node:
         """The field ``v / s``."""
@@ -170,7 +162,7 @@ class Builder:
             expr = tuple(self.graph.div(c, s.expr) for c in v.expr)
             return self.make(label or f"{_wrap(v.label)}/{_wrap(s.label)}", "field", max(v.depth, s.depth), expr)
 
-        return self._get(("scaled", v.label, s.label), make)
+        return self.node(("scaled", v.label, s.label), make)
 
     def ratio(self, num: Node, den: Node, power=1, label=None) -> Node:
         """The scalar ``num / den**power``."""
@@ -180,7 +172,7 @@ class Builder:
             return self.make(label or f"{_wrap(num.label)}/({den.label})^{power}", "scalar",
                              max(num.depth, den.depth), expr)
 
-        return self._get(("ratio", num.label, den.label, power), make)
+        return self.node(("ratio", num.label, den.label, power), make)
 
     def gradients(self, nodes, xs) -> np.ndarray:
         """Gradients ``(S, c, n)`` of the scalar ``nodes`` (c of them) at the states ``xs``
@@ -262,6 +254,5 @@ def builder_for(system) -> Builder:
     """The (cached) Builder of a System: the same System reuses its nodes and gradients."""
     b = _BUILDERS.get(system)
     if b is None:
-        b = Builder(system)
-        _BUILDERS[system] = b
+        b = _BUILDERS[system] = Builder(system)
     return b

@@ -63,13 +63,13 @@ def _expressions(builder, drift, fields, identifiers):
     rest = [[L[i][k] for i in range(m)] for k in range(m, len(fields))]
     solved = g.solve(B, [a] + units + rest)
 
-    def combine(base, coef, sign):  # base + sign * sum_j coef_j G_j, per coordinate
+    def combine(base, coef):  # base - sum_j coef_j G_j, per coordinate (no base: the sum)
         out = []
         for c in range(g.n):
             acc = g.dot(coef, [G[j][c] for j in range(m)])
-            out.append(acc if base is None else (g.sub(base[c], acc) if sign < 0 else g.add(base[c], acc)))
+            out.append(acc if base is None else g.sub(base[c], acc))
         return tuple(out)
 
-    return {"g^0": [combine(drift.expr, solved[0], -1)],
-            "g^": [combine(None, solved[1 + k], 1) for k in range(m)],
-            "G~": {k: combine(G[k], solved[1 + m + (k - m)], -1) for k in range(m, len(fields))}}
+    return {"g^0": [combine(drift.expr, solved[0])],
+            "g^": [combine(None, solved[1 + k]) for k in range(m)],
+            "G~": {k: combine(G[k], solved[1 + k]) for k in range(m, len(fields))}}

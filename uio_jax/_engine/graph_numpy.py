@@ -133,11 +133,7 @@ class WalkMemo:
     def to_keep(graph, order) -> set:
         """The operands of the nonlinear nodes of ``order``, which later derivatives read."""
         ops, args = graph.op, graph.args
-        out = set()
-        for k in order:
-            if ops[k] not in _READS_NO_OPERAND:
-                out.update(args[k])
-        return out
+        return {a for k in order if ops[k] not in _READS_NO_OPERAND for a in args[k]}
 
     def update(self, read, kept, V, G, roots):
         """After a walk: the memo nodes in ``read`` were read; the ``kept`` nodes of the
@@ -183,11 +179,7 @@ def columns(graph, order):
         if not args[k]:
             cols[k] = ()
             continue
-        united = set()
-        for a in args[k]:
-            united.update(cols[a])
-        c = tuple(sorted(united))
-        cols[k] = c
+        c = cols[k] = tuple(sorted(set().union(*(cols[a] for a in args[k]))))
         at = None
         for a in args[k]:
             ca = cols[a]

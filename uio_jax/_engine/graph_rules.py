@@ -69,36 +69,27 @@ def _binary(op, np_fn):
     return rule
 
 
-def _sub(graph, i, eqn, ins):
-    if not any(is_symbolic(v) for v in ins):
-        return [np.subtract(*ins)]
-    return [elementwise(graph, graph.sub, ins)]
+@_concrete_rule(np.subtract)
+def _sub(graph, ins, eqn):
+    return elementwise(graph, graph.sub, ins)
 
 
 def _integer_pow(graph, i, eqn, ins):
-    k = eqn.params["y"]
+    k = eqn.params.get("y", 2)  # (square: integer_pow without parameters)
     if not is_symbolic(ins[0]):
         return [np.asarray(ins[0]) ** k]
     return [elementwise(graph, lambda a: graph.ipow(a, k), ins)]
 
 
-def _square(graph, i, eqn, ins):
-    if not is_symbolic(ins[0]):
-        return [np.asarray(ins[0]) ** 2]
-    return [elementwise(graph, lambda a: graph.ipow(a, 2), ins)]
+@_concrete_rule(lambda a: 1 / np.sqrt(a))
+def _rsqrt(graph, ins, eqn):
+    return elementwise(graph, lambda a: graph.div(graph.one, graph.unary("sqrt", a)), ins)
 
 
-def _rsqrt(graph, i, eqn, ins):
-    if not is_symbolic(ins[0]):
-        return [1 / np.sqrt(ins[0])]
-    return [elementwise(graph, lambda a: graph.div(graph.one, graph.unary("sqrt", a)), ins)]
-
-
-def _exp2(graph, i, eqn, ins):
-    if not is_symbolic(ins[0]):
-        return [np.exp2(ins[0])]
+@_concrete_rule(np.exp2)
+def _exp2(graph, ins, eqn):
     two = graph.const(2.0)
-    return [elementwise(graph, lambda a: graph.binary("pow", two, a), ins)]
+    return elementwise(graph, lambda a: graph.binary("pow", two, a), ins)
 
 
 def _max_min(greater):
@@ -188,7 +179,7 @@ _TABLE = {
     "gt": _binary("gt", np.greater), "ge": _binary("ge", np.greater_equal),
     "eq": _binary("eq", np.equal), "ne": _binary("ne", np.not_equal),
     "and": _binary("and", np.logical_and), "or": _binary("or", np.logical_or),
-    "sub": _sub, "integer_pow": _integer_pow, "square": _square, "rsqrt": _rsqrt,
+    "sub": _sub, "integer_pow": _integer_pow, "square": _integer_pow, "rsqrt": _rsqrt,
     "exp2": _exp2, "max": _max_min(True), "min": _max_min(False), "clamp": _clamp,
     "select_n": _select_n, "convert_element_type": _convert,
     **STRUCTURAL,

@@ -99,17 +99,21 @@ def _concrete_index(v, what):
     return np.asarray(v)
 
 
+def _window(starts, sizes, shape, what) -> tuple:
+    """The slices of a window of ``sizes`` at constant ``starts`` inside ``shape``."""
+    idx = []
+    for d, (s, size) in enumerate(zip(starts, sizes)):
+        s = int(_concrete_index(s, what))
+        if s < 0 or s + size > shape[d]:
+            raise IndexOutOfRange(f"index {s} is out of bounds for axis {d} with size {shape[d]}")
+        idx.append(slice(s, s + size))
+    return tuple(idx)
+
+
 def _dynamic_slice(graph, i, eqn, ins):
     a, *starts = ins
     a = np.asarray(a)
-    sizes = eqn.params["slice_sizes"]
-    idx = []
-    for d, (s, size) in enumerate(zip(starts, sizes)):
-        s = int(_concrete_index(s, "dynamic_slice"))
-        if s < 0 or s + size > a.shape[d]:
-            raise IndexOutOfRange(f"index {s} is out of bounds for axis {d} with size {a.shape[d]}")
-        idx.append(slice(s, s + size))
-    return [a[tuple(idx)]]
+    return [a[_window(starts, eqn.params["slice_sizes"], a.shape, "dynamic_slice")]]
 
 
 def _dynamic_update_slice(graph, i, eqn, ins):
@@ -118,13 +122,7 @@ def _dynamic_update_slice(graph, i, eqn, ins):
         a, update = as_nodes(graph, a).copy(), as_nodes(graph, update)
     else:
         a = np.array(a)
-    idx = []
-    for d, (s, size) in enumerate(zip(starts, update.shape)):
-        s = int(_concrete_index(s, "dynamic_update_slice"))
-        if s < 0 or s + size > a.shape[d]:
-            raise IndexOutOfRange(f"index {s} is out of bounds for axis {d} with size {a.shape[d]}")
-        idx.append(slice(s, s + size))
-    a[tuple(idx)] = update
+    a[_window(starts, update.shape, a.shape, "dynamic_update_slice")] = update
     return [a]
 
 
@@ -208,24 +206,14 @@ def _reduce(op):
 
 
 def _fold_row(graph, op, row):
-    if op == "add":
-        acc = graph.zero
-        for v in row:
-            acc = graph.add(acc, v)
-        return acc
-    if op == "mul":
-        acc = graph.one
-        for v in row:
-            acc = graph.mul(acc, v)
-        return acc
-    if op in ("max", "min"):
-        acc = row[0]
-        for v in row[1:]:
-            acc = graph.select(graph.binary("gt" if op == "max" else "lt", v, acc), acc, v)
-        return acc
+    if op in ("add", "mul"):  # from the identity: an empty sum is 0, an empty product 1
+        row = [graph.zero if op == "add" else graph.one, *row]
     acc = row[0]
     for v in row[1:]:
-        acc = graph.binary(op, acc, v)
+        if op in ("max", "min"):
+            acc = graph.select(graph.binary("gt" if op == "max" else "lt", v, acc), acc, v)
+        else:
+            acc = graph.binary(op, acc, v)
     return acc
 
 

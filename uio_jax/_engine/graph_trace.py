@@ -25,7 +25,7 @@ import numpy as np
 
 from .._errors import ModelError
 from .graph import Graph
-from .graph_values import GraphScalar, Untranslatable, as_nodes, node_of
+from .graph_values import GraphScalar, Untranslatable, as_nodes, node_of, object_array
 
 
 class GraphFunction:
@@ -136,11 +136,7 @@ def trace_to_graph(graph: Graph, fn, arg_nodes, arg_shapes):
 
     with jax.enable_x64(True):
         closed = jax.make_jaxpr(fn)(*[jax.ShapeDtypeStruct(s, jnp.float64) for s in arg_shapes])
-    args = []
-    for nodes, shape in zip(arg_nodes, arg_shapes):
-        arr = np.empty(len(nodes), dtype=object)
-        arr[:] = list(nodes)
-        args.append(arr.reshape(shape))
+    args = [object_array(list(nodes), shape) for nodes, shape in zip(arg_nodes, arg_shapes)]
     consts = [np.asarray(c) for c in closed.consts]
     with np.errstate(all="ignore"):  # constants such as 1/0 fold to inf, as in XLA
         (out,) = interpret(closed.jaxpr, consts, args, RULES, graph)
@@ -155,11 +151,7 @@ def emitted(graph: Graph, fn, arg_nodes, arg_shapes):
     emit = getattr(fn, "emit", None)
     if emit is None:
         return None
-    args = []
-    for nodes, shape in zip(arg_nodes, arg_shapes):
-        arr = np.empty(len(nodes), dtype=object)
-        arr[:] = [GraphScalar(graph, k) for k in nodes]
-        args.append(arr.reshape(shape))
+    args = [object_array([GraphScalar(graph, k) for k in nodes], shape) for nodes, shape in zip(arg_nodes, arg_shapes)]
     with np.errstate(all="ignore"):  # constants such as 1/0 fold to inf, as in XLA
         result = emit(*args)
     if result is None:
@@ -170,9 +162,7 @@ def emitted(graph: Graph, fn, arg_nodes, arg_shapes):
         shape, values = (len(result),), list(result)
     else:
         shape, values = (), [result]
-    out = np.empty(len(values), dtype=object)
-    out[:] = [node_of(graph, v) for v in values]
-    return out.reshape(shape)
+    return object_array([node_of(graph, v) for v in values], shape)
 
 
 def graph_native(fn) -> bool:

@@ -31,6 +31,14 @@ def is_symbolic(v) -> bool:
     return isinstance(v, np.ndarray) and v.dtype == object
 
 
+def object_array(values, shape) -> np.ndarray:
+    """The sequence ``values`` (row-major) as a numpy object array of ``shape``, each element
+    kept as it is (``np.array`` would make a list of node numbers an integer array)."""
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out.reshape(shape)
+
+
 def as_nodes(graph, v):
     """``v`` as an object array of nodes (concrete numbers become constant nodes)."""
     if is_symbolic(v):
@@ -38,21 +46,24 @@ def as_nodes(graph, v):
     v = np.asarray(v)
     if np.iscomplexobj(v):
         raise Untranslatable("complex", "complex values")
-    out = np.empty(v.shape, dtype=object)
-    flat = out.reshape(-1)
-    for k, x in enumerate(v.reshape(-1)):
-        flat[k] = graph.const(float(x))
-    return out
+    return object_array([graph.const(float(x)) for x in v.reshape(-1)], v.shape)
 
 
 def elementwise(graph, fn, ins):
     """``fn(graph, *nodes)`` per element of the broadcast operands (object arrays)."""
     ops = np.broadcast_arrays(*[as_nodes(graph, v) for v in ins])
-    out = np.empty(ops[0].shape, dtype=object)
-    flat = out.reshape(-1)
-    for k, items in enumerate(zip(*[o.reshape(-1) for o in ops])):
-        flat[k] = fn(*items)
-    return out
+    return object_array([fn(*items) for items in zip(*[o.reshape(-1) for o in ops])], ops[0].shape)
+
+
+def _operator(method: str, reflected: bool = False):
+    """The operator ``self <op> other`` (``other <op> self`` when ``reflected``) of
+    :class:`GraphScalar`, making the node ``graph.<method>``."""
+
+    def apply(self, other):
+        a, b = (self._of(other), self.node) if reflected else (self.node, self._of(other))
+        return self._new(getattr(self.graph, method)(a, b))
+
+    return apply
 
 
 class GraphScalar:
@@ -83,29 +94,10 @@ class GraphScalar:
     def _new(self, node) -> "GraphScalar":
         return GraphScalar(self.graph, node)
 
-    def __add__(self, b):
-        return self._new(self.graph.add(self.node, self._of(b)))
-
-    def __radd__(self, a):
-        return self._new(self.graph.add(self._of(a), self.node))
-
-    def __sub__(self, b):
-        return self._new(self.graph.sub(self.node, self._of(b)))
-
-    def __rsub__(self, a):
-        return self._new(self.graph.sub(self._of(a), self.node))
-
-    def __mul__(self, b):
-        return self._new(self.graph.mul(self.node, self._of(b)))
-
-    def __rmul__(self, a):
-        return self._new(self.graph.mul(self._of(a), self.node))
-
-    def __truediv__(self, b):
-        return self._new(self.graph.div(self.node, self._of(b)))
-
-    def __rtruediv__(self, a):
-        return self._new(self.graph.div(self._of(a), self.node))
+    __add__, __radd__ = _operator("add"), _operator("add", reflected=True)
+    __sub__, __rsub__ = _operator("sub"), _operator("sub", reflected=True)
+    __mul__, __rmul__ = _operator("mul"), _operator("mul", reflected=True)
+    __truediv__, __rtruediv__ = _operator("div"), _operator("div", reflected=True)
 
     def __neg__(self):
         return self._new(self.graph.neg(self.node))
@@ -157,4 +149,4 @@ def node_of(graph, value) -> int:
 
 
 __all__ = ["GraphScalar", "IndexOutOfRange", "Untranslatable", "as_nodes", "elementwise", "is_symbolic",
-           "node_of"]
+           "node_of", "object_array"]

@@ -209,10 +209,7 @@ class TaylorSeries:
             factors = np.stack([self._per_row(ar.scalar(c)) for c in members[2]], axis=1)
             now[:, out] = ar.reduce(now[:, members[1]] * factors[:, :, None])
         elif kind == "mul":  # sum_j a_j (x) b_{m-j}, one einsum for the group
-            A, B = self.H[:, members[1], :m + 1], self.H[:, members[2], :m + 1]
-            other = ar.dot(A[..., ::-1, 0], B)
-            other[..., 0] = 0
-            now[:, out] = ar.reduce(ar.dot(B[..., ::-1, 0], A) + other)
+            now[:, out] = self._cauchy(self.H[:, members[1], :m + 1], self.H[:, members[2], :m + 1])
         else:  # cmul: c_0 (x) x_m for a factor constant along the flow
             c0, x = self._first_of(members[1]), now[:, members[2]]
             res = ar.mul(c0[..., :1], x)
@@ -247,11 +244,11 @@ class TaylorSeries:
         return self.H[:, self.plan.hist[i], lo:hi + 1]
 
     def _cauchy(self, A, B):
-        """``sum_j A_j (x) B_{J-1-j}`` of dual numbers: ``A, B (rows, J, N + 1)``."""
+        """``sum_j A_j (x) B_{J-1-j}`` of dual numbers: ``A, B (rows, .., J, N + 1)``."""
         ar = self.ar
-        other = ar.dot(A[:, ::-1, 0], B)
-        other[:, 0] = 0
-        return ar.reduce(ar.dot(B[:, ::-1, 0], A) + other)
+        other = ar.dot(A[..., ::-1, 0], B)
+        other[..., 0] = 0
+        return ar.reduce(ar.dot(B[..., ::-1, 0], A) + other)
 
     def _weighted(self, U, V, q):
         """``sum_{j=1..m} q_j u_j (x) v_{m-j}``: ``U`` orders ``1..m``, ``V`` orders ``0..m-1``,
