@@ -175,7 +175,12 @@ class Draws:
         return found
 
 
-def _inv(a, p):
+def inverse_mod_p(a, p):
+    """The inverses of residues ``a (P,)`` modulo ``p`` (an object array).
+
+    Raises:
+        Singular: some ``a`` is zero modulo ``p`` (a denominator vanishes at the point).
+    """
     out = np.empty(len(a), dtype=object)
     for i, v in enumerate(a):
         v = int(v) % p
@@ -208,7 +213,7 @@ def evaluate(graph, k, V, draws):
             return s, (c,)
         if op == "cos":
             return c, ((-s) % p,)
-        v = s * _inv(c, p) % p
+        v = s * inverse_mod_p(c, p) % p
         return v, ((1 + v * v) % p,)
     if op in EXPONENTIAL:
         E = draws.get(("exp", a[0]))
@@ -216,7 +221,7 @@ def evaluate(graph, k, V, draws):
             return E, (E,)
         if op == "expm1":
             return (E - 1) % p, (E,)
-        Ei = _inv(E, p)
+        Ei = inverse_mod_p(E, p)
         half = pow(2, -1, p)
         plus, minus = (E + Ei) * half % p, (E - Ei) * half % p
         if op == "sinh":
@@ -224,42 +229,42 @@ def evaluate(graph, k, V, draws):
         if op == "cosh":
             return plus, (minus,)
         if op == "tanh":
-            v = (E * E - 1) * _inv(E * E + 1, p) % p
+            v = (E * E - 1) * inverse_mod_p(E * E + 1, p) % p
             return v, ((1 - v * v) % p,)
-        v = E * _inv(E + 1, p) % p  # logistic
+        v = E * inverse_mod_p(E + 1, p) % p  # logistic
         return v, (v * (1 - v) % p,)
     if op in LOGARITHMIC:
         v = draws.get((op, a))
         return v, _log_slopes(op, u, V[a[1]] % p if len(a) > 1 else None, p)
     if op == "sqrt":
         r = sqrt_mod_p(u, p)
-        return r, (_inv(2 * r, p),)
+        return r, (inverse_mod_p(2 * r, p),)
     e = rational_exponent(graph, k)  # u ** (m/b) = root_b(u) ** m, slope (m/b) u^(m/b) / u
     m = e.numerator
     r = root_mod_p(u, e.denominator, p)
     v = np.array([pow(int(x), m, p) if m >= 0 else pow(int(y), -m, p) for x, y in
-                  zip(r, _inv(r, p) if m < 0 else r)], dtype=object)
-    return v, (m * v * _inv(e.denominator * u, p) % p,)
+                  zip(r, inverse_mod_p(r, p) if m < 0 else r)], dtype=object)
+    return v, (m * v * inverse_mod_p(e.denominator * u, p) % p,)
 
 
 def _log_slopes(op, u, b, p):
     """The derivative rules of the logarithmic kinds (their slopes, per operand)."""
     if op == "log":
-        return (_inv(u, p),)
+        return (inverse_mod_p(u, p),)
     if op == "log1p":
-        return (_inv(u + 1, p),)
+        return (inverse_mod_p(u + 1, p),)
     if op == "atan":
-        return (_inv(1 + u * u, p),)
+        return (inverse_mod_p(1 + u * u, p),)
     if op == "atanh":
-        return (_inv(1 - u * u, p),)
+        return (inverse_mod_p(1 - u * u, p),)
     if op in ("asin", "acos"):
-        w = _inv(sqrt_mod_p((1 - u * u) % p, p), p)
+        w = inverse_mod_p(sqrt_mod_p((1 - u * u) % p, p), p)
         return (w if op == "asin" else (-w) % p,)
     if op == "asinh":
-        return (_inv(sqrt_mod_p((u * u + 1) % p, p), p),)
+        return (inverse_mod_p(sqrt_mod_p((u * u + 1) % p, p), p),)
     if op == "acosh":
-        return (_inv(sqrt_mod_p((u * u - 1) % p, p), p),)
-    d = _inv(u * u + b * b, p)  # atan2(u, b): (b du - u db) / (u^2 + b^2)
+        return (inverse_mod_p(sqrt_mod_p((u * u - 1) % p, p), p),)
+    d = inverse_mod_p(u * u + b * b, p)  # atan2(u, b): (b du - u db) / (u^2 + b^2)
     return (b * d % p, (-u) * d % p)
 
 
@@ -282,4 +287,4 @@ def family(key) -> str:
 
 __all__ = ["Singular", "ELEMENTARY", "CIRCLE", "EXPONENTIAL", "LOGARITHMIC", "ALGEBRAIC", "NotSquare", "Draws",
            "rationalizable", "generator_key", "evaluate", "omega_factors", "family", "sqrt_mod_p",
-           "rational_exponent", "root_mod_p"]
+           "rational_exponent", "root_mod_p", "inverse_mod_p"]

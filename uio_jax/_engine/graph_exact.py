@@ -28,7 +28,7 @@ import numpy as np
 
 from . import graph_elementary
 from .graph import exact_literal
-from .graph_elementary import Singular
+from .graph_elementary import Singular, inverse_mod_p
 from .graph_numpy import columns, place_rows
 from .graph_ops import unary_slopes
 
@@ -45,9 +45,6 @@ def const_mod(value, p: int = PRIME) -> int:
     if f is None:
         raise ValueError("a non-finite constant has no value modulo p")
     return (f.numerator % p) * pow(f.denominator % p, -1, p) % p
-
-
-_inverse = np.frompyfunc(lambda a, p: pow(int(a), -1, int(p)), 2, 1)
 
 
 class ModularEvaluator:
@@ -154,20 +151,17 @@ class ModularEvaluator:
                 v = (va * vb) % p
                 g = total(lift(k, a[0], vb), lift(k, a[1], va))
             elif op == "div":
-                inv = self._inv(V[a[1]])
+                inv = inverse_mod_p(V[a[1]], p)
                 v = (V[a[0]] * inv) % p
                 g = total(lift(k, a[0], inv), lift(k, a[1], (-v * inv) % p))
-            elif op == "ipow":
-                kk, va = params[k], V[a[0]] % p
-                inv = self._inv(va) if kk < 0 else None
-                v = np.array([pow(int(x), kk, p) for x in va], dtype=object) if kk >= 0 else \
-                    np.array([pow(int(x), -kk, p) for x in inv], dtype=object)
-                base = va if kk - 1 >= 0 else (inv if inv is not None else self._inv(va))
+            elif op == "ipow":  # u^k, or (1/u)^-k for k < 0; the slope k u^(k-1) likewise
+                kk = params[k]
+                base = V[a[0]] % p if kk > 0 else inverse_mod_p(V[a[0]], p)
+                v = np.array([pow(int(x), abs(kk), p) for x in base], dtype=object)
                 slope = np.array([kk % p * pow(int(x), abs(kk - 1), p) % p for x in base], dtype=object)
                 g = None if G[a[0]] is None else G[a[0]] * slope
             elif graph_elementary.rationalizable(graph, k):
-                v, g = graph_elementary.evaluate(graph, k, V, self.draws), None
-                v, slopes = v
+                (v, slopes), g = graph_elementary.evaluate(graph, k, V, self.draws), None
                 for operand, slope in zip(a, slopes):
                     g = total(g, lift(k, operand, slope))
             else:
@@ -177,12 +171,6 @@ class ModularEvaluator:
                 if g is not None:
                     g = g % p
             V[k], G[k], depth[k] = v, g, d
-
-    def _inv(self, a):
-        a = a % self.p
-        if any(int(x) == 0 for x in a):
-            raise Singular("division by zero modulo p")
-        return _inverse(a, self.p)
 
 
 #: Sums and negations in a row a :class:`ModularEvaluator` leaves unreduced (each at most

@@ -157,13 +157,7 @@ class Modular(_Plain):
         Raises:
             Singular: a residue is zero (a denominator vanishes at the point).
         """
-        out = np.empty(len(a), dtype=object)
-        for i, v in enumerate(a):
-            v = int(v) % self.p
-            if v == 0:
-                raise Singular("division by zero modulo p")
-            out[i] = pow(v, -1, self.p)
-        return out
+        return graph_elementary.inverse_mod_p(a, self.p)
 
     def root(self, a, b: int, key=None):
         """``b``-th roots: square roots where they exist (``p = 3 mod 4``), odd roots where

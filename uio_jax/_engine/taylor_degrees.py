@@ -31,6 +31,7 @@ A decision on rows ``(i_r, k_r)`` has a minor of degree at most ``sum_r deg(i_r,
 """
 
 import math
+from collections import Counter
 from fractions import Fraction
 
 import numpy as np
@@ -232,14 +233,8 @@ class TaylorDegrees:
 
 
 def _plus(p, q):
-    if not q:
-        return p
-    if not p:
-        return q
-    out = dict(p)
-    for atom, m in q.items():
-        out[atom] = out.get(atom, 0) + m
-    return out
+    """The product of two denominators: their atoms' multiplicities added."""
+    return p if not q else q if not p else dict(Counter(p) + Counter(q))
 
 
 def _sum(terms):
@@ -247,13 +242,11 @@ def _sum(terms):
     terms = [t for t in terms if t[0] > ZERO]
     if not terms:
         return ZERO, NONE, NONE, {}
-    atoms = {}
-    for _, _, _, t in terms:
-        for atom, m in t.items():
-            if m > atoms.get(atom, 0):
-                atoms[atom] = m
+    atoms = Counter()
+    for *_, t in terms:
+        atoms |= Counter(t)
     n = math.log2(len(terms))
-    return (max(t[0] for t in terms), max(t[1] for t in terms) + n, max(t[2] for t in terms) + n, atoms)
+    return (max(t[0] for t in terms), max(t[1] for t in terms) + n, max(t[2] for t in terms) + n, dict(atoms))
 
 
 __all__ = ["TaylorDegrees", "ZERO"]

@@ -128,11 +128,8 @@ class Plan:
         if kind not in VECTOR:
             return group
         out = np.array(group, dtype=np.int64)
-        if kind == "neg":
-            return out, np.array([ins[i][1][0] for i in group], dtype=np.int64)
-        if kind == "add":
-            return (out, np.array([ins[i][1][0] for i in group], dtype=np.int64),
-                    np.array([ins[i][1][1] for i in group], dtype=np.int64))
+        if kind in ("neg", "add"):  # (out, each operand)
+            return (out, *(np.array(operand, dtype=np.int64) for operand in zip(*(ins[i][1] for i in group))))
         if kind == "scale":  # (out, operand, constant's value)
             pairs = [(a[1], a[0]) if ins[a[0]][0] == "c" else (a[0], a[1]) for a in (ins[i][1] for i in group)]
             return out, np.array([x for x, _ in pairs], dtype=np.int64), [ins[c][2] for _, c in pairs]

@@ -108,21 +108,16 @@ class TaylorRank:
         return [self.arith.primes[lane] for lane in self.live]
 
     def _rows(self, rows_of):
-        X = rows_of(self.series)
-        X = np.asarray(X)
+        X = np.asarray(rows_of(self.series))
         if X.ndim == 1:  # a row of F_p, the same in every lane
             X = self.arith.embed(np.tile(X, (self.arith.lanes, 1)))
         return self.arith.lane_rows(self.arith.reduce(X))
 
-    def _rises(self, rows_of):
-        """Per live lane, whether the rows raised its rank (kept there)."""
+    def _per_lane(self, rows_of, test: str):
+        """Per live lane, the echelon's ``test`` of the rows: ``"add"``, whether they raised its
+        rank (kept there), or ``"inside"``, whether they lie in its span."""
         lane_rows = self._rows(rows_of)
-        return {lane: self.echelons[lane].add(lane_rows[lane][1]) for lane in self.live}
-
-    def _inside(self, rows_of):
-        """Per live lane, whether the rows lie in its span."""
-        lane_rows = self._rows(rows_of)
-        return {lane: self.echelons[lane].inside(lane_rows[lane][1]) for lane in self.live}
+        return {lane: getattr(self.echelons[lane], test)(lane_rows[lane][1]) for lane in self.live}
 
     def _drop(self, lanes):
         for lane in lanes:
@@ -130,7 +125,7 @@ class TaylorRank:
             self.dropped += 1
 
     def _replay(self, kind, rows_of, outcome):
-        found = self._rises(rows_of) if kind == "offer" else self._inside(rows_of)
+        found = self._per_lane(rows_of, "add" if kind == "offer" else "inside")
         wrong = [lane for lane, v in found.items() if v != outcome]
         if wrong and (outcome is False if kind == "offer" else outcome is True):
             raise Undecided("a dependence certified earlier is contradicted in a new lane")
@@ -143,7 +138,7 @@ class TaylorRank:
         numerator degree and height (asked only when a dependence is to be certified)."""
         self.decisions += 1
         while True:
-            found = self._rises(rows_of)
+            found = self._per_lane(rows_of, "add")
             if any(found.values()):
                 self._drop([lane for lane, v in found.items() if not v])
                 self.log.append(("offer", rows_of, True))
@@ -158,7 +153,7 @@ class TaylorRank:
         """Whether the row lies in the span (a dependence: its bound counted)."""
         self.decisions += 1
         while True:
-            found = self._inside(rows_of)
+            found = self._per_lane(rows_of, "inside")
             if not all(found.values()):
                 self._drop([lane for lane, v in found.items() if v])
                 self.log.append(("member", rows_of, False))

@@ -26,7 +26,6 @@ MEMORY_FRACTION = 0.8
 BYTES_PER_RECORD_NUMBER = 16
 
 
-
 def memory_bytes(exp, trials: int, keep: int = 0) -> int:
     """Estimated peak memory (bytes) of a run of ``trials`` trials keeping ``keep``
     full trajectories.
@@ -95,8 +94,7 @@ def time_scale(exp, values=None) -> dict:
     n, p = s.n, len(s.unknown)
     if values is None:
         values = start_jacobian(exp)
-    f, D = values
-    f, D = np.asarray(f, np.float64), np.asarray(D, np.float64)
+    f, D = (np.asarray(v, np.float64) for v in values)
     N = exp.n_aug
     A = np.zeros((N, N))
     A[:n, :n + p] = D
@@ -114,10 +112,9 @@ def time_scale(exp, values=None) -> dict:
         coupling = float(np.linalg.norm(scaled, 2)) if keep.any() else 0.0
         motion = float(np.max(np.abs(F[keep]) / Sk)) if keep.any() else 0.0
     rate = max(eig, coupling, motion)
-    out = {"rate": rate, "time_scale_s": (1.0 / rate if rate > 0 else math.inf),
-           "eigen_rate": eig, "coupling_rate": coupling, "motion_rate": motion,
-           "rate_dt": rate * exp.dt, "rate_horizon": rate * exp.duration}
-    return out
+    return {"rate": rate, "time_scale_s": (1.0 / rate if rate > 0 else math.inf),
+            "eigen_rate": eig, "coupling_rate": coupling, "motion_rate": motion,
+            "rate_dt": rate * exp.dt, "rate_horizon": rate * exp.duration}
 
 
 def time_scale_messages(exp, ts) -> list[str]:
