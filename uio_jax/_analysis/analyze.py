@@ -94,16 +94,15 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
         Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
     scope = check_options(scope=scope)["scope"]
+    timeout = DEFAULT_TIMEOUT if global_timeout is None else global_timeout
     if scope == "global":  # what the global question refuses, refused before any work
         if not isinstance(system, System) or shared is not None:
             raise OptionError("scope='global' answers one System (with or without initial=), not several experiments")
-        check_global(system, initial, seed=seed, prob_threshold=prob_threshold,
-                     timeout=DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+        check_global(system, initial, seed=seed, prob_threshold=prob_threshold, timeout=timeout)
     report = _local(system, method=method, samples=samples, seed=seed, rtol=rtol, max_order=max_order, k_max=k_max,
                     known_inputs=known_inputs, prob_threshold=prob_threshold, initial=initial, shared=shared)
     if scope == "global":
-        report = _with_global(report, system, initial, seed, prob_threshold, max_order,
-                              DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+        report = _with_global(report, system, initial, seed, prob_threshold, max_order, timeout)
     return report
 
 
