@@ -90,13 +90,9 @@ def integer_vector(row, p: int = graph_exact.PRIME):
         if f is None or abs(f.numerator) > MAX_COEFFICIENT or f.denominator > MAX_COEFFICIENT:
             return None
         fr.append(f)
-    lcm = 1
-    for f in fr:
-        lcm = lcm * f.denominator // math.gcd(lcm, f.denominator)
+    lcm = math.lcm(*(f.denominator for f in fr))
     ints = [int(f * lcm) for f in fr]
-    g = 0
-    for v in ints:
-        g = math.gcd(g, v)
+    g = math.gcd(*ints)
     if g == 0:
         return None
     ints = [v // g for v in ints]

@@ -296,10 +296,7 @@ def _poly_text(terms, names) -> str:
         else:
             term = f"{abs(c)}*{body}"
         parts.append(("-" if c < 0 else "+", term))
-    text = ("-" if parts[0][0] == "-" else "") + parts[0][1]
-    for sign, term in parts[1:]:
-        text += f" {sign} {term}"
-    return text
+    return ("-" if parts[0][0] == "-" else "") + parts[0][1] + "".join(f" {sign} {term}" for sign, term in parts[1:])
 
 
 __all__ = ["FoundSymmetry", "FoundSymmetries", "PolynomialField", "find_symmetries", "DEGREE"]
