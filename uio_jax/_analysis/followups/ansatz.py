@@ -252,7 +252,7 @@ def polynomial_functions(span: ModularSpan, degree: int, atoms=None):
 
     def equations(pt):
         values = [pt.values[t] for t in atoms]
-        low = {e: _monomial_value(e, values, p) for e in lower}
+        low = {e: monomial_value(e, values, p) for e in lower}
         rows = []
         for v in pt.V:
             w = [sum(g * v[i] for i, g in pt.grads[t].items()) % p for t in atoms]  # d a_t . v
@@ -356,7 +356,7 @@ def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
         return [], []
 
     def equations(pt):
-        values = [_monomial_value(e, [pt.z[i] for i in moved], p) for e in small]
+        values = [monomial_value(e, [pt.z[i] for i in moved], p) for e in small]
         return [[k[i] * mv % p for i in moved for mv in values] for k in restricted_rows(pt.K, n, p)]
 
     rows = len(restricted_rows(first.K, n, p))
@@ -422,12 +422,9 @@ def _readable(solutions, p, order=None):
     return out
 
 
-def _monomial_value(e, z, p):
-    out = 1
-    for i, k in enumerate(e):
-        if k:
-            out = out * pow(z[i], k, p) % p
-    return out
+def monomial_value(e, z, p: int) -> int:
+    """The monomial of exponents ``e`` at the point ``z``, ``prod_i z_i^e_i`` modulo ``p``."""
+    return math.prod(pow(z[i], k, p) for i, k in enumerate(e) if k) % p
 
 
 def _lower(e, t):
@@ -439,5 +436,5 @@ def _lower(e, t):
 
 __all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
            "polynomial_functions", "laurent_monomials", "atom_monomials", "polynomial_fields", "restricted_rows",
-           "readable_fields",
+           "readable_fields", "monomial_value",
            "MAX_UNKNOWNS", "MAX_POINTS", "MAX_COEFFICIENT", "CANDIDATE_PRIME"]
