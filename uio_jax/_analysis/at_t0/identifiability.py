@@ -89,12 +89,10 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
                Verdict.NOT_DETERMINED if proved_not or i in moved else Verdict.UNDECIDED
                for i in coords.of(Role.STATE, Role.PARAM)}
     generic_rows = []
-    if generic:
-        seen = []
-        for s in systems:
-            if all(s is not t for t in seen):
-                seen.append(s)
-                generic_rows += [g for g in [generic_experiments(s, shared, seed, prob_threshold)] if g]
+    if generic:  # once per distinct System (by identity)
+        distinct = [s for i, s in enumerate(systems) if all(s is not t for t in systems[:i])]
+        rows = (generic_experiments(s, shared, seed, prob_threshold) for s in distinct)
+        generic_rows = [g for g in rows if g]
     escalations = list(span.escalations)
     report = _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
                      prob_threshold, many, generic_rows, search)
