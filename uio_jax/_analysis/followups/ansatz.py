@@ -295,13 +295,7 @@ def laurent_monomials(span: ModularSpan, m: int, among=None):
     sol = span.solve(equations, len(moved), max(1, visible.rank))
     if sol is None:
         return None
-    out = []
-    for vec in _readable(sol, p):
-        full = [0] * m
-        for i, a in zip(moved, vec):
-            full[i] = a
-        out.append(full)
-    return out
+    return [_placed(vec, moved, m) for vec in _readable(sol, p)]
 
 
 def atom_monomials(span: ModularSpan, atoms):
@@ -364,12 +358,7 @@ def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
     if sol is None:
         return None
     M = len(small)
-    monos = []
-    for e in small:
-        full = [0] * n
-        for i, k in zip(moved, e):
-            full[i] = k
-        monos.append(tuple(full))
+    monos = [tuple(_placed(e, moved, n)) for e in small]
     out = []
     for vec in _readable(sol, p, order=_field_order(small, len(moved))):
         full = [0] * (n * M)
@@ -397,6 +386,14 @@ def readable_fields(solutions, monos, n: int, p: int) -> list:
     return _readable(solutions, p, order=_field_order(monos, n))
 
 
+def _placed(values, at, size) -> list:
+    """``size`` zeros with ``values[s]`` at position ``at[s]``."""
+    out = [0] * size
+    for i, v in zip(at, values):
+        out[i] = v
+    return out
+
+
 def _field_order(monos, N):
     """Unknowns of a field ansatz, most complex first: by the degree of their monomial."""
     M = len(monos)
@@ -413,10 +410,7 @@ def _readable(solutions, p, order=None):
     permuted = [[v[j] for j in order] for v in solutions]
     out = []
     for row in simplest_basis(permuted, p):
-        back = [0] * n
-        for pos, j in enumerate(order):
-            back[j] = row[pos]
-        vec = integer_vector(back, p)
+        vec = integer_vector(_placed(row, order, n), p)
         if vec is not None:
             out.append(vec)
     return out
