@@ -94,16 +94,15 @@ def analyze(system: System, *, method: str = DEFAULTS["method"], samples: int = 
         Martinelli, IROS 2017 (002): Algorithms 1-3; INRIA RR-8608 (004): sections 4-10.
     """
     scope = check_options(scope=scope)["scope"]
+    timeout = DEFAULT_TIMEOUT if global_timeout is None else global_timeout
     if scope == "global":  # what the global question refuses, refused before any work
         if not isinstance(system, System) or shared is not None:
             raise OptionError("scope='global' answers one System (with or without initial=), not several experiments")
-        check_global(system, initial, seed=seed, prob_threshold=prob_threshold,
-                     timeout=DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+        check_global(system, initial, seed=seed, prob_threshold=prob_threshold, timeout=timeout)
     report = _local(system, method=method, samples=samples, seed=seed, rtol=rtol, max_order=max_order, k_max=k_max,
                     known_inputs=known_inputs, prob_threshold=prob_threshold, initial=initial, shared=shared)
     if scope == "global":
-        report = _with_global(report, system, initial, seed, prob_threshold, max_order,
-                              DEFAULT_TIMEOUT if global_timeout is None else global_timeout)
+        report = _with_global(report, system, initial, seed, prob_threshold, max_order, timeout)
     return report
 
 
@@ -176,9 +175,8 @@ def _with_unused_options_note(report, **given):
     ignored = [f"{k}={v!r}" for k, v in given.items() if v != DEFAULTS[k]]
     if not ignored:
         return report
-    return dataclasses.replace(report, notes=tuple(report.notes) + (
-        f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), no EORC "
-        "(k_max), and known inputs are generic (known_inputs)",))
+    return _noted(report, f"{', '.join(ignored)} not used: at t = 0 there is no float64 screen (samples, rtol), "
+                  "no EORC (k_max), and known inputs are generic (known_inputs)")
 
 
 def _with_notes(report, system, k_max, seed):
@@ -188,16 +186,20 @@ def _with_notes(report, system, k_max, seed):
     report = _with_idle_outputs_note(report, system)
     unused = unused_parameters(system)
     if unused:
-        report = dataclasses.replace(report, notes=tuple(report.notes) + (unused_note(unused),))
+        report = _noted(report, unused_note(unused))
     if k_max is not None and report.method is not Method.EORC:  # given, but not used: said, not silent
-        report = dataclasses.replace(report, notes=tuple(report.notes) + (
-            f"k_max={k_max} applies to the EORC only: the {report.method} analysis that ran does "
-            "not use it (max_order caps its steps)",))
+        report = _noted(report, f"k_max={k_max} applies to the EORC only: the {report.method} analysis that "
+                                "ran does not use it (max_order caps its steps)")
     if report.method is not Method.EORC and symmetry_fields(system):
         report = _with_symmetries(report, system, seed)
     if report.known_inputs == "switchable":
-        report = dataclasses.replace(report, notes=tuple(report.notes) + (SWITCHABLE_NOTE,))
+        report = _noted(report, SWITCHABLE_NOTE)
     return report
+
+
+def _noted(report, *notes):
+    """``report`` with ``notes`` added after its own."""
+    return dataclasses.replace(report, notes=tuple(report.notes) + notes)
 
 
 #: The note of every answer for switchable known inputs: the other meaning can give less.
@@ -223,7 +225,7 @@ def _with_idle_outputs_note(report, system):
     note = (f"output{'s' if many else ''} {', '.join(idle)} add{'' if many else 's'} no direction at "
             "m=0: constant on the domain (a number, a boolean, x - x), or a function of the "
             "outputs kept before")
-    return dataclasses.replace(report, notes=tuple(report.notes) + (note,))
+    return _noted(report, note)
 
 
 def _with_symmetries(report, system, seed):

@@ -89,12 +89,10 @@ def analyze_experiments(systems, initials, *, shared, seed: int, prob_threshold:
                Verdict.NOT_DETERMINED if proved_not or i in moved else Verdict.UNDECIDED
                for i in coords.of(Role.STATE, Role.PARAM)}
     generic_rows = []
-    if generic:
-        seen = []
-        for s in systems:
-            if all(s is not t for t in seen):
-                seen.append(s)
-                generic_rows += [g for g in [generic_experiments(s, shared, seed, prob_threshold)] if g]
+    if generic:  # once per distinct System (by identity)
+        distinct = [s for i, s in enumerate(systems) if all(s is not t for t in systems[:i])]
+        rows = (generic_experiments(s, shared, seed, prob_threshold) for s in distinct)
+        generic_rows = [g for g in rows if g]
     escalations = list(span.escalations)
     report = _report(systems, exps, coords, verdict, contributions, ranks, escalations, settler,
                      prob_threshold, many, generic_rows, search)
@@ -146,8 +144,7 @@ def _absorb(ex, span, settler, coords, upto, determined, ranks, cap, many):
     """Absorb experiment ``ex``'s orders into ``span`` until every unknown of the experiments
     so far is determined, its own span closes, or the cap; returns its contribution."""
     own = Span(settler, ex.seeds) if (many and ex.closable) else None
-    targets = [i for x in upto for i in x.z_index if i is not None]
-    targets = list(dict.fromkeys(targets))
+    targets = list(dict.fromkeys(i for x in upto for i in x.z_index if i is not None))
     added, closed, k = [], False, 0
     for k in range(cap + 1):
         rows = ex.order(k)
@@ -225,8 +222,7 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
     arithmetic = Arithmetic.EXACT if exact else (
         Arithmetic.EXTENDED if all(h in (Settlement.EXACT, Settlement.EXTENDED) for h in hows) else Arithmetic.FLOAT64)
     undecided = sum(e.result is Finding.UNDECIDED for e in escalations)
-    states = [i for i in coords.of(Role.STATE)]
-    params = [i for i in coords.of(Role.PARAM)]
+    states, params = coords.of(Role.STATE), coords.of(Role.PARAM)
     stop = (StopKind.ALL_DETERMINED if all(v is Verdict.DETERMINED for v in verdict.values()) else
             StopKind.SPAN_CLOSED if all(c["closed"] for c in contributions) else StopKind.MAX_ORDER)
     notes = _notes(exps, verdict, coords, contributions, free, search)
@@ -245,10 +241,8 @@ def _report(systems, exps, coords, verdict, contributions, ranks, escalations, s
 
 def _notes(exps, verdict, coords, contributions, free, search):
     """What the verdicts rest on, in words."""
-    notes = []
-    for proof in search.proofs:
-        notes.append(f"not determined (proved at this initial state): {proof.text(coords.names)}, which keeps the "
-                     f"known initial values; {proof.how}")
+    notes = [f"not determined (proved at this initial state): {proof.text(coords.names)}, which keeps the "
+             f"known initial values; {proof.how}" for proof in search.proofs]
     undecided = [coords.names[i] for i, v in verdict.items() if v is Verdict.UNDECIDED]
     if undecided:
         order = max(c["order"] for c in contributions)

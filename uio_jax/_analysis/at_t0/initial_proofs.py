@@ -165,8 +165,20 @@ class _Ansatz:
         return any(self.graph.op[k] == "x" and self.graph.param[k] == i for k in self.graph.reachable([node]))
 
     # ------------------------------------------------------------------ points and rows
-    def _draw(self):
-        return [int(v) for v in self.rng.integers(1, self.q, size=self.N)]
+    def _random_point(self, roots, on_initial_states=False):
+        """``(z, evaluator of roots at z)`` at a random point (``on_initial_states``: its known
+        states then set to their values), or None where 64 draws were singular."""
+        for _ in range(64):
+            z = [int(v) for v in self.rng.integers(1, self.q, size=self.N)]
+            try:
+                if on_initial_states:
+                    first = self._evaluator(z, roots)
+                    for k, node in self.values.items():
+                        z[k] = int(first.V[node][0]) % self.q
+                return z, self._evaluator(z, roots)
+            except Singular:
+                continue
+        return None
 
     def _evaluator(self, z, roots):
         ev = graph_exact.ModularEvaluator(self.graph, [z], self.q)
@@ -177,15 +189,10 @@ class _Ansatz:
         """The rows of (S1)-(S3) at a random point (None where it is singular)."""
         q, N = self.q, self.N
         roots = self.outputs + [e for f in self.known + self.unknown for e in f]
-        for _ in range(64):
-            z = self._draw()
-            try:
-                ev = self._evaluator(z, roots)
-                break
-            except Singular:
-                continue
-        else:
+        drawn = self._random_point(roots)
+        if drawn is None:
             return None
+        z, ev = drawn
         mono = [1] + z
         rows = []
         for h in self.outputs:
@@ -218,19 +225,10 @@ class _Ansatz:
         if not self.values:
             return []
         q = self.q
-        nodes = list(self.values.values())
-        for _ in range(64):
-            z = self._draw()
-            try:
-                first = self._evaluator(z, nodes)
-                for k, node in self.values.items():
-                    z[k] = int(first.V[node][0]) % q
-                ev = self._evaluator(z, nodes)
-                break
-            except Singular:
-                continue
-        else:
+        drawn = self._random_point(list(self.values.values()), on_initial_states=True)
+        if drawn is None:
             return None
+        z, ev = drawn
         mono = [1] + z
         rows = []
         for k, node in self.values.items():

@@ -353,15 +353,7 @@ class _Test:
         """The constant ``node`` as text: a small fraction (modulo p, reconstructed) or its
         value to 6 digits (mpmath)."""
         values = self.settler.values_mod_p([node])
-        if values is not None:
-            return str(_rational(values[0], graph_exact.PRIME))
+        if values is not None:  # the fraction u/v = value mod p with |u|, v < sqrt(p / 2), else the residue
+            fraction = graph_exact.rational_reconstruction(values[0], graph_exact.PRIME)
+            return str(values[0] if fraction is None else fraction)
         return f"{float(self.settler.values_extended([node])[0]):.6g}"
-
-
-def _rational(a: int, p: int):
-    """The fraction ``u/v`` with ``u = a v mod p`` and ``|u|, v < sqrt(p / 2)`` (rational
-    reconstruction), else the residue."""
-    f = graph_exact.rational_reconstruction(a, p)
-    if f is None:
-        return a
-    return f.numerator if f.denominator == 1 else f

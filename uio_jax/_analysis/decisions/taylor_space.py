@@ -101,17 +101,8 @@ class TaylorSpace(Space):
         node = function_node(self._ctx.builder, fn, n, n)
         if self._ctx.settler.arithmetic([node.expr]) is not Arithmetic.EXACT:
             raise ModelError("is_observable: the function uses an operation that is not decided exactly here")
-        orders, problem = self._orders, self._problem
-
-        def series_at(arithmetic):
-            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [node.expr], arithmetic, 0)
-
         try:
-            series = series_at(orders.arith)
-            slot = series.slot[node.expr]
-            bounds = TaylorDegrees.of(series, 0)
-            return orders.rank.member(lambda s: series_at(s.ar).coefficient(node.expr, 0)[:, 1:],
-                                      lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
+            return self._member(node.expr, self._orders.arith)
         except Unsupported as exc:
             raise ModelError(f"is_observable: {exc}") from None
         except graph_elementary.Singular:
@@ -150,19 +141,24 @@ class TaylorSpace(Space):
         """Whether the gradient of the graph node ``node`` (a function of the coordinates)
         lies in the span: the route's own exact membership in every lane, its bound counted in
         :attr:`error_bound` (False where it is not decided)."""
+        try:
+            return self._member(node, self._orders.rank.arith)
+        except (Unsupported, graph_elementary.Singular, ArithmeticError):
+            return False
+
+    def _member(self, expr, arith) -> bool:
+        """The exact membership of ``d expr`` in the span (the route's own, in every lane), its
+        output series first built in ``arith``; raises what the series raises."""
         problem, rank = self._problem, self._orders.rank
 
         def series_at(arithmetic):
-            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [node], arithmetic, 0)
+            return TaylorSeries(problem.graph, problem.fields, problem.inputs, [expr], arithmetic, 0)
 
-        try:
-            series = series_at(rank.arith)
-            bounds = TaylorDegrees.of(series, 0)
-            slot = series.slot[node]
-            return rank.member(lambda s: series_at(s.ar).coefficient(node, 0)[:, 1:],
-                               lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
-        except (Unsupported, graph_elementary.Singular, ArithmeticError):
-            return False
+        series = series_at(arith)
+        slot = series.slot[expr]
+        bounds = TaylorDegrees.of(series, 0)
+        return rank.member(lambda s: series_at(s.ar).coefficient(expr, 0)[:, 1:],
+                           lambda: (bounds.degree(slot, 0), bounds.row_bits(slot, 0)))
 
     @property
     def error_bound(self) -> float:

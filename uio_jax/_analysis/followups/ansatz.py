@@ -90,13 +90,9 @@ def integer_vector(row, p: int = graph_exact.PRIME):
         if f is None or abs(f.numerator) > MAX_COEFFICIENT or f.denominator > MAX_COEFFICIENT:
             return None
         fr.append(f)
-    lcm = 1
-    for f in fr:
-        lcm = lcm * f.denominator // math.gcd(lcm, f.denominator)
+    lcm = math.lcm(*(f.denominator for f in fr))
     ints = [int(f * lcm) for f in fr]
-    g = 0
-    for v in ints:
-        g = math.gcd(g, v)
+    g = math.gcd(*ints)
     if g == 0:
         return None
     ints = [v // g for v in ints]
@@ -256,7 +252,7 @@ def polynomial_functions(span: ModularSpan, degree: int, atoms=None):
 
     def equations(pt):
         values = [pt.values[t] for t in atoms]
-        low = {e: _monomial_value(e, values, p) for e in lower}
+        low = {e: monomial_value(e, values, p) for e in lower}
         rows = []
         for v in pt.V:
             w = [sum(g * v[i] for i, g in pt.grads[t].items()) % p for t in atoms]  # d a_t . v
@@ -299,13 +295,7 @@ def laurent_monomials(span: ModularSpan, m: int, among=None):
     sol = span.solve(equations, len(moved), max(1, visible.rank))
     if sol is None:
         return None
-    out = []
-    for vec in _readable(sol, p):
-        full = [0] * m
-        for i, a in zip(moved, vec):
-            full[i] = a
-        out.append(full)
-    return out
+    return [_placed(vec, moved, m) for vec in _readable(sol, p)]
 
 
 def atom_monomials(span: ModularSpan, atoms):
@@ -360,7 +350,7 @@ def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
         return [], []
 
     def equations(pt):
-        values = [_monomial_value(e, [pt.z[i] for i in moved], p) for e in small]
+        values = [monomial_value(e, [pt.z[i] for i in moved], p) for e in small]
         return [[k[i] * mv % p for i in moved for mv in values] for k in restricted_rows(pt.K, n, p)]
 
     rows = len(restricted_rows(first.K, n, p))
@@ -368,12 +358,7 @@ def polynomial_fields(span: ModularSpan, degree: int, n: int | None = None):
     if sol is None:
         return None
     M = len(small)
-    monos = []
-    for e in small:
-        full = [0] * n
-        for i, k in zip(moved, e):
-            full[i] = k
-        monos.append(tuple(full))
+    monos = [tuple(_placed(e, moved, n)) for e in small]
     out = []
     for vec in _readable(sol, p, order=_field_order(small, len(moved))):
         full = [0] * (n * M)
@@ -401,6 +386,14 @@ def readable_fields(solutions, monos, n: int, p: int) -> list:
     return _readable(solutions, p, order=_field_order(monos, n))
 
 
+def _placed(values, at, size) -> list:
+    """``size`` zeros with ``values[s]`` at position ``at[s]``."""
+    out = [0] * size
+    for i, v in zip(at, values):
+        out[i] = v
+    return out
+
+
 def _field_order(monos, N):
     """Unknowns of a field ansatz, most complex first: by the degree of their monomial."""
     M = len(monos)
@@ -417,21 +410,15 @@ def _readable(solutions, p, order=None):
     permuted = [[v[j] for j in order] for v in solutions]
     out = []
     for row in simplest_basis(permuted, p):
-        back = [0] * n
-        for pos, j in enumerate(order):
-            back[j] = row[pos]
-        vec = integer_vector(back, p)
+        vec = integer_vector(_placed(row, order, n), p)
         if vec is not None:
             out.append(vec)
     return out
 
 
-def _monomial_value(e, z, p):
-    out = 1
-    for i, k in enumerate(e):
-        if k:
-            out = out * pow(z[i], k, p) % p
-    return out
+def monomial_value(e, z, p: int) -> int:
+    """The monomial of exponents ``e`` at the point ``z``, ``prod_i z_i^e_i`` modulo ``p``."""
+    return math.prod(pow(z[i], k, p) for i, k in enumerate(e) if k) % p
 
 
 def _lower(e, t):
@@ -443,5 +430,5 @@ def _lower(e, t):
 
 __all__ = ["ModularSpan", "Point", "monomials", "rational", "integer_vector", "kernel", "simplest_basis",
            "polynomial_functions", "laurent_monomials", "atom_monomials", "polynomial_fields", "restricted_rows",
-           "readable_fields",
+           "readable_fields", "monomial_value",
            "MAX_UNKNOWNS", "MAX_POINTS", "MAX_COEFFICIENT", "CANDIDATE_PRIME"]

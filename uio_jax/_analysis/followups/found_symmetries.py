@@ -224,16 +224,7 @@ class PolynomialField:
 
     def at(self, z):
         p = graph_exact.PRIME
-        out = []
-        for terms in self.terms:
-            v = 0
-            for c, e in terms:
-                m = 1
-                for j, k in enumerate(e):
-                    m = m * pow(z[j], k, p) % p
-                v = (v + c * m) % p
-            out.append(v)
-        return out
+        return [sum(c * ansatz.monomial_value(e, z, p) for c, e in terms) % p for terms in self.terms]
 
     def callable(self):
         terms = self.terms
@@ -262,11 +253,7 @@ class PolynomialField:
         return xi
 
     def components(self, names) -> dict:
-        out = {}
-        for name, terms in zip(names, self.terms):
-            if terms:
-                out[name] = _poly_text(terms, names)
-        return out
+        return {name: _poly_text(terms, names) for name, terms in zip(names, self.terms) if terms}
 
     def kind(self) -> str:
         degrees = {sum(e) for terms in self.terms for _, e in terms}
@@ -296,10 +283,7 @@ def _poly_text(terms, names) -> str:
         else:
             term = f"{abs(c)}*{body}"
         parts.append(("-" if c < 0 else "+", term))
-    text = ("-" if parts[0][0] == "-" else "") + parts[0][1]
-    for sign, term in parts[1:]:
-        text += f" {sign} {term}"
-    return text
+    return ("-" if parts[0][0] == "-" else "") + parts[0][1] + "".join(f" {sign} {term}" for sign, term in parts[1:])
 
 
 __all__ = ["FoundSymmetry", "FoundSymmetries", "PolynomialField", "find_symmetries", "DEGREE"]

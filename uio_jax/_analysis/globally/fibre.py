@@ -45,9 +45,7 @@ class Fibre:
         self.polys = [point.specialise(f) for f in polys]
         z = point.ctx_p.gens()[ring.index[(SATURATION, 0)]]
         self.polys.append(z * point.specialise(eqs.Q) - 1)
-        occurring = set()
-        for f in self.polys:
-            occurring.update(i for i, d in enumerate(f.degrees()) if d > 0)
+        occurring = {i for f in self.polys for i, d in enumerate(f.degrees()) if d > 0}
         self.variables = _order(sorted(occurring), ring)
         self.fixed = []
         self.full_rank = self._fix(candidates)
@@ -97,11 +95,8 @@ SEPARATING = "T"
 
 def _form_text(form, p):
     """``T - form`` expanded (msolve reads no parentheses): ``T+(p-1)*c1*v1+..``."""
-    terms = []
-    for term in form.split("+"):
-        c, name = term.split("*")
-        terms.append(f"{(-int(c)) % p}*{name}")
-    return "+".join([SEPARATING] + terms)
+    terms = (term.split("*") for term in form.split("+"))
+    return "+".join([SEPARATING] + [f"{(-int(c)) % p}*{name}" for c, name in terms])
 
 
 def _order(indices, ring):

@@ -20,6 +20,8 @@ saturation). ``d0``, the largest degree of ``Q`` and of the numerators of ``Q x_
 ``Q y_j``, enters SIAN's probability bound (:mod:`.sample`).
 """
 
+import functools
+
 from ..._calculus.generators import builder_for
 from ..._errors import ModelError, OptionError
 from .rational import Fractions, flint_fmpq, fraction_sum, normal_fraction
@@ -140,32 +142,26 @@ class ModelEquations:
             field = fractions.of(list(builder.field(u, fn).expr)[:n])
             rhs = [fraction_sum(a, _times(ring.var(u), b)) for a, b in zip(rhs, field)]
         outs = fractions.of([builder.scalar(k, fn).expr for k, fn in joint.outputs.items()])
-        self.state_fractions, self.output_fractions = rhs, outs
         self.fractions = fractions
         fractions.what = "a function asked about"
         self.function_fractions = fractions.of(list(functions.values()))
         fractions.what = "the model"
         self.X = [[den * ring.var(s, 1) - num] for s, (num, den) in zip(self.states, rhs)]
         self.Y = [[den * ring.var(y, 0) - num] for y, (num, den) in zip(self.outputs, outs)]
-        q = ring.ctx.constant(1)
-        for _, den in list(rhs) + list(outs):
-            q = _lcm(q, den)
-        self.Q = q
-        degrees = [int(q.total_degree())]
-        for num, den in list(rhs) + list(outs):
-            degrees.append(int((num * (q / den)).total_degree()))
-        self.d0 = max(max(degrees), 1)
+        both = list(rhs) + list(outs)
+        self.Q = q = functools.reduce(_lcm, (den for _, den in both), ring.ctx.constant(1))
+        self.d0 = max([1, int(q.total_degree())] + [int((num * (q / den)).total_degree()) for num, den in both])
 
     def x_equation(self, i: int, k: int):
         """``X_i^(k)``: the ``k``-th total derivative of state ``i``'s equation."""
-        eqs = self.X[i]
-        while len(eqs) <= k:
-            eqs.append(self.ring.derivative(eqs[-1]))
-        return eqs[k]
+        return self._derivative(self.X[i], k)
 
     def y_equation(self, j: int, k: int):
         """``Y_j^(k)``: the ``k``-th total derivative of output ``j``'s equation."""
-        eqs = self.Y[j]
+        return self._derivative(self.Y[j], k)
+
+    def _derivative(self, eqs, k):
+        """``eqs[k]``, the list of an equation's total derivatives extended up to order ``k``."""
         while len(eqs) <= k:
             eqs.append(self.ring.derivative(eqs[-1]))
         return eqs[k]

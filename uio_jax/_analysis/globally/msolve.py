@@ -207,11 +207,7 @@ def _outcome(code, out, err, seconds, memory_bytes) -> Solved:
 def _parametrisation(block) -> Parametrisation:
     p, _, _, variables, linear_form, body = block
     w, den, params = body[1]
-    out = []
-    for entry in params:
-        poly = entry[0]
-        c = entry[1] if len(entry) > 1 else 1
-        out.append((list(poly[1]), int(c)))
+    out = [(list(entry[0][1]), int(entry[1] if len(entry) > 1 else 1)) for entry in params]
     return Parametrisation(int(p), [str(v) for v in variables], [int(c) for c in linear_form], list(w[1]),
                            list(den[1]), out)
 

@@ -93,13 +93,12 @@ def global_identifiability(system: System, *, initial=None, seed: int = 0,
     t0 = time.perf_counter()
     local = analyze_initial(system, dict(initial or {}), seed=seed, prob_threshold=1.0 - eps / 4,
                             max_order=max_order)
-    seconds = {"local": time.perf_counter() - t0}
     verdicts = {**dict(local.observable), **dict(local.identifiable)}
     order = _rank_order(local.ranks)
     closed = local.stop is not StopKind.MAX_ORDER
     f_outcomes, f_bound = local_functions(system, checked, functions, local.order, seed, 1.0 - eps / 4, closed)
     verdicts.update({name: _FROM_OUTCOME[o] for name, o in f_outcomes.items()})
-    seconds["local"] = time.perf_counter() - t0
+    seconds = {"local": time.perf_counter() - t0}
     run = _Run(system, checked, verdicts, order, local, eps, seed, seconds, nodes, f_bound)
     return run.answer(timeout, None if memory_gb is None else int(memory_gb * 2**30), progress)
 

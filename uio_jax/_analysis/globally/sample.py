@@ -47,9 +47,7 @@ def draw_prime(rng: random.Random) -> int:
 
 def sian_degree(truncation, eqs, asked: int) -> int:
     """SIAN's degree of the bad hypersurface: ``6 |theta_l| deg(E_t) (1 + 2 d0 max beta)``."""
-    deg = 1
-    for poly in truncation.polys:
-        deg *= max(int(poly.total_degree()), 1)
+    deg = math.prod(max(int(poly.total_degree()), 1) for poly in truncation.polys)
     beta = max(truncation.beta.values())
     return 6 * max(asked, 1) * deg * (1 + 2 * int(eqs.d0) * beta)
 

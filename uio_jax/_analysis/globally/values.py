@@ -123,10 +123,7 @@ class SolutionSet:
 
     def rational_solutions(self, unknowns) -> list[dict]:
         """The solutions whose coordinates lie in ``F_p``, as ``{unknown: residue}``."""
-        out = []
-        for root, _ in self.w.roots():
-            out.append({u: int(self.element[u](root)) for u in unknowns})
-        return out
+        return [{u: int(self.element[u](root)) for u in unknowns} for root, _ in self.w.roots()]
 
 
 def _inverse_mod(a, w):

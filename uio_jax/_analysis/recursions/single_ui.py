@@ -47,12 +47,8 @@ from ..._errors import OptionError
 from ..._progress import announce_step
 from ..decisions.context import Context
 from ..decisions.rank import ZERO_ROW_RTOL, decide_rank
+from ..decisions.sampled_rank import ratios
 from .driver import Cap, Recursion, Stop, StopReason, iterate
-
-
-#: Bound on the number of recursion steps beyond the start (Lemma 8 of 004: m' <= 2n + 2).
-def _step_cap(n):
-    return 2 * n + 3
 
 
 def check_applicable(system):
@@ -92,7 +88,7 @@ def step_cap(n: int, max_order=None, offset: int = 0, cap=None) -> Cap:
     user's ``max_order`` on ``m + offset`` (``MAX_ORDER``), else the step bound ``cap``
     (default ``2n + 3``, Lemma 8 of 004; ``STEP_CAP``), whichever comes first (the user's
     at a tie)."""
-    cap = _step_cap(n) if cap is None else cap
+    cap = 2 * n + 3 if cap is None else cap  # Lemma 8 of 004: m' <= 2n + 2
     user = None if max_order is None else Cap(max_order - offset, StopReason.MAX_ORDER.stop(max_order=max_order))
     return Cap.tightest(user, Cap(cap, StopReason.STEP_CAP.stop(cap=cap)))
 
@@ -380,11 +376,5 @@ def _vector_rank(vectors, valid, rtol):
     """Generic rank of sampled vector fields ``(S, k, n)``: rows scaled to unit norm (a row
     below ``ZERO_ROW_RTOL`` of the sample's largest is zero), per-sample SVD, and the rank
     rule of the codistributions (:func:`~uio_jax._analysis.decisions.rank.decide_rank` with ``rtol``)."""
-    v = np.where(np.isfinite(vectors), vectors, 0.0)[valid]
-    norms = np.linalg.norm(v, axis=-1, keepdims=True)
-    ref = norms.max(axis=1, keepdims=True)
-    keep = norms > ZERO_ROW_RTOL * ref
-    unit = np.where(keep, v / np.where(keep, norms, 1.0), 0.0)
-    s = np.linalg.svd(unit, compute_uv=False)
-    ratios = s / np.where(s[:, :1] > 0, s[:, :1], 1.0)
-    return decide_rank(ratios, np.ones(len(ratios), bool), rtol).rank
+    s_ratios = ratios(np.where(np.isfinite(vectors), vectors, 0.0)[valid])
+    return decide_rank(s_ratios, np.ones(len(s_ratios), bool), rtol).rank

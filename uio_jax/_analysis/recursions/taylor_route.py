@@ -223,11 +223,7 @@ def taylor_report(ctx, method: str, *, seed: int, why: str = "", max_order=None,
     orders_run = TaylorOrders(problem, orders, max_order if method == "orc" else None)
     out = iterate(orders_run, cap=orders_run.cap())
     history, stop, k = out.history, out.stop, out.m
-    observable = {}
-    for j, name in enumerate(system.states):
-        unit = [0] * system.n
-        unit[j] = 1
-        observable[name] = orders.member(unit)
+    observable = {name: orders.member([int(i == j) for i in range(system.n)]) for j, name in enumerate(system.states)}
     space = TaylorSpace(ctx, problem, orders)
     cert = taylor_certificate(ctx, space, orders)
     primes = orders.rank.primes

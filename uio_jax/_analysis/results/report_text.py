@@ -59,24 +59,12 @@ def report_text(report) -> str:
     lines.append(f"stopped: {report.stop_reason}")
     for k, v in report.details.items():
         lines.append(f"{k}: {v}")
-    lines.append("states:")
-    width = max(len(s) for s in report.states)
     undecided = set(report.undecided)
-    for s in report.states:
-        verdict = "observable" if report.observable[s] else "not observable"
-        if s in undecided:
-            verdict = f"UNDECIDED (float64: {verdict})"
-        lines.append(f"  {s:<{width}}  {verdict}")
+    lines += ["states:"] + _verdict_lines(report.states, report.observable, "observable", undecided)
     if not obs:
         lines.append("  (no single state component is observable)")
     if report.params:
-        lines.append("parameters:")
-        width = max(len(p) for p in report.params)
-        for p in report.params:
-            verdict = "identifiable" if report.identifiable[p] else "not identifiable"
-            if p in undecided:
-                verdict = f"UNDECIDED (float64: {verdict})"
-            lines.append(f"  {p:<{width}}  {verdict}")
+        lines += ["parameters:"] + _verdict_lines(report.params, report.identifiable, "identifiable", undecided)
     lines += followup_lines(report)
     lines.append(f"certificate: {report.certificate}")
     if report.global_answer is not None:
@@ -84,6 +72,18 @@ def report_text(report) -> str:
     for note in report.notes:
         lines.append(f"note: {note}")
     return wrapped("\n".join(map(printable, lines)))  # no model text raw, no line of kilobytes
+
+
+def _verdict_lines(names, verdicts, word, undecided) -> list:
+    """One line per name: ``word`` or ``not word`` (``verdicts``: name -> bool), UNDECIDED
+    where the certificate leaves it open."""
+    width = max(len(v) for v in names)
+    lines = []
+    for v in names:
+        verdict = word if verdicts[v] else f"not {word}"
+        shown = f"UNDECIDED (float64: {verdict})" if v in undecided else verdict
+        lines.append(f"  {v:<{width}}  {shown}")
+    return lines
 
 
 def followup_lines(report) -> list:
