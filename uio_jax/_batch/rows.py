@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from .._analysis.followups.questions import observable_functions
+from .._filter.result import format_table
 from .._output import printable
 
 
@@ -196,13 +197,8 @@ class BatchResult:
         widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
                   for i, h in enumerate(headers)]
         right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
-
-        def fmt(cells):
-            out = [c.rjust(w) if h in right else c.ljust(w) for c, w, h in zip(cells, widths, headers)]
-            return "  ".join(out).rstrip()
-
-        lines = [fmt(headers), fmt(["-" * w for w in widths])]
-        lines += [fmt(row) for row in body]
+        align = ["r" if h in right else "l" for h in headers]
+        lines = format_table(headers, [["-" * w for w in widths]] + body, align, indent="")
         return "\n".join(lines + self._notes())
 
     def summary(self) -> str:

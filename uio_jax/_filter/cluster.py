@@ -156,10 +156,7 @@ def wait_for_workers(client, timeout_s: float = NO_WORKER_S) -> int:
         OptionError: the cluster still has no worker.
     """
     deadline = time.monotonic() + timeout_s
-    while True:
-        n = worker_threads(client)
-        if n or time.monotonic() >= deadline:
-            break
+    while not (n := worker_threads(client)) and time.monotonic() < deadline:
         time.sleep(0.2)
     if not n:
         raise OptionError(f"the Dask cluster at {client.scheduler.address} has no worker "

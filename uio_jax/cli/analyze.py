@@ -59,14 +59,9 @@ def run(args) -> int:
     with model_prints_on_stderr(), step_listener(printer):
         system = load_system(args.model, **load_options)
         initial = {**file_initial(system), **given}
-        if initial:
-            rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
-                          max_order=args.max_order, prob_threshold=args.prob_threshold, samples=args.samples,
-                          rtol=args.rtol, k_max=args.k_max, known_inputs=args.known_inputs, **scope)
-        else:
-            rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                          rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold, **scope)
+        rep = analyze(system, initial=initial_values(system, initial) if initial else None, method=args.method,
+                      samples=args.samples, seed=args.seed, rtol=args.rtol, max_order=args.max_order,
+                      k_max=args.k_max, known_inputs=args.known_inputs, prob_threshold=args.prob_threshold, **scope)
     if initial:
         return _print_initial(rep, args.json)
     # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
