@@ -4,7 +4,7 @@ import json
 
 from .._errors import UioJaxError
 from .._output import printable
-from .common import UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
+from .common import UsageError, add_cache_options, analysis_kwargs, check_writable, model_prints_on_stderr, write_output
 from .sbml_options import add_sbml_options, refuse_for, sbml_options
 
 
@@ -39,9 +39,7 @@ def run(args) -> int:
     from .._io.loading import load_system
     from .._progress import StepPrinter, step_listener
 
-    check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
-                  known_inputs=args.known_inputs)  # before loading the model
+    check_options(**analysis_kwargs(args))  # before loading the model
     given = _initial_pairs(args.initial)
     if args.global_timeout is not None and args.scope != "global":
         raise UsageError("--global-timeout applies with --global")
@@ -59,9 +57,8 @@ def run(args) -> int:
     with model_prints_on_stderr(), step_listener(printer):
         system = load_system(args.model, **load_options)
         initial = {**file_initial(system), **given}
-        rep = analyze(system, initial=initial_values(system, initial) if initial else None, method=args.method,
-                      samples=args.samples, seed=args.seed, rtol=args.rtol, max_order=args.max_order,
-                      k_max=args.k_max, known_inputs=args.known_inputs, prob_threshold=args.prob_threshold, **scope)
+        rep = analyze(system, initial=initial_values(system, initial) if initial else None,
+                      **analysis_kwargs(args), **scope)
     if initial:
         return _print_initial(rep, args.json)
     # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
