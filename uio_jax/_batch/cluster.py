@@ -32,8 +32,8 @@ import uuid
 
 from .._filter.cluster import NO_WORKER_S, claim_one_cpu, stop_tasks, worker_threads
 from .._filter.compile_cache import cache_dir_in_use, default_cache_dir, disable_compile_cache, enable_compile_cache
+from .._io.loading import one_line
 from .executor import Executor, drive
-from .rows import one_line
 
 #: Seconds between two looks at the cluster while nothing happens.
 POLL_S = 0.5

@@ -49,10 +49,9 @@ import time
 from dataclasses import dataclass, field, replace
 
 from .._errors import OptionError, UioJaxError, exit_message
-from .._io.loading import load_module, split_spec
+from .._io.loading import load_module, one_line, split_spec
 from .._io.strikepy_import import is_strikepy_module
 from .._model.system import System
-from .rows import one_line
 
 #: Suffixes of model files collected from directories and globs.
 MODEL_SUFFIXES = (".py", ".toml", ".json", ".xml", ".sbml")

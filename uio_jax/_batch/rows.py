@@ -302,14 +302,6 @@ def verdict(row: BatchRow) -> str:
     return text if len(text) <= 100 else text[:97] + "..."
 
 
-def one_line(exc, with_type=True) -> str:
-    """The first line of an exception's message, after its type name unless ``with_type`` is
-    False (then the type name only when the message is empty)."""
-    text = str(exc).strip()
-    first = text.splitlines()[0] if text else ""
-    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
-
-
 #: Longest list cell of the terminal table (characters).
 TABLE_CELL = 72
 

@@ -2,7 +2,7 @@
 
 from .._errors import LoadError, UioJaxError, exit_message
 from .._model.experiment import Experiment
-from .loading import load_module, split_spec
+from .loading import load_module, one_line, split_spec
 
 
 def load_experiment(spec: str):
@@ -28,9 +28,7 @@ def load_experiment(spec: str):
         except UioJaxError as exc:
             raise type(exc)(f"{spec}: {exc}") from None
         except Exception as exc:
-            raise LoadError(f"{spec} raised {type(exc).__name__}: "
-                            f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
-                            ) from None
+            raise LoadError(f"{spec} raised {one_line(exc)}") from None
         except SystemExit as exc:
             raise LoadError(f"{spec} {exit_message(exc)}") from None
     if not isinstance(obj, Experiment):

@@ -75,7 +75,7 @@ def load_system(spec, *args, **kwargs) -> System:
         except UioJaxError as exc:
             raise type(exc)(f"{spec}: {exc}") from None
         except Exception as exc:
-            raise LoadError(f"{spec} raised {type(exc).__name__}: {_first_line(exc)}") from None
+            raise LoadError(f"{spec} raised {one_line(exc)}") from None
         except SystemExit as exc:
             raise LoadError(f"{spec} {exit_message(exc)}") from None
     if not isinstance(obj, System):
@@ -152,12 +152,15 @@ def load_module(path: str):
         tb = traceback.extract_tb(exc.__traceback__)
         where = next((f" (line {f.lineno})" for f in reversed(tb) if f.filename == abspath), "")
         raise LoadError(
-            f"model file {path} fails to load{where}: {type(exc).__name__}: {_first_line(exc)}"
+            f"model file {path} fails to load{where}: {one_line(exc)}"
         ) from None
     sys.modules[modname] = module
     return module
 
 
-def _first_line(exc) -> str:
+def one_line(exc, with_type=True) -> str:
+    """The first line of an exception's message, after its type name unless ``with_type`` is
+    False (then the type name only when the message is empty)."""
     text = str(exc).strip()
-    return text.splitlines()[0] if text else ""
+    first = text.splitlines()[0] if text else ""
+    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
