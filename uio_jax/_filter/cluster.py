@@ -411,20 +411,20 @@ def _check_workers(client, since):
     return now if since is None else since
 
 
+def drain_queue(events, wait_s) -> list:
+    """The items of the queue ``events``, waiting up to ``wait_s`` seconds for the first
+    (not at all when ``wait_s`` is 0); empty when none came."""
+    got = []
+    try:
+        got.append(events.get(timeout=wait_s) if wait_s > 0 else events.get_nowait())
+        while True:
+            got.append(events.get_nowait())
+    except queue.Empty:
+        return got
+
+
 def _drain(events, bar, size, trials, starts, wait_s):
     """Add the trial-steps the workers reported to ``bar`` (padding trials left out)."""
-    try:
-        first = events.get(timeout=wait_s) if wait_s else events.get_nowait()
-    except queue.Empty:
-        return
-    got = [first]
-    while True:
-        try:
-            got.append(events.get_nowait())
-        except queue.Empty:
-            break
-    if bar is None:
-        return
-    for shard, steps in got:
+    for shard, steps in drain_queue(events, wait_s):
         real = min(size, trials - starts[shard]) if shard < len(starts) else size
         bar.update(math.floor(steps * real / size))
