@@ -59,20 +59,19 @@ def run(args) -> int:
         initial = {**file_initial(system), **given}
         rep = analyze(system, initial=initial_values(system, initial) if initial else None,
                       **analysis_kwargs(args), **scope)
-    if initial:
-        return _print_initial(rep, args.json)
-    # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
-    observable_functions(rep)
-    find_symmetries(rep)
+    if not initial:  # with known initial values: the identifiability report at t = 0 alone
+        # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
+        observable_functions(rep)
+        find_symmetries(rep)
     print(rep)
-    directions = _print_directions(rep)
+    directions = {} if initial else _print_directions(rep)
     if args.json:
         d = rep.to_dict()
         for key, value in directions.items():  # what the text printed, parameters or not
             d.setdefault(key, value)
         write_output(args.json, json.dumps(d, indent=2))
         print(f"report written to {args.json}")
-    if args.plot:
+    if args.plot and not initial:
         from .._analysis.results.plots import plot_analysis
 
         plot_analysis(rep, args.plot)
@@ -92,15 +91,6 @@ def _initial_pairs(items) -> dict:
             raise UsageError(f"--initial gives {name} twice")
         out[name] = value
     return out
-
-
-def _print_initial(rep, json_path) -> int:
-    """Print an identifiability report at t = 0 (and write its JSON); exit code 0."""
-    print(rep)
-    if json_path:
-        write_output(json_path, json.dumps(rep.to_dict(), indent=2))
-        print(f"report written to {json_path}")
-    return 0
 
 
 def _print_directions(rep) -> dict:
