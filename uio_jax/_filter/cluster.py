@@ -29,6 +29,7 @@ import contextlib
 import hashlib
 import math
 import os
+import pickle
 import queue
 import socket
 import sys
@@ -281,8 +282,6 @@ _EXPERIMENTS: dict = {}  # digest -> Experiment, in a worker: one object, one se
 
 
 def _experiment(blob):
-    import pickle
-
     digest = hashlib.sha256(blob).hexdigest()
     if digest not in _EXPERIMENTS:
         _EXPERIMENTS.clear()  # one experiment at a time

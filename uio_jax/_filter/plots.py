@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from .._errors import OptionError
+
 _DEG = 180.0 / math.pi
 
 
@@ -60,8 +62,6 @@ def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
     Returns:
         ``(fig, ax)``.
     """
-    from .._errors import OptionError
-
     tr = result.trajectories
     if not tr or trial >= len(tr["ids"]):
         raise OptionError(f"trial {trial} has no kept trajectory (run with keep > {trial})")
@@ -113,8 +113,6 @@ def plot_errors(result, names=None, *, axes=None, ncols=3):
     Returns:
         ``(fig, axes)`` with ``axes`` a flat list.
     """
-    from .._errors import OptionError
-
     exp = result.experiment
     states, quants = list(result.state_names), list(result.quantity_names)
     if names is None:

@@ -43,7 +43,7 @@ import keyword
 import os
 import re
 
-from .._errors import ExpressionError, LoadError
+from .._errors import ExpressionError, LoadError, UioJaxError
 from .expressions import Binary, Call, Converter, Name, names_of, substitute, to_text
 
 _MAX_SOURCE = 2_000_000
@@ -185,7 +185,6 @@ def load_strikepy(path):
     Raises:
         LoadError, ModelError: one line naming the file (and line) and the problem.
     """
-    from .._errors import UioJaxError
     from .model_file import build_system
 
     spec = read_strikepy(path)
