@@ -30,10 +30,10 @@ import queue
 import time
 import uuid
 
-from .._filter.cluster import NO_WORKER_S, claim_one_cpu, stop_tasks, worker_threads
+from .._filter.cluster import NO_WORKER_S, claim_one_cpu, drain_queue, stop_tasks, worker_threads
 from .._filter.compile_cache import cache_dir_in_use, default_cache_dir, disable_compile_cache, enable_compile_cache
+from .._io.loading import one_line
 from .executor import Executor, drive
-from .rows import one_line
 
 #: Seconds between two looks at the cluster while nothing happens.
 POLL_S = 0.5
@@ -95,15 +95,8 @@ class DaskExecutor(Executor):
     def events(self, wait_s):
         """The tasks' events (started, steps) and their results, as driver events."""
         wait_s = POLL_S if wait_s is None else min(wait_s, POLL_S)
-        got = []
-        try:
-            got.append(self.inbox.get(timeout=wait_s) if wait_s > 0 else self.inbox.get_nowait())
-            while True:
-                got.append(self.inbox.get_nowait())
-        except queue.Empty:
-            pass
         out = []
-        for msg in got:
+        for msg in drain_queue(self.inbox, wait_s):
             kind, i = msg[0], msg[1]
             if kind == "done":
                 if self.futures.get(i) is msg[2]:

@@ -40,6 +40,7 @@ discovery decides from the file's text alone (read, never imported) what to do w
 file the user named.
 """
 
+import ast
 import glob
 import inspect
 import os
@@ -48,10 +49,9 @@ import time
 from dataclasses import dataclass, field, replace
 
 from .._errors import OptionError, UioJaxError, exit_message
-from .._io.loading import load_module, split_spec
+from .._io.loading import load_module, one_line, split_spec
 from .._io.strikepy_import import is_strikepy_module
 from .._model.system import System
-from .rows import one_line
 
 #: Suffixes of model files collected from directories and globs.
 MODEL_SUFFIXES = (".py", ".toml", ".json", ".xml", ".sbml")
@@ -356,8 +356,6 @@ def listed_entries(path: str, build: bool = False):
     ``_experiment`` and functions annotated to return another type
     are skipped as :func:`_zoo_entries` skips them. The worker that runs an entry imports
     the file (:func:`build_deferred`). ``build`` is unused (always deferred)."""
-    import ast
-
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
             tree = ast.parse(fh.read(), filename=path)
@@ -400,15 +398,11 @@ def _local_call(call, defined) -> bool:
     """Whether ``call`` calls a function defined at the top of the same file (a factory such
     as ``name = _alias("target", "doc")``, whose result a worker inspects: a function without
     required arguments or a System is a model, anything else is skipped)."""
-    import ast
-
     return isinstance(call.func, ast.Name) and call.func.id in defined
 
 
 def _literal_all(tree):
     """The names of a literal ``__all__ = [...]`` at the top of a module, else None."""
-    import ast
-
     for node in tree.body:
         if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__"
                                                 for t in node.targets):

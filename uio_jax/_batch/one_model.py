@@ -5,10 +5,10 @@ import time
 from .._analysis.analyze import analyze
 from .._errors import UioJaxError, exit_message
 from .._io.initial_values import file_initial
-from .._io.loading import load_system
+from .._io.loading import load_system, one_line
 from .._model.system import System
 from .discovery import Entry, Skipped, build_deferred
-from .rows import BatchRow, one_line, row_from_report
+from .rows import BatchRow, row_from_report
 
 
 def load_entry(entry: Entry) -> System:

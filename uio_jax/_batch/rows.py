@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from .._analysis.followups.questions import observable_functions
+from .._filter.result import format_table
 from .._output import printable
 
 
@@ -196,13 +197,8 @@ class BatchResult:
         widths = [max(len(h), *(len(row[i]) for row in body)) if body else len(h)
                   for i, h in enumerate(headers)]
         right = {"dim / n", "unobs.", "fraction", "gap (dec.)", "time (s)"}
-
-        def fmt(cells):
-            out = [c.rjust(w) if h in right else c.ljust(w) for c, w, h in zip(cells, widths, headers)]
-            return "  ".join(out).rstrip()
-
-        lines = [fmt(headers), fmt(["-" * w for w in widths])]
-        lines += [fmt(row) for row in body]
+        align = ["r" if h in right else "l" for h in headers]
+        lines = format_table(headers, [["-" * w for w in widths]] + body, align, indent="")
         return "\n".join(lines + self._notes())
 
     def summary(self) -> str:
@@ -304,14 +300,6 @@ def verdict(row: BatchRow) -> str:
     text = row.error or "failed"
     text = text if text.startswith("timed out") else f"error: {text}"
     return text if len(text) <= 100 else text[:97] + "..."
-
-
-def one_line(exc, with_type=True) -> str:
-    """The first line of an exception's message, after its type name unless ``with_type`` is
-    False (then the type name only when the message is empty)."""
-    text = str(exc).strip()
-    first = text.splitlines()[0] if text else ""
-    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)
 
 
 #: Longest list cell of the terminal table (characters).

@@ -26,6 +26,7 @@ rows finished so far (``result.partial`` says "interrupted after 3 of 12 models"
 import contextlib
 import math
 import numbers
+import os
 
 from .._analysis.options import check_options
 from .._errors import OptionError
@@ -151,8 +152,6 @@ def _batch(models, jobs, timeout, progress, keep_reports, import_python, on_row,
 def _sbml_rule(sbml):
     """The SBML rule checked (a mapping of ``load_system``'s SBML options), its observables
     table made absolute (workers elsewhere read it)."""
-    import os
-
     from .._io.sbml_import import SBML_OPTIONS
 
     if sbml is None:
@@ -194,11 +193,9 @@ def _run_parallel(entries, jobs, timeout, analyze_kwargs, tracker, recorded=(), 
     (longest recorded time first, see :func:`~uio_jax._batch.timing.longest_first`);
     in-memory Systems and known errors run here."""
     remote = [i for i, e in enumerate(entries) if e.spec is not None and e.error is None]
-    local = set(range(len(entries))) - set(remote)
-    for i, e in enumerate(entries):
-        if i in local:
-            tracker.start(i)
-            tracker.finish(i, run_entry(e, analyze_kwargs, keep_report=False))
+    for i in sorted(set(range(len(entries))) - set(remote)):
+        tracker.start(i)
+        tracker.finish(i, run_entry(entries[i], analyze_kwargs, keep_report=False))
     todo = longest_first(remote, recorded)
     if client is not None:
         from .cluster import run_on_cluster

@@ -6,6 +6,7 @@ options); the workers of a later batch take the models longest first (models wit
 first), so that no long model started last leaves the other workers idle at the end.
 """
 
+import contextlib
 import json
 import math
 import os
@@ -70,10 +71,8 @@ def record_seconds(keys, rows):
             json.dump(known, f, indent=0, sort_keys=True)
         os.replace(tmp, path)
     except OSError:
-        try:
+        with contextlib.suppress(OSError):
             os.remove(tmp)
-        except OSError:
-            pass
 
 
 def longest_first(todo, recorded):

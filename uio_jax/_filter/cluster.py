@@ -29,6 +29,7 @@ import contextlib
 import hashlib
 import math
 import os
+import pickle
 import queue
 import socket
 import sys
@@ -156,10 +157,7 @@ def wait_for_workers(client, timeout_s: float = NO_WORKER_S) -> int:
         OptionError: the cluster still has no worker.
     """
     deadline = time.monotonic() + timeout_s
-    while True:
-        n = worker_threads(client)
-        if n or time.monotonic() >= deadline:
-            break
+    while not (n := worker_threads(client)) and time.monotonic() < deadline:
         time.sleep(0.2)
     if not n:
         raise OptionError(f"the Dask cluster at {client.scheduler.address} has no worker "
@@ -284,8 +282,6 @@ _EXPERIMENTS: dict = {}  # digest -> Experiment, in a worker: one object, one se
 
 
 def _experiment(blob):
-    import pickle
-
     digest = hashlib.sha256(blob).hexdigest()
     if digest not in _EXPERIMENTS:
         _EXPERIMENTS.clear()  # one experiment at a time
@@ -414,20 +410,20 @@ def _check_workers(client, since):
     return now if since is None else since
 
 
+def drain_queue(events, wait_s) -> list:
+    """The items of the queue ``events``, waiting up to ``wait_s`` seconds for the first
+    (not at all when ``wait_s`` is 0); empty when none came."""
+    got = []
+    try:
+        got.append(events.get(timeout=wait_s) if wait_s > 0 else events.get_nowait())
+        while True:
+            got.append(events.get_nowait())
+    except queue.Empty:
+        return got
+
+
 def _drain(events, bar, size, trials, starts, wait_s):
     """Add the trial-steps the workers reported to ``bar`` (padding trials left out)."""
-    try:
-        first = events.get(timeout=wait_s) if wait_s else events.get_nowait()
-    except queue.Empty:
-        return
-    got = [first]
-    while True:
-        try:
-            got.append(events.get_nowait())
-        except queue.Empty:
-            break
-    if bar is None:
-        return
-    for shard, steps in got:
+    for shard, steps in drain_queue(events, wait_s):
         real = min(size, trials - starts[shard]) if shard < len(starts) else size
         bar.update(math.floor(steps * real / size))

@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from .._errors import OptionError
+
 _DEG = 180.0 / math.pi
 
 
@@ -20,14 +22,32 @@ def _unit_label(exp, name) -> tuple[str, float]:
     return (f" ({unit})" if unit else " (unit not given)"), scale
 
 
-def _axes(ax, nrows=1, ncols=1, size=(5.0, 4.0)):
+def _axes(ax, size=(5.0, 4.0)):
+    """``(fig, ax)``: ``ax`` and its figure, or a new figure of one panel of ``size`` inches."""
     import matplotlib.pyplot as plt
 
-    if ax is not None:
-        return ax.figure, ax
-    fig, axes = plt.subplots(nrows, ncols, figsize=(size[0] * ncols, size[1] * nrows),
-                             squeeze=False)
-    return fig, axes if nrows * ncols > 1 else axes[0, 0]
+    return (ax.figure, ax) if ax is not None else plt.subplots(figsize=size)
+
+
+def _grid(n, ncols, height, **kw):
+    """``(fig, axes)``: a new figure of ``n`` panels in rows of ``ncols`` (3.6 x ``height``
+    inches each; ``kw`` to ``plt.subplots``), ``axes`` a flat list, the spare panels hidden."""
+    import matplotlib.pyplot as plt
+
+    nrows = -(-n // ncols)
+    fig, grid = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, height * nrows), squeeze=False, **kw)
+    axes = list(grid.ravel())
+    for a in axes[n:]:
+        a.set_visible(False)
+    return fig, axes
+
+
+def _label(ax, title, xlabel, ylabel):
+    """A panel's title (9 pt), axis labels (8 pt) and tick labels (7 pt)."""
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel(xlabel, fontsize=8)
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.tick_params(labelsize=7)
 
 
 def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
@@ -42,8 +62,6 @@ def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
     Returns:
         ``(fig, ax)``.
     """
-    from .._errors import OptionError
-
     tr = result.trajectories
     if not tr or trial >= len(tr["ids"]):
         raise OptionError(f"trial {trial} has no kept trajectory (run with keep > {trial})")
@@ -63,10 +81,7 @@ def plot_trajectories(result, *, trial=0, pair=(0, 1), ax=None):
             line.set_data(np.asarray(line.get_xdata()) * si, np.asarray(line.get_ydata()) * sj)
         ax.relim()
         ax.autoscale_view()
-    ax.set_xlabel(f"{names[i]}{ui}", fontsize=8)
-    ax.set_ylabel(f"{names[j]}{uj}", fontsize=8)
-    ax.tick_params(labelsize=7)
-    ax.set_title(result.experiment.name.split(":")[-1], fontsize=9)
+    _label(ax, result.experiment.name.split(":")[-1], f"{names[i]}{ui}", f"{names[j]}{uj}")
     ax.legend(fontsize=7)
     return fig, ax
 
@@ -98,10 +113,6 @@ def plot_errors(result, names=None, *, axes=None, ncols=3):
     Returns:
         ``(fig, axes)`` with ``axes`` a flat list.
     """
-    import matplotlib.pyplot as plt
-
-    from .._errors import OptionError
-
     exp = result.experiment
     states, quants = list(result.state_names), list(result.quantity_names)
     if names is None:
@@ -109,12 +120,7 @@ def plot_errors(result, names=None, *, axes=None, ncols=3):
     ang_s = exp.angle_mask()
     ang_q = [q.angle for q in exp.quantities]
     if axes is None:
-        nrows = -(-len(names) // ncols)
-        fig, grid = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.4 * nrows),
-                                 squeeze=False, sharex=True)
-        axes = list(grid.ravel())
-        for a in axes[len(names):]:
-            a.set_visible(False)
+        fig, axes = _grid(len(names), ncols, 2.4, sharex=True)
     else:
         axes = list(axes)
         fig = axes[0].figure
@@ -132,10 +138,7 @@ def plot_errors(result, names=None, *, axes=None, ncols=3):
         if ang and scale == 1.0:
             scale, unit = _DEG, " (deg)"
         _band(a, result.t, err, sig, scale, "tab:blue")
-        a.set_title(f"{nm} error{unit}", fontsize=9)
-        a.set_ylabel(f"error{unit}", fontsize=8)
-        a.set_xlabel("t (s)", fontsize=8)
-        a.tick_params(labelsize=7)
+        _label(a, f"{nm} error{unit}", "t (s)", f"error{unit}")
     axes[0].legend(fontsize=6, loc="upper right")
     fig.tight_layout()
     return fig, axes
@@ -156,10 +159,7 @@ def plot_nees(result, *, ax=None):
     ax.axhline(result.nees_dof(), color="k", ls="--", lw=0.9,
                label=f"expected ({result.nees_dof()} dof)")
     ax.set_yscale("log")
-    ax.set_xlabel("t (s)", fontsize=8)
-    ax.set_ylabel("NEES (dimensionless)", fontsize=8)
-    ax.tick_params(labelsize=7)
-    ax.set_title("NEES", fontsize=9)
+    _label(ax, "NEES", "t (s)", "NEES (dimensionless)")
     ax.legend(fontsize=6)
     return fig, ax
 
@@ -173,8 +173,6 @@ def plot_montecarlo(result, names=None):
     Raises:
         TypeError: ``result`` is not a MonteCarloResult.
     """
-    import matplotlib.pyplot as plt
-
     from .result import MonteCarloResult
 
     if not isinstance(result, MonteCarloResult):
@@ -185,19 +183,13 @@ def plot_montecarlo(result, names=None):
     if names is None:
         names = list(exp.system.states) + list(result.quantity_names)
     has_traj = bool(result.trajectories) and len(result.trajectories["ids"]) > 0
-    n_panels = len(names) + 1 + int(has_traj)
-    ncols = 3
-    nrows = -(-n_panels // ncols)
-    fig, grid = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 2.5 * nrows), squeeze=False)
-    axes = list(grid.ravel())
+    fig, axes = _grid(len(names) + 1 + int(has_traj), 3, 2.5)
     k = 0
     if has_traj:
         plot_trajectories(result, ax=axes[0])
         k = 1
     plot_errors(result, names, axes=axes[k:k + len(names)])
     plot_nees(result, ax=axes[k + len(names)])
-    for a in axes[k + len(names) + 1:]:
-        a.set_visible(False)
     fig.suptitle(f"{exp.name}: {result.trials} trials", fontsize=10)
     fig.tight_layout()
     return fig, axes

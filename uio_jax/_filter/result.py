@@ -365,13 +365,8 @@ class MonteCarloResult:
 
 def _num(v, spec=".4g") -> str:
     """A number in a table cell: ``format(v, spec)`` (``.4g``: ``1.469e+06``, ``2.1e-30``,
-    ``0.05``), ``nan`` / ``inf`` / ``-inf`` when not finite."""
-    v = float(v)
-    if math.isnan(v):
-        return "nan"
-    if math.isinf(v):
-        return "inf" if v > 0 else "-inf"
-    return format(v, spec)
+    ``0.05``), ``nan`` / ``inf`` / ``-inf`` when not finite (as ``format`` writes them)."""
+    return format(float(v), spec)
 
 
 def format_table(header, rows, align, indent="  ", gap=2) -> list[str]:

@@ -44,10 +44,6 @@ _CACHE: "weakref.WeakKeyDictionary[Experiment, dict]" = weakref.WeakKeyDictionar
 
 
 # ---------------------------------------------------------------------- batched, sharded
-def _mesh(devices):
-    return Mesh(np.array(devices), ("trials",))
-
-
 def _compiled(exp, devices, per_dev, n_rec_chunk, filter="fast"):
     """Jitted, sharded init and chunk functions (cached per experiment, shape and filter)."""
     key = (tuple(d.id for d in devices), per_dev, n_rec_chunk, filter)
@@ -56,7 +52,7 @@ def _compiled(exp, devices, per_dev, n_rec_chunk, filter="fast"):
         return cache[key]
     init, epoch, stats = trial_functions(exp, traj=False, filter=filter)
     R = exp.record_every
-    mesh = _mesh(devices)
+    mesh = Mesh(np.array(devices), ("trials",))
     spec = P("trials")
 
     def init_local(ids, root):
@@ -99,10 +95,8 @@ def chunk_records(exp, n_trials):
     """Records per chunk: the largest divisor of the record count within the budget."""
     n_rec = exp.n_epochs // exp.record_every
     steps_per_rec = exp.record_every * exp.epoch_steps * n_trials
-    best = 1
-    for c in range(1, n_rec + 1):
-        if n_rec % c == 0 and c * steps_per_rec <= CHUNK_TRIAL_STEPS:
-            best = c
+    best = max((c for c in range(1, n_rec + 1) if n_rec % c == 0 and c * steps_per_rec <= CHUNK_TRIAL_STEPS),
+               default=1)
     return best, n_rec
 
 

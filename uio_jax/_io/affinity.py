@@ -65,17 +65,13 @@ def promotion_reasons(inputs, unknown_inputs, in_outputs, other, pattern, after=
             test did not promote (before the cross terms are covered).
     """
     reasons = {v: "appears in an output" for v in inputs if v in in_outputs}
-    for v in inputs:
-        if v in other and v not in reasons:
-            reasons[v] = other[v]
+    reasons.update({v: other[v] for v in inputs if v in other and v not in reasons})
     if any(v not in reasons for v in inputs):
         pat = pattern()
         for a, v in enumerate(inputs):
             if pat[a, a] and v not in reasons:
                 reasons[v] = "enters the dynamics non-affinely (second derivative in it is not 0)"
-        for v in inputs:
-            if v in (after or {}) and v not in reasons:
-                reasons[v] = after[v]
+        reasons.update({v: after[v] for v in inputs if v in (after or {}) and v not in reasons})
         _cover_cross_terms(list(inputs), pat, reasons, set(unknown_inputs))
     return reasons
 
@@ -127,14 +123,9 @@ def nonaffine_pattern(states, dynamics, inputs, params, constants, domain, angle
     zs = affine_points(sample_boxes(states, params, inputs, domain, angles), seed, samples)
     k, m = len(states) + len(pnames), len(inputs)
     z = [zs[:, i] for i in range(k)] + [Jet.seed(zs[:, k + a], m, a) for a in range(m)]
-    fs, Js, Hs = [], [], []
     with np.errstate(all="ignore"):
-        for fn in fns:
-            v, g, H = jet_parts(0.0 if fn is None else fn(z, JET_OPS), (samples,), m)
-            fs.append(v)
-            Js.append(g)
-            Hs.append(H)
-        f, J, H = np.stack(fs, 1), np.stack(Js, 1), np.stack(Hs, 1)  # (S, n), (S, n, m), (S, n, m, m)
+        parts = [jet_parts(0.0 if fn is None else fn(z, JET_OPS), (samples,), m) for fn in fns]
+        f, J, H = (np.stack(a, 1) for a in zip(*parts))  # (S, n), (S, n, m), (S, n, m, m)
     return pattern_from_derivatives(f, J, H, zs[:, k:])
 
 
@@ -204,10 +195,7 @@ def vanishes(fn, boxes, seed=1, samples=AFFINE_SAMPLES) -> bool:
     floating point (``0 * c == 0``); passing it on as a drift would send the analyses to
     the EORC, so it is dropped.
     """
-    lo = np.array([b[0] for b in boxes])
-    hi = np.array([b[1] for b in boxes])
-    zs = lo + (hi - lo) * np.random.default_rng(seed).random((samples, len(boxes)))
-    vals = np.array([fn(z) for z in zs])
+    vals = np.array([fn(z) for z in affine_points(boxes, seed, samples)])
     finite = np.isfinite(vals).all(axis=1)
     return bool(finite.any()) and not np.any(vals[finite] != 0.0)
 

@@ -16,6 +16,7 @@ from .._errors import ModelError
 from .._model.arguments import check_names
 from .._model.system import System
 from .._model.validation import check_traced_output
+from .loading import one_line
 
 _SOURCE = "from_dynamics"
 
@@ -193,8 +194,5 @@ def _check(what, fn, expected, args, lengths, n, P, nk, nw):
         try:
             out = jax.eval_shape(fn, *specs)
         except Exception as exc:
-            text = str(exc).strip()
-            msg = text.splitlines()[0] if text else ""
-            raise ModelError(f"{_SOURCE}: {what} fails on {args} of lengths {lengths}: "
-                             f"{type(exc).__name__}: {msg}") from None
+            raise ModelError(f"{_SOURCE}: {what} fails on {args} of lengths {lengths}: {one_line(exc)}") from None
     check_traced_output(f"{_SOURCE}: {what}", out, expected, "the dynamics and outputs")

@@ -1,8 +1,8 @@
 """Load a Monte Carlo :class:`~uio_jax.Experiment` from ``FILE.py:NAME``."""
 
-from .._errors import LoadError, UioJaxError, exit_message
+from .._errors import LoadError
 from .._model.experiment import Experiment
-from .loading import load_module, split_spec
+from .loading import call_loaded, load_module, split_spec
 
 
 def load_experiment(spec: str):
@@ -23,16 +23,7 @@ def load_experiment(spec: str):
         raise LoadError(f"{path} has no experiment {name!r} (it defines: "
                         f"{', '.join(found) or 'no *_experiment function'})")
     if callable(obj) and not isinstance(obj, Experiment):
-        try:
-            obj = obj()
-        except UioJaxError as exc:
-            raise type(exc)(f"{spec}: {exc}") from None
-        except Exception as exc:
-            raise LoadError(f"{spec} raised {type(exc).__name__}: "
-                            f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
-                            ) from None
-        except SystemExit as exc:
-            raise LoadError(f"{spec} {exit_message(exc)}") from None
+        obj = call_loaded(spec, obj)
     if not isinstance(obj, Experiment):
         raise LoadError(f"{spec} did not give a uio_jax Experiment (got {type(obj).__name__})")
     return obj

@@ -359,18 +359,12 @@ def _refusal(node) -> str:
 # ----------------------------------------------------------------------------- queries
 def names_of(expr: Expr) -> set[str]:
     """The variable names an expression uses (``pi``/``E`` included when used)."""
-    out = set()
-    stack = [expr]
+    out, stack = set(), [expr]
     while stack:
         e = stack.pop()
         if isinstance(e, Name):
             out.add(e.id)
-        elif isinstance(e, Unary):
-            stack.append(e.operand)
-        elif isinstance(e, Binary):
-            stack.extend((e.left, e.right))
-        elif isinstance(e, Call):
-            stack.extend(e.args)
+        stack.extend(_children(e))
     return out
 
 

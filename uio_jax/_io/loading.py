@@ -1,6 +1,7 @@
 """``load_system(...)``: models loaded by path, not installed (a zoo file's ``NAME``, a
 declarative model file, a StrikePy module, an SBML model: :func:`load_system` says how)."""
 
+import ast
 import importlib.util
 import os
 import sys
@@ -70,17 +71,24 @@ def load_system(spec, *args, **kwargs) -> System:
         raise LoadError(f"{path} has no {name!r} (it defines: {', '.join(public) or 'nothing'})")
     obj = getattr(module, name)
     if callable(obj) and not isinstance(obj, System):
-        try:
-            obj = obj(*args, **kwargs)
-        except UioJaxError as exc:
-            raise type(exc)(f"{spec}: {exc}") from None
-        except Exception as exc:
-            raise LoadError(f"{spec} raised {type(exc).__name__}: {_first_line(exc)}") from None
-        except SystemExit as exc:
-            raise LoadError(f"{spec} {exit_message(exc)}") from None
+        obj = call_loaded(spec, obj, *args, **kwargs)
     if not isinstance(obj, System):
         raise LoadError(f"{spec} did not give a uio_jax.System (got {type(obj).__name__})")
     return obj if obj.name else obj.with_name(f"{os.path.basename(path)}:{name}")
+
+
+def call_loaded(spec, fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, a function of the model file named by ``spec``; what it raises
+    becomes one line naming ``spec`` (a UioJaxError keeps its type, anything else, exit
+    included, is a LoadError)."""
+    try:
+        return fn(*args, **kwargs)
+    except UioJaxError as exc:
+        raise type(exc)(f"{spec}: {exc}") from None
+    except Exception as exc:
+        raise LoadError(f"{spec} raised {one_line(exc)}") from None
+    except SystemExit as exc:
+        raise LoadError(f"{spec} {exit_message(exc)}") from None
 
 
 def _sbml(spec, args, kwargs) -> System:
@@ -102,8 +110,6 @@ def model_functions(path) -> list[str]:
     The entries ``FILE.py:NAME`` a zoo file offers (``ast``: ``def`` statements at top level
     whose name does not start with ``_``); empty when the file cannot be read or parsed.
     """
-    import ast
-
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
             tree = ast.parse(fh.read())
@@ -152,12 +158,15 @@ def load_module(path: str):
         tb = traceback.extract_tb(exc.__traceback__)
         where = next((f" (line {f.lineno})" for f in reversed(tb) if f.filename == abspath), "")
         raise LoadError(
-            f"model file {path} fails to load{where}: {type(exc).__name__}: {_first_line(exc)}"
+            f"model file {path} fails to load{where}: {one_line(exc)}"
         ) from None
     sys.modules[modname] = module
     return module
 
 
-def _first_line(exc) -> str:
+def one_line(exc, with_type=True) -> str:
+    """The first line of an exception's message, after its type name unless ``with_type`` is
+    False (then the type name only when the message is empty)."""
     text = str(exc).strip()
-    return text.splitlines()[0] if text else ""
+    first = text.splitlines()[0] if text else ""
+    return f"{type(exc).__name__}: {first}" if with_type else (first or type(exc).__name__)

@@ -60,7 +60,7 @@ StrikePy imports); Systems made of Python functions cannot be written.
 import json
 import os
 
-from .._errors import LoadError, ModelError
+from .._errors import LoadError, ModelError, UioJaxError
 from .expressions import Num, parse_expression
 from .model_spec import ModelSpec, spec_from_dict
 from .toml_writer import to_toml
@@ -176,8 +176,6 @@ def load_model_file(path):
     Raises:
         LoadError, ModelError: one line naming the file (and key) and the problem.
     """
-    from .._errors import UioJaxError
-
     spec = read_model_file(path)
     try:
         system = build_system(spec)

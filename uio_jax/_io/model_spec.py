@@ -56,38 +56,19 @@ class ModelSpec:
 
     def to_dict(self) -> dict:
         """The file schema as plain dicts/lists (JSON-ready; :func:`spec_from_dict` reads it back)."""
-        d = {}
-        if self.name:
-            d["name"] = self.name
-        if self.description:
-            d["description"] = self.description
-        if self.notes:
-            d["notes"] = list(self.notes)
-        d["states"] = list(self.states)
-        if self.angles:
-            d["angles"] = list(self.angles)
-        if self.time is not None:
-            d["time"] = self.time
-        if self.params:
-            d["params"] = {k: list(v) for k, v in self.params.items()}
-        if self.constants:
-            d["constants"] = dict(self.constants)
-        if self.domain:
-            d["domain"] = {k: list(v) for k, v in self.domain.items()}
-        d["outputs"] = dict(self.outputs)
         if self.general:
-            d["inputs"] = {"known": list(self.inputs_known), "unknown": list(self.inputs_unknown)}
-            d["dynamics"] = dict(self.dynamics)
+            rhs = {"inputs": {"known": list(self.inputs_known), "unknown": list(self.inputs_unknown)},
+                   "dynamics": dict(self.dynamics)}
         else:
-            if self.drift:
-                d["drift"] = dict(self.drift)
-            if self.known:
-                d["known"] = {k: dict(v) for k, v in self.known.items()}
-            if self.unknown:
-                d["unknown"] = {k: dict(v) for k, v in self.unknown.items()}
-        if self.initial:
-            d["initial"] = dict(self.initial)
-        return d
+            rhs = {"drift": dict(self.drift), "known": {k: dict(v) for k, v in self.known.items()},
+                   "unknown": {k: dict(v) for k, v in self.unknown.items()}}
+        d = {"name": self.name, "description": self.description, "notes": list(self.notes),
+             "states": list(self.states), "angles": list(self.angles), "time": self.time,
+             "params": {k: list(v) for k, v in self.params.items()}, "constants": dict(self.constants),
+             "domain": {k: list(v) for k, v in self.domain.items()}, "outputs": dict(self.outputs),
+             **rhs, "initial": dict(self.initial)}
+        # the optional keys are written only when they say something (the general form's always)
+        return {k: v for k, v in d.items() if v or k in ("states", "outputs", "inputs", "dynamics")}
 
 
 # ----------------------------------------------------------------------------- validation

@@ -250,8 +250,7 @@ class _Reader:
         states, odes = self._odes(rated, entities)
         subs = {sp.Symbol(k): v for k, v in assigned.items()}
         odes = {s: sp.sympify(e).xreplace(subs) for s, e in odes.items()}
-        for k, v in locals_.items():
-            entities[k] = v
+        entities.update(locals_)
         for s in states:
             entities.pop(s, None)
         bad = next((k for k in (*states, *entities, *assigned) if keyword.iskeyword(k)), None)

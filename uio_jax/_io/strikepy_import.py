@@ -43,8 +43,8 @@ import keyword
 import os
 import re
 
-from .._errors import ExpressionError, LoadError
-from .expressions import Binary, Call, Converter, Name, names_of, to_text
+from .._errors import ExpressionError, LoadError, UioJaxError
+from .expressions import Binary, Call, Converter, Name, names_of, substitute, to_text
 
 _MAX_SOURCE = 2_000_000
 _ROLES = ("x", "p", "u", "w", "f", "h")
@@ -118,9 +118,7 @@ def read_strikepy(path):
     missing = [v for v in ("x", "f", "h") if v not in env]
     if missing:
         raise LoadError(f"{path}: a StrikePy model defines x, f and h; missing {', '.join(missing)}")
-    lists = {}
-    for role in _ROLES:
-        lists[role] = _flatten(env.get(role, []), role, path)
+    lists = {role: _flatten(env.get(role, [])) for role in _ROLES}
     notes = []
     symbols = {}
     for role in ("x", "p", "u", "w"):
@@ -150,8 +148,6 @@ def read_strikepy(path):
         return rename.get(s, s)
 
     def txt(e):
-        from .expressions import substitute
-
         return to_text(substitute(e, {k: Name(v) for k, v in rename.items()}))
 
     values = {nm(c): generic_value(nm(c)) for c in constants}
@@ -189,7 +185,6 @@ def load_strikepy(path):
     Raises:
         LoadError, ModelError: one line naming the file (and line) and the problem.
     """
-    from .._errors import UioJaxError
     from .model_file import build_system
 
     spec = read_strikepy(path)
@@ -215,13 +210,10 @@ def _renames(names):
     return out
 
 
-def _flatten(value, role, path):
+def _flatten(value):
     """``[[a], [b]]``, ``[a, b]`` or ``a`` -> ``[a, b]`` / ``[a]`` (expressions only)."""
     if isinstance(value, list):
-        out = []
-        for v in value:
-            out.extend(_flatten(v, role, path))
-        return out
+        return [item for v in value for item in _flatten(v)]
     if isinstance(value, tuple):  # symbols('a b') bound to one name
         return list(value)
     return [value]
@@ -385,13 +377,7 @@ class _Reader:
                 return Call("sqrt", (conv.convert(n.args[0]),))
             return conv.whitelisted_call(n, fname, n)
 
-        def fail(n, message):
-            reader.fail(n, message)
-
-        def describe():
-            return ""
-
-        conv = Converter(on_name, on_call, fail, describe)
+        conv = Converter(on_name, on_call, reader.fail, lambda: "")
         # sympy constants as attributes: sym.pi, sym.E
         node = _SympyConstants(self.sympy_aliases).visit(node)
         try:

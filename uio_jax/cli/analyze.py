@@ -4,7 +4,7 @@ import json
 
 from .._errors import UioJaxError
 from .._output import printable
-from .common import UsageError, add_cache_options, check_writable, model_prints_on_stderr, write_output
+from .common import UsageError, add_cache_options, analysis_kwargs, check_writable, model_prints_on_stderr, write_output
 from .sbml_options import add_sbml_options, refuse_for, sbml_options
 
 
@@ -39,9 +39,7 @@ def run(args) -> int:
     from .._io.loading import load_system
     from .._progress import StepPrinter, step_listener
 
-    check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
-                  known_inputs=args.known_inputs)  # before loading the model
+    check_options(**analysis_kwargs(args))  # before loading the model
     given = _initial_pairs(args.initial)
     if args.global_timeout is not None and args.scope != "global":
         raise UsageError("--global-timeout applies with --global")
@@ -59,28 +57,21 @@ def run(args) -> int:
     with model_prints_on_stderr(), step_listener(printer):
         system = load_system(args.model, **load_options)
         initial = {**file_initial(system), **given}
-        if initial:
-            rep = analyze(system, initial=initial_values(system, initial), method=args.method, seed=args.seed,
-                          max_order=args.max_order, prob_threshold=args.prob_threshold, samples=args.samples,
-                          rtol=args.rtol, k_max=args.k_max, known_inputs=args.known_inputs, **scope)
-        else:
-            rep = analyze(system, method=args.method, samples=args.samples, seed=args.seed,
-                          rtol=args.rtol, max_order=args.max_order, k_max=args.k_max,
-                          known_inputs=args.known_inputs, prob_threshold=args.prob_threshold, **scope)
-    if initial:
-        return _print_initial(rep, args.json)
-    # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
-    observable_functions(rep)
-    find_symmetries(rep)
+        rep = analyze(system, initial=initial_values(system, initial) if initial else None,
+                      **analysis_kwargs(args), **scope)
+    if not initial:  # with known initial values: the identifiability report at t = 0 alone
+        # the readable report answers the follow-up questions too (kept on the report: the JSON has them)
+        observable_functions(rep)
+        find_symmetries(rep)
     print(rep)
-    directions = _print_directions(rep)
+    directions = {} if initial else _print_directions(rep)
     if args.json:
         d = rep.to_dict()
         for key, value in directions.items():  # what the text printed, parameters or not
             d.setdefault(key, value)
         write_output(args.json, json.dumps(d, indent=2))
         print(f"report written to {args.json}")
-    if args.plot:
+    if args.plot and not initial:
         from .._analysis.results.plots import plot_analysis
 
         plot_analysis(rep, args.plot)
@@ -100,15 +91,6 @@ def _initial_pairs(items) -> dict:
             raise UsageError(f"--initial gives {name} twice")
         out[name] = value
     return out
-
-
-def _print_initial(rep, json_path) -> int:
-    """Print an identifiability report at t = 0 (and write its JSON); exit code 0."""
-    print(rep)
-    if json_path:
-        write_output(json_path, json.dumps(rep.to_dict(), indent=2))
-        print(f"report written to {json_path}")
-    return 0
 
 
 def _print_directions(rep) -> dict:

@@ -9,6 +9,7 @@ from .common import (
     EXIT_FAILED,
     UsageError,
     add_cache_options,
+    analysis_kwargs,
     check_writable,
     hold_outputs,
     model_prints_on_stderr,
@@ -71,9 +72,7 @@ def run(args) -> int:
     """
     from .._analysis.options import check_options
 
-    check_options(method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                  max_order=args.max_order, k_max=args.k_max, prob_threshold=args.prob_threshold,
-                  known_inputs=args.known_inputs)  # before any model is found
+    check_options(**analysis_kwargs(args))  # before any model is found
     if not args.paths:
         raise UsageError("batch needs at least one PATH (file, directory, glob or FILE.py:NAME)")
     check_writable(args.json, args.csv, args.markdown, names=("--json", "--csv", "--markdown"),
@@ -99,9 +98,7 @@ def _run(args, outputs) -> int:
                 progress=False if args.no_progress else None, keep_reports=False,
                 import_python=args.import_python, sbml=sbml_options(args) or None,
                 on_row=(lambda partial: write_outputs(outputs, partial)) if outputs else None,
-                method=args.method, samples=args.samples, seed=args.seed, rtol=args.rtol,
-                max_order=args.max_order, k_max=args.k_max, known_inputs=args.known_inputs,
-                prob_threshold=args.prob_threshold, scope=args.scope)
+                scope=args.scope, **analysis_kwargs(args))
     except BatchInterrupted as exc:
         result, code = exc.result, EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
         print(f"uio-jax: {result.partial}", file=sys.stderr)

@@ -12,6 +12,12 @@ EXIT_USAGE = 2
 EXIT_FAILED = 1
 
 
+def analysis_kwargs(args) -> dict:
+    """The keyword arguments of :func:`uio_jax.analyze` given on the command line (``analyze``, ``batch``)."""
+    return {k: getattr(args, k) for k in ("method", "samples", "seed", "rtol", "max_order", "k_max",
+                                          "prob_threshold", "known_inputs")}
+
+
 class UsageError(Exception):
     """A bad command line: printed as one line, exit code 2."""
 
